@@ -1,0 +1,156 @@
+//! The GPU context: instance, adapter choice, device and queue.
+//!
+//! Adapter choice follows wgpu's environment variables: `WGPU_BACKEND` (`vulkan`, `gl`, `metal`,
+//! `dx12`, comma separated) picks the backends, `WGPU_ADAPTER_NAME` picks the first adapter whose name
+//! contains the given text (case-insensitive). Timestamp queries are turned on where the adapter has
+//! them; [`GpuContext::timestamps`] says whether they are.
+
+use std::sync::Arc;
+
+use bevy_ecs::prelude::*;
+
+/// What went wrong while opening the GPU.
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    #[error(
+        "no GPU adapter found (backends {backends:?}{name_note}; adapters seen: {seen}). Install a Vulkan driver: on \
+         Debian or Ubuntu `apt-get install mesa-vulkan-drivers libvulkan1` gives the software driver lavapipe (or run \
+         `make test`, which installs it); on a machine with a GPU install its vendor's driver. WGPU_BACKEND and \
+         WGPU_ADAPTER_NAME choose among several."
+    )]
+    NoAdapter { backends: wgpu::Backends, name_note: String, seen: String },
+    #[error("the GPU adapter '{adapter}' refused to create a device: {source}")]
+    RequestDevice {
+        adapter: String,
+        #[source]
+        source: wgpu::RequestDeviceError,
+    },
+}
+
+/// How to react to wgpu validation errors that are not caught by an error scope.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum ValidationErrors {
+    /// Log them (applications).
+    #[default]
+    Log,
+    /// Panic (tests: a validation error fails the test).
+    Panic,
+}
+
+/// Options for [`GpuContext::new`].
+#[derive(Default)]
+pub struct GpuOptions<'a> {
+    pub validation_errors: ValidationErrors,
+    /// A surface the adapter must be able to present to (windowed runner).
+    pub compatible_surface: Option<&'a wgpu::Surface<'a>>,
+    /// An instance to reuse (the one the surface was created from).
+    pub instance: Option<wgpu::Instance>,
+}
+
+/// The device everything renders with. Cheap to clone (wgpu handles are reference counted).
+#[derive(Resource, Clone)]
+pub struct GpuContext {
+    pub instance: wgpu::Instance,
+    pub adapter: wgpu::Adapter,
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    /// Whether GPU timestamps can be written between commands (per-pass timing spans).
+    pub timestamps: bool,
+    /// Nanoseconds per timestamp tick.
+    pub timestamp_period: f32,
+}
+
+impl GpuContext {
+    /// Creates an instance from the environment and opens the chosen adapter.
+    pub fn new(options: GpuOptions<'_>) -> Result<Self, GpuError> {
+        let instance = options.instance.clone().unwrap_or_else(Self::create_instance);
+        pollster::block_on(Self::open(instance, options))
+    }
+
+    /// The instance every context of this process uses: backends from `WGPU_BACKEND`.
+    ///
+    /// Debug labels and driver validation layers are off unless `WGPU_DEBUG=1` / `WGPU_VALIDATION=1`
+    /// ask for them (wgpu's own validation is always on): lavapipe 22.3 crashes on debug labels.
+    pub fn create_instance() -> wgpu::Instance {
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+        desc.backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY);
+        desc.flags = wgpu::InstanceFlags::empty().with_env();
+        desc.backend_options = desc.backend_options.with_env();
+        wgpu::Instance::new(desc)
+    }
+
+    async fn open(instance: wgpu::Instance, options: GpuOptions<'_>) -> Result<Self, GpuError> {
+        let backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY);
+        let wanted_name = std::env::var("WGPU_ADAPTER_NAME").ok().filter(|s| !s.is_empty());
+        let adapters = instance.enumerate_adapters(backends).await;
+        let seen: Vec<String> =
+            adapters.iter().map(|a| format!("{} ({:?})", a.get_info().name, a.get_info().backend)).collect();
+        let compatible = |a: &wgpu::Adapter| options.compatible_surface.is_none_or(|s| a.is_surface_supported(s));
+        let adapter = match &wanted_name {
+            Some(name) => {
+                let lower = name.to_lowercase();
+                adapters.into_iter().find(|a| compatible(a) && a.get_info().name.to_lowercase().contains(&lower))
+            }
+            None => instance
+                .request_adapter(&wgpu::RequestAdapterOptions {
+                    power_preference: wgpu::PowerPreference::HighPerformance,
+                    force_fallback_adapter: false,
+                    compatible_surface: options.compatible_surface,
+                    apply_limit_buckets: false,
+                })
+                .await
+                .ok(),
+        };
+        let Some(adapter) = adapter else {
+            return Err(GpuError::NoAdapter {
+                backends,
+                name_note: wanted_name.map(|n| format!(", name containing '{n}'")).unwrap_or_default(),
+                seen: if seen.is_empty() { "none".into() } else { seen.join(", ") },
+            });
+        };
+        let wanted = wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS;
+        let features = adapter.features() & wanted;
+        let timestamps = features.contains(wanted);
+        let (device, queue) = adapter
+            .request_device(&wgpu::DeviceDescriptor {
+                label: Some("engine_device"),
+                required_features: features,
+                required_limits: adapter.limits(),
+                ..Default::default()
+            })
+            .await
+            .map_err(|source| GpuError::RequestDevice { adapter: adapter.get_info().name, source })?;
+        match options.validation_errors {
+            ValidationErrors::Panic => device.on_uncaptured_error(Arc::new(|e| panic!("wgpu error: {e}"))),
+            ValidationErrors::Log => device.on_uncaptured_error(Arc::new(|e| log::error!("wgpu error: {e}"))),
+        }
+        let timestamp_period = queue.get_timestamp_period();
+        log::info!("GPU: {} ({:?}), timestamps: {timestamps}", adapter.get_info().name, adapter.get_info().backend);
+        Ok(Self { instance, adapter, device, queue, timestamps, timestamp_period })
+    }
+
+    /// Adapter name, e.g. "llvmpipe (LLVM 15.0.6, 256 bits)" or "NVIDIA H100 80GB HBM3".
+    pub fn adapter_name(&self) -> String {
+        self.adapter.get_info().name
+    }
+
+    /// Blocks until the GPU has finished all submitted work and callbacks have run.
+    pub fn wait_idle(&self) {
+        if let Err(e) = self.device.poll(wgpu::PollType::wait_indefinitely()) {
+            log::error!("waiting for the GPU failed: {e}");
+        }
+    }
+
+    /// A context for tests: validation errors panic. Without an adapter the test is skipped (returns
+    /// `None` after saying so), except in CI (`CI=true`), where a missing adapter is a failure.
+    pub fn for_tests(test: &str) -> Option<Self> {
+        match Self::new(GpuOptions { validation_errors: ValidationErrors::Panic, ..Default::default() }) {
+            Ok(ctx) => Some(ctx),
+            Err(e) if std::env::var("CI").is_ok_and(|v| v == "true") => panic!("{test}: CI=true and {e}"),
+            Err(e) => {
+                eprintln!("SKIPPED {test}: {e}");
+                None
+            }
+        }
+    }
+}

@@ -1,0 +1,476 @@
+//! A render graph in the manner of kajiya's: a frame is one script read top to bottom.
+//!
+//! The script creates transient resources, imports persistent ones (history textures, scene
+//! buffers), and adds passes. A pass declares what it reads (`read(&handle)`) and what it writes
+//! (`write(&mut handle)`: writing needs the handle mutably, so the borrow checker sees the data flow)
+//! and gives a closure that records its commands. Passes run in the order they were added; a pass
+//! none of whose outputs is read later or exported is skipped, and the report says so. Each pass that
+//! runs gets a debug group and a GPU timestamp span under its label.
+
+use std::collections::HashMap;
+use std::marker::PhantomData;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use bevy_ecs::prelude::*;
+
+use crate::gpu::GpuContext;
+
+/// Marker for texture handles.
+pub struct Texture;
+/// Marker for buffer handles.
+pub struct Buffer;
+
+/// A resource of the frame. Not `Clone`: whoever holds it decides who may write it.
+pub struct Handle<K> {
+    id: usize,
+    _kind: PhantomData<K>,
+}
+
+/// Read access to a resource, given to a pass closure.
+pub struct Read<K> {
+    id: usize,
+    _kind: PhantomData<K>,
+}
+
+/// Write access to a resource, given to a pass closure.
+pub struct Write<K> {
+    id: usize,
+    _kind: PhantomData<K>,
+}
+
+macro_rules! copy_access {
+    ($t:ident) => {
+        impl<K> Clone for $t<K> {
+            fn clone(&self) -> Self {
+                *self
+            }
+        }
+        impl<K> Copy for $t<K> {}
+    };
+}
+copy_access!(Read);
+copy_access!(Write);
+
+/// Anything that names a resource of kind `K` in a pass closure.
+pub trait Access<K>: Copy {
+    fn id(self) -> usize;
+}
+impl<K> Access<K> for Read<K> {
+    fn id(self) -> usize {
+        self.id
+    }
+}
+impl<K> Access<K> for Write<K> {
+    fn id(self) -> usize {
+        self.id
+    }
+}
+
+/// Description of a transient 2D texture (one mip, one layer).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct TextureDesc {
+    pub width: u32,
+    pub height: u32,
+    pub format: wgpu::TextureFormat,
+    pub usage: wgpu::TextureUsages,
+}
+
+/// Description of a transient buffer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct BufferDesc {
+    pub size: u64,
+    pub usage: wgpu::BufferUsages,
+}
+
+enum Source {
+    TransientTexture(TextureDesc),
+    TransientBuffer(BufferDesc),
+    ImportedTexture(wgpu::Texture),
+    ImportedBuffer(wgpu::Buffer),
+}
+
+struct ResourceNode {
+    name: String,
+    source: Source,
+    exported: bool,
+}
+
+type PassFn = Box<dyn FnOnce(&mut PassContext<'_>)>;
+
+struct PassNode {
+    label: String,
+    reads: Vec<usize>,
+    writes: Vec<usize>,
+    run: Option<PassFn>,
+}
+
+/// One frame's graph. Build it, then [`RenderGraph::execute`] it.
+#[derive(Default)]
+pub struct RenderGraph {
+    resources: Vec<ResourceNode>,
+    passes: Vec<PassNode>,
+}
+
+impl RenderGraph {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    fn add_resource<K>(&mut self, name: &str, source: Source) -> Handle<K> {
+        self.resources.push(ResourceNode { name: name.into(), source, exported: false });
+        Handle { id: self.resources.len() - 1, _kind: PhantomData }
+    }
+
+    /// A texture that lives for this frame only (taken from a pool, so it costs no allocation once warm).
+    pub fn create_texture(&mut self, name: &str, desc: TextureDesc) -> Handle<Texture> {
+        self.add_resource(name, Source::TransientTexture(desc))
+    }
+
+    /// A buffer that lives for this frame only.
+    pub fn create_buffer(&mut self, name: &str, desc: BufferDesc) -> Handle<Buffer> {
+        self.add_resource(name, Source::TransientBuffer(desc))
+    }
+
+    /// A texture owned outside the graph (persistent or history data, a surface texture).
+    pub fn import_texture(&mut self, name: &str, texture: &wgpu::Texture) -> Handle<Texture> {
+        self.add_resource(name, Source::ImportedTexture(texture.clone()))
+    }
+
+    /// A buffer owned outside the graph.
+    pub fn import_buffer(&mut self, name: &str, buffer: &wgpu::Buffer) -> Handle<Buffer> {
+        self.add_resource(name, Source::ImportedBuffer(buffer.clone()))
+    }
+
+    /// Marks a resource as an output of the frame: the passes that produce it will run.
+    pub fn export<K>(&mut self, handle: &Handle<K>) {
+        self.resources[handle.id].exported = true;
+    }
+
+    /// Starts a pass; finish it with [`PassBuilder::render`].
+    pub fn add_pass(&mut self, label: &str) -> PassBuilder<'_> {
+        PassBuilder { graph: self, node: PassNode { label: label.into(), reads: Vec::new(), writes: Vec::new(), run: None } }
+    }
+
+    /// For each pass in order, whether it runs: a pass runs when something it writes is exported or
+    /// read by a later pass that runs (a write that is not also a read ends the need for older data).
+    pub fn live_passes(&self) -> Vec<bool> {
+        let mut needed: Vec<bool> = self.resources.iter().map(|r| r.exported).collect();
+        let mut live = vec![false; self.passes.len()];
+        for (i, pass) in self.passes.iter().enumerate().rev() {
+            if !pass.writes.iter().any(|&w| needed[w]) {
+                continue;
+            }
+            live[i] = true;
+            for &w in &pass.writes {
+                needed[w] = false;
+            }
+            for &r in &pass.reads {
+                needed[r] = true;
+            }
+        }
+        live
+    }
+
+    /// Pass labels in script order.
+    pub fn pass_labels(&self) -> Vec<&str> {
+        self.passes.iter().map(|p| p.label.as_str()).collect()
+    }
+
+    /// Creates the transient resources, records every live pass into one command encoder, and submits it.
+    pub fn execute(mut self, gpu: &GpuContext, pool: &mut TransientPool, timer: Option<&mut GpuTimer>) -> FrameReport {
+        let live = self.live_passes();
+        let mut taken_textures = Vec::new();
+        let mut taken_buffers = Vec::new();
+        let resolved: Vec<Resolved> = self
+            .resources
+            .iter()
+            .map(|r| match &r.source {
+                Source::TransientTexture(desc) => {
+                    let t = pool.take_texture(&gpu.device, &r.name, *desc);
+                    taken_textures.push((*desc, t.clone()));
+                    Resolved::texture(t)
+                }
+                Source::ImportedTexture(t) => Resolved::texture(t.clone()),
+                Source::TransientBuffer(desc) => {
+                    let b = pool.take_buffer(&gpu.device, &r.name, *desc);
+                    taken_buffers.push((*desc, b.clone()));
+                    Resolved::Buffer(b)
+                }
+                Source::ImportedBuffer(b) => Resolved::Buffer(b.clone()),
+            })
+            .collect();
+
+        let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("render_graph") });
+        let mut report = FrameReport::default();
+        let timer = timer.filter(|_| gpu.timestamps);
+        let ran_count = live.iter().filter(|&&l| l).count() as u32;
+        let queries = timer.map(|t| {
+            t.reserve(&gpu.device, ran_count * 2);
+            t
+        });
+        let mut query_index = 0u32;
+        for (pass, is_live) in self.passes.iter_mut().zip(&live) {
+            if !is_live {
+                report.passes.push(PassRecord { label: pass.label.clone(), ran: false, note: "outputs not read this frame".into() });
+                continue;
+            }
+            encoder.push_debug_group(&pass.label);
+            if let Some(t) = &queries {
+                encoder.write_timestamp(t.query_set.as_ref().expect("reserved"), query_index);
+            }
+            if let Some(run) = pass.run.take() {
+                let mut ctx = PassContext { label: &pass.label, encoder: &mut encoder, gpu, resources: &resolved };
+                run(&mut ctx);
+            }
+            if let Some(t) = &queries {
+                encoder.write_timestamp(t.query_set.as_ref().expect("reserved"), query_index + 1);
+            }
+            query_index += 2;
+            encoder.pop_debug_group();
+            report.passes.push(PassRecord { label: pass.label.clone(), ran: true, note: String::new() });
+        }
+        let pending = queries.map(|t| t.resolve(&gpu.device, &mut encoder, query_index));
+        gpu.queue.submit([encoder.finish()]);
+        if let Some(p) = pending {
+            report.pending_timings = Some(p.map(gpu.timestamp_period, report.ran_labels()));
+        }
+        for (desc, t) in taken_textures {
+            pool.give_texture(desc, t);
+        }
+        for (desc, b) in taken_buffers {
+            pool.give_buffer(desc, b);
+        }
+        report
+    }
+}
+
+/// Declares one pass's reads and writes.
+pub struct PassBuilder<'g> {
+    graph: &'g mut RenderGraph,
+    node: PassNode,
+}
+
+impl PassBuilder<'_> {
+    pub fn read<K>(&mut self, handle: &Handle<K>) -> Read<K> {
+        self.node.reads.push(handle.id);
+        Read { id: handle.id, _kind: PhantomData }
+    }
+
+    pub fn write<K>(&mut self, handle: &mut Handle<K>) -> Write<K> {
+        self.node.writes.push(handle.id);
+        Write { id: handle.id, _kind: PhantomData }
+    }
+
+    /// Finishes the pass with the closure that records its commands.
+    pub fn render(mut self, run: impl FnOnce(&mut PassContext<'_>) + 'static) {
+        self.node.run = Some(Box::new(run));
+        self.graph.passes.push(self.node);
+    }
+}
+
+enum Resolved {
+    Texture(wgpu::Texture, wgpu::TextureView),
+    Buffer(wgpu::Buffer),
+}
+
+impl Resolved {
+    fn texture(t: wgpu::Texture) -> Self {
+        let view = t.create_view(&Default::default());
+        Resolved::Texture(t, view)
+    }
+}
+
+/// What a pass closure records with.
+pub struct PassContext<'a> {
+    /// The pass label: use it for the wgpu passes the closure begins.
+    pub label: &'a str,
+    pub encoder: &'a mut wgpu::CommandEncoder,
+    pub gpu: &'a GpuContext,
+    resources: &'a [Resolved],
+}
+
+impl<'a> PassContext<'a> {
+    pub fn texture(&self, access: impl Access<Texture>) -> &'a wgpu::Texture {
+        let resources: &'a [Resolved] = self.resources;
+        match &resources[access.id()] {
+            Resolved::Texture(t, _) => t,
+            Resolved::Buffer(_) => unreachable!("texture handles only name textures"),
+        }
+    }
+
+    /// The default view of a texture.
+    pub fn view(&self, access: impl Access<Texture>) -> &'a wgpu::TextureView {
+        let resources: &'a [Resolved] = self.resources;
+        match &resources[access.id()] {
+            Resolved::Texture(_, v) => v,
+            Resolved::Buffer(_) => unreachable!("texture handles only name textures"),
+        }
+    }
+
+    pub fn buffer(&self, access: impl Access<Buffer>) -> &'a wgpu::Buffer {
+        let resources: &'a [Resolved] = self.resources;
+        match &resources[access.id()] {
+            Resolved::Buffer(b) => b,
+            Resolved::Texture(..) => unreachable!("buffer handles only name buffers"),
+        }
+    }
+}
+
+/// Transient textures and buffers kept between frames for reuse.
+#[derive(Resource, Default)]
+pub struct TransientPool {
+    textures: HashMap<TextureDesc, Vec<wgpu::Texture>>,
+    buffers: HashMap<BufferDesc, Vec<wgpu::Buffer>>,
+}
+
+impl TransientPool {
+    fn take_texture(&mut self, device: &wgpu::Device, name: &str, desc: TextureDesc) -> wgpu::Texture {
+        self.textures.get_mut(&desc).and_then(Vec::pop).unwrap_or_else(|| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(name),
+                size: wgpu::Extent3d { width: desc.width.max(1), height: desc.height.max(1), depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: desc.format,
+                usage: desc.usage,
+                view_formats: &[],
+            })
+        })
+    }
+
+    fn give_texture(&mut self, desc: TextureDesc, texture: wgpu::Texture) {
+        self.textures.entry(desc).or_default().push(texture);
+    }
+
+    fn take_buffer(&mut self, device: &wgpu::Device, name: &str, desc: BufferDesc) -> wgpu::Buffer {
+        self.buffers.get_mut(&desc).and_then(Vec::pop).unwrap_or_else(|| {
+            device.create_buffer(&wgpu::BufferDescriptor { label: Some(name), size: desc.size.max(4), usage: desc.usage, mapped_at_creation: false })
+        })
+    }
+
+    fn give_buffer(&mut self, desc: BufferDesc, buffer: wgpu::Buffer) {
+        self.buffers.entry(desc).or_default().push(buffer);
+    }
+}
+
+/// Whether each pass of a frame ran, and its GPU time once the timestamps have come back.
+#[derive(Default)]
+pub struct FrameReport {
+    pub passes: Vec<PassRecord>,
+    pending_timings: Option<PendingTimings>,
+}
+
+/// One pass of a frame report.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PassRecord {
+    pub label: String,
+    pub ran: bool,
+    /// Why it was left out, when it was.
+    pub note: String,
+}
+
+impl FrameReport {
+    fn ran_labels(&self) -> Vec<String> {
+        self.passes.iter().filter(|p| p.ran).map(|p| p.label.clone()).collect()
+    }
+
+    /// Blocks until the GPU time of each pass that ran is known (`None` without timestamp support).
+    pub fn wait_for_timings(&mut self, gpu: &GpuContext) -> Option<Vec<(String, f64)>> {
+        let pending = self.pending_timings.take()?;
+        gpu.wait_idle();
+        pending.read()
+    }
+
+    /// The timings if they have arrived, without waiting; call again later otherwise.
+    pub fn try_timings(&mut self, gpu: &GpuContext) -> Option<Vec<(String, f64)>> {
+        let _ = gpu.device.poll(wgpu::PollType::Poll);
+        if self.pending_timings.as_ref()?.ready.load(Ordering::Acquire) { self.pending_timings.take()?.read() } else { None }
+    }
+}
+
+/// Timestamp queries for per-pass spans, reused across frames.
+#[derive(Resource, Default)]
+pub struct GpuTimer {
+    query_set: Option<wgpu::QuerySet>,
+    capacity: u32,
+}
+
+impl GpuTimer {
+    fn reserve(&mut self, device: &wgpu::Device, count: u32) {
+        if self.capacity < count.max(2) || self.query_set.is_none() {
+            self.capacity = count.max(2).next_power_of_two();
+            self.query_set = Some(device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("pass_timestamps"),
+                ty: wgpu::QueryType::Timestamp,
+                count: self.capacity,
+            }));
+        }
+    }
+}
+
+impl GpuTimer {
+    fn resolve(&self, device: &wgpu::Device, encoder: &mut wgpu::CommandEncoder, count: u32) -> UnmappedTimings {
+        let size = u64::from(count.max(2)) * 8;
+        let resolve = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("pass_timestamps_resolve"),
+            size,
+            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let readback = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("pass_timestamps_readback"),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        if count > 0 {
+            let qs = self.query_set.as_ref().expect("reserved before use");
+            encoder.resolve_query_set(qs, 0..count, &resolve, 0);
+            encoder.copy_buffer_to_buffer(&resolve, 0, &readback, 0, size);
+        }
+        UnmappedTimings { readback, count }
+    }
+}
+
+struct UnmappedTimings {
+    readback: wgpu::Buffer,
+    count: u32,
+}
+
+impl UnmappedTimings {
+    fn map(self, period_ns: f32, labels: Vec<String>) -> PendingTimings {
+        let ready = Arc::new(AtomicBool::new(false));
+        let flag = ready.clone();
+        self.readback.slice(..).map_async(wgpu::MapMode::Read, move |r| flag.store(r.is_ok(), Ordering::Release));
+        PendingTimings { readback: self.readback, count: self.count, period_ns, labels, ready }
+    }
+}
+
+struct PendingTimings {
+    readback: wgpu::Buffer,
+    count: u32,
+    period_ns: f32,
+    labels: Vec<String>,
+    ready: Arc<AtomicBool>,
+}
+
+impl PendingTimings {
+    fn read(self) -> Option<Vec<(String, f64)>> {
+        if !self.ready.load(Ordering::Acquire) {
+            return None;
+        }
+        let ticks: Vec<u64> = bytemuck::pod_collect_to_vec(&self.readback.slice(..).get_mapped_range().ok()?);
+        self.readback.unmap();
+        let n = (self.count as usize / 2).min(self.labels.len());
+        Some(
+            (0..n)
+                .map(|i| {
+                    let dt = ticks[2 * i + 1].saturating_sub(ticks[2 * i]);
+                    (self.labels[i].clone(), dt as f64 * f64::from(self.period_ns) * 1e-6)
+                })
+                .collect(),
+        )
+    }
+}

@@ -1,0 +1,124 @@
+//! Rendering a scene without a window: what `game_demo render` and the image tests use.
+
+use std::path::Path;
+
+use bevy_app::App;
+use glam::Vec3;
+use serde::Serialize;
+
+use crate::app::{EnginePlugin, Time, run_headless};
+use crate::gpu::GpuContext;
+use crate::render::readback::{read_rgba32f, read_texture};
+use crate::render::{FrameTiming, FrameTimings, RenderOutputs, RenderPlugin, RenderSize};
+use crate::scene::{Camera, NodeContent, SceneDescription, Transform};
+
+/// How to render headless.
+#[derive(Clone, Debug)]
+pub struct HeadlessSettings {
+    pub width: u32,
+    pub height: u32,
+    /// Frames to run; the image is the last one.
+    pub frames: u32,
+    /// Seconds per frame of the fixed clock.
+    pub step: f64,
+}
+
+impl Default for HeadlessSettings {
+    fn default() -> Self {
+        Self { width: 640, height: 480, frames: 1, step: 1.0 / 60.0 }
+    }
+}
+
+/// The last frame of a headless run.
+pub struct RenderedFrame {
+    pub width: u32,
+    pub height: u32,
+    /// Linear radiance, RGBA, row-major from the top-left.
+    pub hdr: Vec<f32>,
+    /// Tonemapped sRGB, RGBA8.
+    pub ldr: Vec<u8>,
+    pub timings: Vec<FrameTiming>,
+    pub adapter: String,
+}
+
+/// Errors of a headless render.
+#[derive(Debug, thiserror::Error)]
+pub enum RenderError {
+    #[error("image size {width}×{height} is not supported: each side must be between 1 and {max}")]
+    BadSize { width: u32, height: u32, max: u32 },
+    #[error("frame count must be at least 1")]
+    NoFrames,
+    #[error("cannot write {path}: {message}")]
+    Write { path: String, message: String },
+}
+
+/// Adds a camera that frames the scene's bounds from the front (+Z), for scenes that have none.
+pub fn add_default_camera(scene: &mut SceneDescription) {
+    let (lo, hi) = scene.bounds().unwrap_or((Vec3::splat(-1.0), Vec3::splat(1.0)));
+    let center = (lo + hi) * 0.5;
+    let radius = ((hi - lo).length() * 0.5).max(1e-3);
+    let camera = Camera::default();
+    let distance = radius / (camera.yfov * 0.5).sin();
+    let eye = center + Vec3::new(0.0, radius * 0.3, distance);
+    let transform = Transform::from_translation(eye).looking_at(center, Vec3::Y);
+    scene.add_node("default_camera", transform, None, vec![NodeContent::Camera(Camera { znear: (radius * 1e-3).max(1e-6), ..camera })]);
+}
+
+/// Renders `scene` for `settings.frames` frames with a fixed time step and returns the last frame.
+pub fn render_scene(gpu: &GpuContext, mut scene: SceneDescription, settings: &HeadlessSettings) -> Result<RenderedFrame, RenderError> {
+    let max = gpu.device.limits().max_texture_dimension_2d;
+    if settings.width == 0 || settings.height == 0 || settings.width > max || settings.height > max {
+        return Err(RenderError::BadSize { width: settings.width, height: settings.height, max });
+    }
+    if settings.frames == 0 {
+        return Err(RenderError::NoFrames);
+    }
+    if !scene.has_camera() {
+        add_default_camera(&mut scene);
+    }
+    let mut app = App::new();
+    app.add_plugins((EnginePlugin, RenderPlugin { gpu: gpu.clone(), size: RenderSize { width: settings.width, height: settings.height } }));
+    app.world_mut().resource_mut::<FrameTimings>().wait_each_frame = true;
+    scene.spawn(app.world_mut());
+    app.insert_resource(Time::fixed(settings.step));
+    run_headless(&mut app, settings.frames);
+    let world = app.world_mut();
+    let outputs = world.resource::<RenderOutputs>();
+    let hdr = read_rgba32f(gpu, &outputs.hdr);
+    let ldr = read_texture(gpu, &outputs.ldr);
+    let timings = std::mem::take(&mut world.resource_mut::<FrameTimings>().frames);
+    Ok(RenderedFrame { width: settings.width, height: settings.height, hdr, ldr, timings, adapter: gpu.adapter_name() })
+}
+
+#[derive(Serialize)]
+struct TimingsFile<'a> {
+    adapter: &'a str,
+    width: u32,
+    height: u32,
+    /// Mean GPU milliseconds per pass over all frames.
+    mean_gpu_ms: Vec<(String, Option<f64>)>,
+    frames: &'a [FrameTiming],
+}
+
+impl RenderedFrame {
+    /// Writes `image.png` (tonemapped sRGB), `image.exr` (linear radiance) and `timings.json` into `dir`.
+    pub fn write(&self, dir: &Path) -> Result<(), RenderError> {
+        let io = |path: &Path, e: &dyn std::fmt::Display| RenderError::Write { path: path.display().to_string(), message: e.to_string() };
+        std::fs::create_dir_all(dir).map_err(|e| io(dir, &e))?;
+        let png = dir.join("image.png");
+        image::save_buffer(&png, &self.ldr, self.width, self.height, image::ExtendedColorType::Rgba8).map_err(|e| io(&png, &e))?;
+        let exr = dir.join("image.exr");
+        let rgb: Vec<f32> = self.hdr.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
+        image::Rgb32FImage::from_raw(self.width, self.height, rgb)
+            .ok_or_else(|| io(&exr, &"pixel count does not match the size"))?
+            .save(&exr)
+            .map_err(|e| io(&exr, &e))?;
+        let json = dir.join("timings.json");
+        let mut timings = FrameTimings::default();
+        timings.frames = self.timings.clone();
+        let file = TimingsFile { adapter: &self.adapter, width: self.width, height: self.height, mean_gpu_ms: timings.mean_ms(), frames: &self.timings };
+        let text = serde_json::to_string_pretty(&file).map_err(|e| io(&json, &e))?;
+        std::fs::write(&json, text).map_err(|e| io(&json, &e))?;
+        Ok(())
+    }
+}

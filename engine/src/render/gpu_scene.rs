@@ -1,0 +1,408 @@
+//! The scene on the GPU: geometry, texture atlas, materials, instances, lights and the view.
+//!
+//! Meshes, images and materials are uploaded when their asset store changes; instances, lights and
+//! the view are written every frame (a few kilobytes for the scenes of this issue).
+
+use std::ops::Range;
+
+use bevy_ecs::prelude::*;
+use glam::{Mat3, Mat4, Vec3};
+
+use super::gpu_types::*;
+use crate::gpu::GpuContext;
+use crate::scene::{
+    Assets, Camera, DirectionalLight, GlobalTransform, Image, Material, Mesh, MeshInstance, PointLight, SpotLight,
+    TextureRef,
+};
+
+/// A storage or uniform buffer that grows when its contents do. Never empty: an empty array is
+/// bound as one zeroed element, so shaders can always bind it.
+pub struct GrowableBuffer {
+    pub buffer: wgpu::Buffer,
+    label: &'static str,
+    usage: wgpu::BufferUsages,
+}
+
+impl GrowableBuffer {
+    pub fn new(device: &wgpu::Device, label: &'static str, usage: wgpu::BufferUsages) -> Self {
+        let usage = usage | wgpu::BufferUsages::COPY_DST;
+        let buffer = device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size: 256, usage, mapped_at_creation: false });
+        Self { buffer, label, usage }
+    }
+
+    /// Writes `bytes` at offset 0, reallocating (and returning true) when the buffer is too small.
+    pub fn write(&mut self, gpu: &GpuContext, bytes: &[u8]) -> bool {
+        let needed = (bytes.len() as u64).max(256).next_multiple_of(4);
+        let grew = needed > self.buffer.size();
+        if grew {
+            let size = needed.next_power_of_two();
+            self.buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor { label: Some(self.label), size, usage: self.usage, mapped_at_creation: false });
+        }
+        if !bytes.is_empty() {
+            gpu.queue.write_buffer(&self.buffer, 0, bytes);
+        }
+        grew
+    }
+}
+
+/// Where a mesh lives in the shared vertex and index buffers.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct MeshRange {
+    pub indices: Range<u32>,
+    pub base_vertex: i32,
+}
+
+/// One indexed draw of one instance.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Draw {
+    pub indices: Range<u32>,
+    pub base_vertex: i32,
+    pub instance: u32,
+}
+
+/// The size of the image the camera renders.
+#[derive(Resource, Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RenderSize {
+    pub width: u32,
+    pub height: u32,
+}
+
+/// Radiance of pixels that see no surface (and, later, of rays that miss): linear RGB.
+#[derive(Resource, Clone, Copy, Debug, PartialEq, Default)]
+pub struct SkyRadiance(pub Vec3);
+
+/// Everything a pass needs to look at the scene: bind group 0 of `scene.inc.wgsl`.
+#[derive(Resource)]
+pub struct GpuScene {
+    pub view: GrowableBuffer,
+    pub lights: GrowableBuffer,
+    pub materials: GrowableBuffer,
+    pub vertices: GrowableBuffer,
+    pub indices: GrowableBuffer,
+    pub instances: GrowableBuffer,
+    pub atlas: wgpu::Texture,
+    pub atlas_view: wgpu::TextureView,
+    pub sampler: wgpu::Sampler,
+    pub mesh_ranges: Vec<MeshRange>,
+    pub draws: Vec<Draw>,
+    pub light_count: u32,
+    /// Which light kinds the scene has, so passes can leave out what it does not need.
+    pub has_spot_lights: bool,
+    pub view_uniform: ViewUniform,
+    atlas_rects: Vec<[f32; 4]>,
+    seen_generations: Option<(u64, u64, u64)>,
+    frame: u32,
+}
+
+impl GpuScene {
+    pub fn new(gpu: &GpuContext) -> Self {
+        let storage = wgpu::BufferUsages::STORAGE;
+        let atlas = create_atlas_texture(gpu, 1, 1);
+        gpu.queue.write_texture(atlas.as_image_copy(), &[255; 4], wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(4), rows_per_image: None }, wgpu::Extent3d { width: 1, height: 1, depth_or_array_layers: 1 });
+        Self {
+            view: GrowableBuffer::new(&gpu.device, "view_uniform", wgpu::BufferUsages::UNIFORM),
+            lights: GrowableBuffer::new(&gpu.device, "lights", storage),
+            materials: GrowableBuffer::new(&gpu.device, "materials", storage),
+            vertices: GrowableBuffer::new(&gpu.device, "vertices", storage),
+            indices: GrowableBuffer::new(&gpu.device, "indices", storage | wgpu::BufferUsages::INDEX),
+            instances: GrowableBuffer::new(&gpu.device, "instances", storage),
+            atlas_view: atlas.create_view(&Default::default()),
+            atlas,
+            sampler: gpu.device.create_sampler(&wgpu::SamplerDescriptor {
+                label: Some("atlas_sampler"),
+                mag_filter: wgpu::FilterMode::Linear,
+                min_filter: wgpu::FilterMode::Linear,
+                ..Default::default()
+            }),
+            mesh_ranges: Vec::new(),
+            draws: Vec::new(),
+            light_count: 0,
+            has_spot_lights: false,
+            view_uniform: ViewUniform::zeroed(),
+            atlas_rects: Vec::new(),
+            seen_generations: None,
+            frame: 0,
+        }
+    }
+
+    /// Bind group 0 resources by their WGSL names.
+    pub fn bindings(&self) -> Vec<(&'static str, wgpu::BindingResource<'_>)> {
+        vec![
+            ("view", self.view.buffer.as_entire_binding()),
+            ("lights", self.lights.buffer.as_entire_binding()),
+            ("materials", self.materials.buffer.as_entire_binding()),
+            ("texture_atlas", wgpu::BindingResource::TextureView(&self.atlas_view)),
+            ("atlas_sampler", wgpu::BindingResource::Sampler(&self.sampler)),
+            ("vertices", self.vertices.buffer.as_entire_binding()),
+            ("instances", self.instances.buffer.as_entire_binding()),
+        ]
+    }
+
+    fn upload_geometry(&mut self, gpu: &GpuContext, meshes: &Assets<Mesh>) {
+        let mut vertices: Vec<GpuVertex> = Vec::new();
+        let mut indices: Vec<u32> = Vec::new();
+        self.mesh_ranges.clear();
+        for (_, mesh) in meshes.iter() {
+            let base_vertex = vertices.len() as i32;
+            let first = indices.len() as u32;
+            vertices.extend(mesh.positions.iter().enumerate().map(|(i, p)| {
+                let n = mesh.normals.get(i).copied().unwrap_or(Vec3::Y);
+                let uv = mesh.uvs.get(i).copied().unwrap_or_default();
+                GpuVertex { position: p.to_array(), u: uv.x, normal: n.to_array(), v: uv.y }
+            }));
+            indices.extend_from_slice(&mesh.indices);
+            self.mesh_ranges.push(MeshRange { indices: first..indices.len() as u32, base_vertex });
+        }
+        self.vertices.write(gpu, bytemuck::cast_slice(&vertices));
+        self.indices.write(gpu, bytemuck::cast_slice(&indices));
+    }
+
+    fn upload_atlas(&mut self, gpu: &GpuContext, images: &Assets<Image>) {
+        let max_dim = gpu.device.limits().max_texture_dimension_2d.min(8192);
+        let list: Vec<&Image> = images.iter().map(|(_, i)| i).collect();
+        let packed = pack_atlas(&list, max_dim);
+        let atlas = create_atlas_texture(gpu, packed.width, packed.height);
+        gpu.queue.write_texture(
+            atlas.as_image_copy(),
+            &packed.rgba8,
+            wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(packed.width * 4), rows_per_image: None },
+            wgpu::Extent3d { width: packed.width, height: packed.height, depth_or_array_layers: 1 },
+        );
+        self.atlas_view = atlas.create_view(&Default::default());
+        self.atlas = atlas;
+        self.atlas_rects = packed.rects;
+    }
+
+    fn upload_materials(&mut self, gpu: &GpuContext, materials: &Assets<Material>) {
+        let slot = |t: &Option<TextureRef>| -> TextureSlot {
+            let Some(t) = t else { return TextureSlot::zeroed() };
+            let Some(rect) = self.atlas_rects.get(t.image.index() as usize) else { return TextureSlot::zeroed() };
+            let [x, y] = t.transform.rows();
+            TextureSlot { uv_x: x.extend(0.0).to_array(), uv_y: y.extend(0.0).to_array(), rect: *rect }
+        };
+        let data: Vec<GpuMaterial> = materials
+            .iter()
+            .map(|(_, m)| GpuMaterial {
+                base_color: m.base_color.to_array(),
+                emissive: (m.emissive * m.emissive_strength).extend(1.0).to_array(),
+                base_color_texture: slot(&m.base_color_texture),
+                emissive_texture: slot(&m.emissive_texture),
+            })
+            .collect();
+        self.materials.write(gpu, bytemuck::cast_slice(&data));
+    }
+}
+
+fn create_atlas_texture(gpu: &GpuContext, width: u32, height: u32) -> wgpu::Texture {
+    gpu.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("texture_atlas"),
+        size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: wgpu::TextureFormat::Rgba8UnormSrgb,
+        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+        view_formats: &[],
+    })
+}
+
+/// Every image of the scene packed into one texture, so that raster and compute passes sample any
+/// texture through one binding.
+pub struct PackedAtlas {
+    pub width: u32,
+    pub height: u32,
+    pub rgba8: Vec<u8>,
+    /// Per image: (x, y, width, height) in atlas coordinates [0, 1].
+    pub rects: Vec<[f32; 4]>,
+}
+
+/// Shelf-packs images (tallest first) into an atlas at most `max_dim` on a side, halving every image
+/// until they fit when they do not.
+pub fn pack_atlas(images: &[&Image], max_dim: u32) -> PackedAtlas {
+    let mut scale_down = 0u32;
+    loop {
+        let sizes: Vec<(u32, u32)> = images.iter().map(|i| ((i.width >> scale_down).max(1), (i.height >> scale_down).max(1))).collect();
+        if let Some(layout) = shelf_pack(&sizes, max_dim) {
+            return fill_atlas(images, &sizes, layout);
+        }
+        scale_down += 1;
+        log::warn!("texture atlas: images do not fit in {max_dim}², halving them (÷{})", 1 << scale_down);
+    }
+}
+
+struct ShelfLayout {
+    width: u32,
+    height: u32,
+    origins: Vec<(u32, u32)>,
+}
+
+fn shelf_pack(sizes: &[(u32, u32)], max_dim: u32) -> Option<ShelfLayout> {
+    const PAD: u32 = 1;
+    let width = sizes.iter().map(|s| s.0 + 2 * PAD).max().unwrap_or(1).max(1024).min(max_dim);
+    if sizes.iter().any(|s| s.0 + 2 * PAD > width) {
+        return None;
+    }
+    let mut order: Vec<usize> = (0..sizes.len()).collect();
+    order.sort_by_key(|&i| std::cmp::Reverse(sizes[i].1));
+    let mut origins = vec![(0, 0); sizes.len()];
+    let (mut x, mut y, mut shelf) = (0u32, 0u32, 0u32);
+    for i in order {
+        let (w, h) = (sizes[i].0 + 2 * PAD, sizes[i].1 + 2 * PAD);
+        if x + w > width {
+            y += shelf;
+            x = 0;
+            shelf = 0;
+        }
+        origins[i] = (x + PAD, y + PAD);
+        x += w;
+        shelf = shelf.max(h);
+    }
+    let height = (y + shelf).max(1);
+    (height <= max_dim).then_some(ShelfLayout { width, height, origins })
+}
+
+fn fill_atlas(images: &[&Image], sizes: &[(u32, u32)], layout: ShelfLayout) -> PackedAtlas {
+    let (aw, ah) = (layout.width, layout.height);
+    let mut rgba8 = vec![255u8; (aw * ah * 4) as usize];
+    let mut rects = Vec::with_capacity(images.len());
+    for ((image, &(w, h)), &(ox, oy)) in images.iter().zip(sizes).zip(&layout.origins) {
+        let pixel = |x: u32, y: u32| -> [u8; 4] {
+            // Nearest sample of the (possibly halved) image; out-of-range data reads as white.
+            let sx = (x * image.width.max(1) / w).min(image.width.saturating_sub(1));
+            let sy = (y * image.height.max(1) / h).min(image.height.saturating_sub(1));
+            let i = ((sy * image.width + sx) * 4) as usize;
+            image.rgba8.get(i..i + 4).and_then(|s| s.try_into().ok()).unwrap_or([255; 4])
+        };
+        // One texel of padding around each image repeats its edge, so bilinear taps stay inside.
+        for y in 0..h + 2 {
+            for x in 0..w + 2 {
+                let (dx, dy) = (ox + x - 1, oy + y - 1);
+                let p = pixel(x.saturating_sub(1).min(w - 1), y.saturating_sub(1).min(h - 1));
+                let o = ((dy * aw + dx) * 4) as usize;
+                rgba8[o..o + 4].copy_from_slice(&p);
+            }
+        }
+        rects.push([ox as f32 / aw as f32, oy as f32 / ah as f32, w as f32 / aw as f32, h as f32 / ah as f32]);
+    }
+    PackedAtlas { width: aw, height: ah, rgba8, rects }
+}
+
+fn mat4_cols(m: Mat4) -> [[f32; 4]; 4] {
+    m.to_cols_array_2d()
+}
+
+/// Prepare stage: uploads what changed and writes this frame's instances, lights and view.
+#[allow(clippy::too_many_arguments)]
+pub fn prepare_gpu_scene(
+    gpu: Res<GpuContext>,
+    mut scene: ResMut<GpuScene>,
+    size: Res<RenderSize>,
+    sky: Res<SkyRadiance>,
+    meshes: Res<Assets<Mesh>>,
+    materials: Res<Assets<Material>>,
+    images: Res<Assets<Image>>,
+    instances: Query<(&MeshInstance, &GlobalTransform)>,
+    cameras: Query<(&Camera, &GlobalTransform)>,
+    directional: Query<(&DirectionalLight, &GlobalTransform)>,
+    points: Query<(&PointLight, &GlobalTransform)>,
+    spots: Query<(&SpotLight, &GlobalTransform)>,
+) {
+    let generations = (meshes.generation(), images.generation(), materials.generation());
+    let seen = scene.seen_generations;
+    if seen.map(|s| s.0) != Some(generations.0) {
+        scene.upload_geometry(&gpu, &meshes);
+    }
+    if seen.map(|s| s.1) != Some(generations.1) {
+        scene.upload_atlas(&gpu, &images);
+    }
+    if seen.map(|s| (s.1, s.2)) != Some((generations.1, generations.2)) {
+        scene.upload_materials(&gpu, &materials);
+    }
+    scene.seen_generations = Some(generations);
+
+    // Instances and their draws.
+    let mut gpu_instances: Vec<GpuInstance> = Vec::new();
+    let mut draws: Vec<Draw> = Vec::new();
+    for (instance, transform) in &instances {
+        let Some(range) = scene.mesh_ranges.get(instance.mesh.index() as usize) else {
+            log::warn!("mesh instance refers to missing {:?}", instance.mesh);
+            continue;
+        };
+        if materials.get(instance.material).is_none() {
+            log::warn!("mesh instance refers to missing {:?}", instance.material);
+            continue;
+        }
+        let world = Mat4::from(transform.0);
+        let linear = Mat3::from(transform.0.matrix3);
+        let normal = if linear.determinant().abs() > 1e-30 { linear.inverse().transpose() } else { linear };
+        draws.push(Draw { indices: range.indices.clone(), base_vertex: range.base_vertex, instance: gpu_instances.len() as u32 });
+        gpu_instances.push(GpuInstance {
+            world_from_local: mat4_cols(world),
+            normal_from_local: mat4_cols(Mat4::from_mat3(normal)),
+            material: instance.material.index(),
+            mesh: instance.mesh.index(),
+            _pad0: 0,
+            _pad1: 0,
+        });
+    }
+    scene.instances.write(&gpu, bytemuck::cast_slice(&gpu_instances));
+    scene.draws = draws;
+
+    // Lights.
+    let mut lights: Vec<GpuLight> = Vec::new();
+    let light = |kind: u32, color: Vec3, intensity: f32, t: &GlobalTransform, range: Option<f32>| GpuLight {
+        position: t.translation().to_array(),
+        kind,
+        direction: t.forward().to_array(),
+        range: range.unwrap_or(0.0).max(0.0),
+        radiance: (color * intensity).to_array(),
+        spot_scale: 0.0,
+        spot_offset: 0.0,
+        _pad0: 0,
+        _pad1: 0,
+        _pad2: 0,
+    };
+    for (l, t) in &directional {
+        lights.push(light(LIGHT_DIRECTIONAL, l.color, l.intensity, t, None));
+    }
+    for (l, t) in &points {
+        lights.push(light(LIGHT_POINT, l.color, l.intensity, t, l.range));
+    }
+    scene.has_spot_lights = !spots.is_empty();
+    for (l, t) in &spots {
+        // glTF: attenuation = clamp(cos(angle) * scale + offset, 0, 1)², guarded for equal cones.
+        let (cos_outer, cos_inner) = (l.outer_cone_angle.cos(), l.inner_cone_angle.cos());
+        let scale = 1.0 / (cos_inner - cos_outer).max(1e-4);
+        let mut g = light(LIGHT_SPOT, l.color, l.intensity, t, l.range);
+        g.spot_scale = scale;
+        g.spot_offset = -cos_outer * scale;
+        lights.push(g);
+    }
+    scene.light_count = lights.len() as u32;
+    scene.lights.write(&gpu, bytemuck::cast_slice(&lights));
+
+    // View.
+    let (camera, camera_transform) = cameras.iter().next().map_or((Camera::default(), GlobalTransform::default()), |(c, t)| (*c, *t));
+    let aspect = size.width.max(1) as f32 / size.height.max(1) as f32;
+    let proj = glam::camera::rh::proj::directx::perspective_infinite_reverse(camera.yfov.clamp(1e-3, 3.1), aspect, camera.znear.max(1e-6));
+    // Cameras ignore scale: build the view from position and rotation only.
+    let (_, rotation, position) = camera_transform.0.to_scale_rotation_translation();
+    let world_from_view = Mat4::from_rotation_translation(rotation.normalize(), position);
+    let clip_from_world = proj * world_from_view.inverse();
+    scene.view_uniform = ViewUniform {
+        clip_from_world: mat4_cols(clip_from_world),
+        world_from_clip: mat4_cols(clip_from_world.inverse()),
+        camera_position: position.to_array(),
+        exposure: camera.exposure,
+        sky_radiance: sky.0.to_array(),
+        light_count: scene.light_count,
+        size: [size.width, size.height],
+        frame: scene.frame,
+        _pad: 0,
+    };
+    scene.frame = scene.frame.wrapping_add(1);
+    let view = scene.view_uniform;
+    scene.view.write(&gpu, bytemuck::bytes_of(&view));
+}
+
+use bytemuck::Zeroable;

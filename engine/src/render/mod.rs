@@ -1,0 +1,413 @@
+//! The camera path: raster G-buffer → direct lighting → tonemapping, as one frame script on the
+//! render graph, plus output readback and per-pass GPU timings.
+//!
+//! ```text
+//!  scene (ECS) ──extract/prepare──▶ GpuScene (bind group 0)
+//!                                     │
+//!  gbuffer ──depth, normal, albedo, emissive──▶ direct_lighting ──hdr_radiance──▶ tonemap ──ldr_image──▶ present_blit
+//! ```
+
+pub mod gpu_scene;
+pub mod gpu_types;
+pub mod readback;
+
+use std::collections::VecDeque;
+use std::sync::Arc;
+
+use bevy_app::{App, Plugin};
+use bevy_ecs::prelude::*;
+use serde::Serialize;
+
+use crate::app::{Prepare, Render, Time};
+use crate::gpu::GpuContext;
+use crate::graph::{FrameReport, GpuTimer, RenderGraph, TextureDesc, TransientPool};
+use crate::shader::{Program, RenderTargets, compute_program, render_program};
+pub use gpu_scene::{GpuScene, RenderSize, SkyRadiance, prepare_gpu_scene};
+
+/// Formats of the G-buffer and outputs.
+pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+pub const NORMAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+pub const ALBEDO_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+pub const EMISSIVE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+/// Linear radiance, kept in full float so that readback and the EXR output lose nothing.
+pub const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+/// Tonemapped, sRGB-encoded output.
+pub const LDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+
+/// Adds the camera path. Needs a [`GpuContext`]; inserts the GPU scene, pipelines, outputs and timings.
+pub struct RenderPlugin {
+    pub gpu: GpuContext,
+    pub size: RenderSize,
+}
+
+impl Plugin for RenderPlugin {
+    fn build(&self, app: &mut App) {
+        let pipelines = CameraPipelines::new(&self.gpu).unwrap_or_else(|e| panic!("camera path shaders: {e}"));
+        app.insert_resource(self.gpu.clone())
+            .insert_resource(self.size)
+            .init_resource::<SkyRadiance>()
+            .insert_resource(GpuScene::new(&self.gpu))
+            .insert_resource(RenderOutputs::new(&self.gpu, self.size))
+            .insert_resource(pipelines)
+            .init_resource::<TransientPool>()
+            .init_resource::<GpuTimer>()
+            .init_resource::<FrameTimings>()
+            .add_systems(Prepare, (prepare_render_outputs, prepare_gpu_scene))
+            .add_systems(Render, render_camera_frame);
+    }
+}
+
+/// The pipelines of the camera path.
+#[derive(Resource)]
+pub struct CameraPipelines {
+    pub gbuffer: Arc<Program<wgpu::RenderPipeline>>,
+    pub direct_lighting: Arc<Program<wgpu::ComputePipeline>>,
+    pub tonemap: Arc<Program<wgpu::ComputePipeline>>,
+}
+
+impl CameraPipelines {
+    pub fn new(gpu: &GpuContext) -> Result<Self, crate::shader::ShaderError> {
+        let color = |format| Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL });
+        let gbuffer = render_program(
+            &gpu.device,
+            "gbuffer.wgsl",
+            "gbuffer",
+            RenderTargets {
+                colors: &[color(NORMAL_FORMAT), color(ALBEDO_FORMAT), color(EMISSIVE_FORMAT)],
+                depth: Some(wgpu::DepthStencilState {
+                    format: DEPTH_FORMAT,
+                    depth_write_enabled: Some(true),
+                    depth_compare: Some(wgpu::CompareFunction::Greater),
+                    stencil: Default::default(),
+                    bias: Default::default(),
+                }),
+                primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
+            },
+        )?;
+        Ok(Self {
+            gbuffer: Arc::new(gbuffer),
+            direct_lighting: Arc::new(compute_program(&gpu.device, "direct_lighting.wgsl", "main", "direct_lighting")?),
+            tonemap: Arc::new(compute_program(&gpu.device, "tonemap.wgsl", "main", "tonemap")?),
+        })
+    }
+}
+
+/// The frame's outputs, kept between frames: linear radiance and the tonemapped image.
+#[derive(Resource)]
+pub struct RenderOutputs {
+    pub size: RenderSize,
+    pub hdr: wgpu::Texture,
+    pub ldr: wgpu::Texture,
+}
+
+impl RenderOutputs {
+    pub fn new(gpu: &GpuContext, size: RenderSize) -> Self {
+        let texture = |label, format, usage| {
+            gpu.device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d { width: size.width.max(1), height: size.height.max(1), depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage,
+                view_formats: &[],
+            })
+        };
+        use wgpu::TextureUsages as U;
+        Self {
+            size,
+            hdr: texture("hdr_radiance", HDR_FORMAT, U::STORAGE_BINDING | U::TEXTURE_BINDING | U::COPY_SRC),
+            ldr: texture("ldr_image", LDR_FORMAT, U::STORAGE_BINDING | U::TEXTURE_BINDING | U::COPY_SRC),
+        }
+    }
+}
+
+fn prepare_render_outputs(gpu: Res<GpuContext>, size: Res<RenderSize>, mut outputs: ResMut<RenderOutputs>) {
+    if outputs.size != *size {
+        *outputs = RenderOutputs::new(&gpu, *size);
+    }
+}
+
+/// A window surface the frame is presented to (windowed runner).
+#[derive(Resource)]
+pub struct SurfaceTarget {
+    pub surface: wgpu::Surface<'static>,
+    pub config: wgpu::SurfaceConfiguration,
+    pub blit: Arc<Program<wgpu::RenderPipeline>>,
+}
+
+/// Per-pass GPU time of each frame, and which passes were left out and why.
+#[derive(Resource, Default)]
+pub struct FrameTimings {
+    pub frames: Vec<FrameTiming>,
+    /// Block at the end of each frame until its timings are back (headless, deterministic runs).
+    pub wait_each_frame: bool,
+    /// Keep at most this many frames (0: all).
+    pub keep: usize,
+    pending: VecDeque<(u64, FrameReport)>,
+}
+
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct FrameTiming {
+    pub frame: u64,
+    pub passes: Vec<PassTiming>,
+}
+
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct PassTiming {
+    pub label: String,
+    pub ran: bool,
+    #[serde(skip_serializing_if = "String::is_empty")]
+    pub note: String,
+    /// GPU time of the pass in milliseconds; absent without timestamp queries.
+    pub gpu_ms: Option<f64>,
+}
+
+impl FrameTimings {
+    fn push(&mut self, gpu: &GpuContext, frame: u64, mut report: FrameReport) {
+        if self.wait_each_frame {
+            let times = report.wait_for_timings(gpu);
+            self.record(frame, &report, times);
+        } else {
+            self.pending.push_back((frame, report));
+            self.collect(gpu);
+        }
+        if self.keep > 0 && self.frames.len() > self.keep {
+            let excess = self.frames.len() - self.keep;
+            self.frames.drain(..excess);
+        }
+    }
+
+    /// Moves every frame whose timestamps have arrived into `frames`, without blocking.
+    pub fn collect(&mut self, gpu: &GpuContext) {
+        while let Some((frame, report)) = self.pending.front_mut() {
+            let frame = *frame;
+            let times = if gpu.timestamps {
+                match report.try_timings(gpu) {
+                    Some(t) => Some(t),
+                    None if self.pending.len() > 8 => None,
+                    None => return,
+                }
+            } else {
+                None
+            };
+            let (_, report) = self.pending.pop_front().expect("front exists");
+            self.record(frame, &report, times);
+        }
+    }
+
+    fn record(&mut self, frame: u64, report: &FrameReport, times: Option<Vec<(String, f64)>>) {
+        let passes = report
+            .passes
+            .iter()
+            .map(|p| PassTiming {
+                label: p.label.clone(),
+                ran: p.ran,
+                note: p.note.clone(),
+                gpu_ms: times.as_ref().and_then(|t| t.iter().find(|(l, _)| *l == p.label).map(|(_, ms)| *ms)),
+            })
+            .collect();
+        self.frames.push(FrameTiming { frame, passes });
+    }
+
+    /// Mean GPU milliseconds of each pass over the recorded frames, in pass order.
+    pub fn mean_ms(&self) -> Vec<(String, Option<f64>)> {
+        let mut out: Vec<(String, f64, usize)> = Vec::new();
+        for f in &self.frames {
+            for p in f.passes.iter().filter(|p| p.ran) {
+                let i = out.iter().position(|(l, ..)| *l == p.label).unwrap_or_else(|| {
+                    out.push((p.label.clone(), 0.0, 0));
+                    out.len() - 1
+                });
+                if let Some(ms) = p.gpu_ms {
+                    out[i].1 += ms;
+                    out[i].2 += 1;
+                }
+            }
+        }
+        out.into_iter().map(|(l, sum, n)| (l, (n > 0).then(|| sum / n as f64))).collect()
+    }
+}
+
+fn texture_desc(size: RenderSize, format: wgpu::TextureFormat, usage: wgpu::TextureUsages) -> TextureDesc {
+    TextureDesc { width: size.width, height: size.height, format, usage }
+}
+
+fn workgroups(size: RenderSize) -> (u32, u32) {
+    (size.width.div_ceil(8), size.height.div_ceil(8))
+}
+
+/// Render stage: the camera path's frame script.
+#[allow(clippy::too_many_arguments)]
+pub fn render_camera_frame(
+    gpu: Res<GpuContext>,
+    scene: Res<GpuScene>,
+    pipelines: Res<CameraPipelines>,
+    outputs: Res<RenderOutputs>,
+    time: Res<Time>,
+    mut pool: ResMut<TransientPool>,
+    mut timer: ResMut<GpuTimer>,
+    mut timings: ResMut<FrameTimings>,
+    surface: Option<Res<SurfaceTarget>>,
+) {
+    use wgpu::TextureUsages as U;
+    let size = outputs.size;
+    let mut graph = RenderGraph::new();
+    let attachment = U::RENDER_ATTACHMENT | U::TEXTURE_BINDING;
+    let mut depth = graph.create_texture("gbuffer_depth", texture_desc(size, DEPTH_FORMAT, attachment));
+    let mut normal = graph.create_texture("gbuffer_normal", texture_desc(size, NORMAL_FORMAT, attachment));
+    let mut albedo = graph.create_texture("gbuffer_albedo", texture_desc(size, ALBEDO_FORMAT, attachment));
+    let mut emissive = graph.create_texture("gbuffer_emissive", texture_desc(size, EMISSIVE_FORMAT, attachment));
+    let mut hdr = graph.import_texture("hdr_radiance", &outputs.hdr);
+    let mut ldr = graph.import_texture("ldr_image", &outputs.ldr);
+    let scene_bindings = scene.bindings();
+
+    // G-buffer: rasterize every instance.
+    {
+        let mut pass = graph.add_pass("gbuffer");
+        let targets = [pass.write(&mut normal), pass.write(&mut albedo), pass.write(&mut emissive)];
+        let depth_target = pass.write(&mut depth);
+        let program = pipelines.gbuffer.clone();
+        let group0 = program.bind_group(&gpu.device, 0, &scene_bindings);
+        let index_buffer = scene.indices.buffer.clone();
+        let draws = scene.draws.clone();
+        pass.render(move |ctx| {
+            let colors = targets.map(|t| {
+                Some(wgpu::RenderPassColorAttachment {
+                    view: ctx.view(t),
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT), store: wgpu::StoreOp::Store },
+                })
+            });
+            let mut rp = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some(ctx.label),
+                color_attachments: &colors,
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: ctx.view(depth_target),
+                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Store }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            rp.set_pipeline(&program.pipeline);
+            rp.set_bind_group(0, &group0, &[]);
+            rp.set_index_buffer(index_buffer.slice(..), wgpu::IndexFormat::Uint32);
+            for d in &draws {
+                rp.draw_indexed(d.indices.clone(), d.base_vertex, d.instance..d.instance + 1);
+            }
+        });
+    }
+
+    // Direct lighting of the G-buffer.
+    {
+        let mut pass = graph.add_pass("direct_lighting");
+        let inputs = [pass.read(&depth), pass.read(&normal), pass.read(&albedo), pass.read(&emissive)];
+        let out = pass.write(&mut hdr);
+        let program = pipelines.direct_lighting.clone();
+        let group0 = program.bind_group(&gpu.device, 0, &scene_bindings);
+        pass.render(move |ctx| {
+            let [d, n, a, e] = inputs.map(|i| wgpu::BindingResource::TextureView(ctx.view(i)));
+            let group1 = program.bind_group(
+                &ctx.gpu.device,
+                1,
+                &[("gbuffer_depth", d), ("gbuffer_normal", n), ("gbuffer_albedo", a), ("gbuffer_emissive", e), ("radiance_out", wgpu::BindingResource::TextureView(ctx.view(out)))],
+            );
+            dispatch(ctx.encoder, ctx.label, &program.pipeline, &[&group0, &group1], workgroups(size));
+        });
+    }
+
+    // Tonemapping.
+    {
+        let mut pass = graph.add_pass("tonemap");
+        let input = pass.read(&hdr);
+        let out = pass.write(&mut ldr);
+        let program = pipelines.tonemap.clone();
+        let group0 = program.bind_group(&gpu.device, 0, &scene_bindings);
+        pass.render(move |ctx| {
+            let group1 = program.bind_group(
+                &ctx.gpu.device,
+                1,
+                &[("hdr_in", wgpu::BindingResource::TextureView(ctx.view(input))), ("ldr_out", wgpu::BindingResource::TextureView(ctx.view(out)))],
+            );
+            dispatch(ctx.encoder, ctx.label, &program.pipeline, &[&group0, &group1], workgroups(size));
+        });
+    }
+    graph.export(&hdr);
+    graph.export(&ldr);
+
+    // Present to the window, if there is one.
+    let surface_texture = surface.as_ref().and_then(|s| acquire_surface(&gpu, s));
+    if let (Some(target), Some(frame)) = (&surface, &surface_texture) {
+        let mut swap = graph.import_texture("surface", &frame.texture);
+        let mut pass = graph.add_pass("present_blit");
+        let input = pass.read(&ldr);
+        let out = pass.write(&mut swap);
+        let program = target.blit.clone();
+        pass.render(move |ctx| {
+            let group0 = program.bind_group(&ctx.gpu.device, 0, &[("blit_source", wgpu::BindingResource::TextureView(ctx.view(input)))]);
+            let mut rp = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some(ctx.label),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: ctx.view(out),
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            rp.set_pipeline(&program.pipeline);
+            rp.set_bind_group(0, &group0, &[]);
+            rp.draw(0..3, 0..1);
+        });
+        graph.export(&swap);
+    }
+
+    let report = graph.execute(&gpu, &mut pool, Some(&mut timer));
+    if let Some(frame) = surface_texture {
+        gpu.queue.present(frame);
+    }
+    timings.push(&gpu, time.frame, report);
+}
+
+fn acquire_surface(gpu: &GpuContext, target: &SurfaceTarget) -> Option<wgpu::SurfaceTexture> {
+    match target.surface.get_current_texture() {
+        wgpu::CurrentSurfaceTexture::Success(t) | wgpu::CurrentSurfaceTexture::Suboptimal(t) => Some(t),
+        other => {
+            log::warn!("surface texture unavailable ({other:?}); reconfiguring");
+            target.surface.configure(&gpu.device, &target.config);
+            None
+        }
+    }
+}
+
+/// Records one compute pass with the given bind groups (0, 1, …).
+pub fn dispatch(encoder: &mut wgpu::CommandEncoder, label: &str, pipeline: &wgpu::ComputePipeline, groups: &[&wgpu::BindGroup], (x, y): (u32, u32)) {
+    let mut cp = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(label), timestamp_writes: None });
+    cp.set_pipeline(pipeline);
+    for (i, g) in groups.iter().enumerate() {
+        cp.set_bind_group(i as u32, *g, &[]);
+    }
+    cp.dispatch_workgroups(x.max(1), y.max(1), 1);
+}
+
+/// The blit pipeline for presenting to a surface of `format` (must not be an sRGB format: the image
+/// is already encoded).
+pub fn blit_program(gpu: &GpuContext, format: wgpu::TextureFormat) -> Result<Program<wgpu::RenderPipeline>, crate::shader::ShaderError> {
+    render_program(
+        &gpu.device,
+        "blit.wgsl",
+        "present_blit",
+        RenderTargets {
+            colors: &[Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL })],
+            depth: None,
+            primitive: Default::default(),
+        },
+    )
+}

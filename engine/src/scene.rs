@@ -1,0 +1,553 @@
+//! The scene model as ECS components, the asset stores they refer to, and transform propagation.
+//!
+//! Radiometric convention (see the README): light intensities are radiometric and used as is. A
+//! [`PointLight`] of intensity `I` gives irradiance `I·cosθ/d²` at distance `d`; a
+//! [`DirectionalLight`] of intensity `E` gives irradiance `E` on a surface facing it; spot cones follow
+//! glTF's `KHR_lights_punctual`; colours are linear.
+
+use std::marker::PhantomData;
+
+use bevy_ecs::prelude::*;
+use glam::{Affine3A, Mat3, Quat, Vec2, Vec3};
+
+/// Local placement of an entity relative to its parent (or the world when it has none).
+#[derive(Component, Clone, Copy, Debug, PartialEq)]
+#[require(GlobalTransform)]
+pub struct Transform {
+    pub translation: Vec3,
+    pub rotation: Quat,
+    pub scale: Vec3,
+}
+
+impl Default for Transform {
+    fn default() -> Self {
+        Self::IDENTITY
+    }
+}
+
+impl Transform {
+    pub const IDENTITY: Self = Self { translation: Vec3::ZERO, rotation: Quat::IDENTITY, scale: Vec3::ONE };
+
+    pub fn from_translation(translation: Vec3) -> Self {
+        Self { translation, ..Self::IDENTITY }
+    }
+
+    pub fn from_xyz(x: f32, y: f32, z: f32) -> Self {
+        Self::from_translation(Vec3::new(x, y, z))
+    }
+
+    pub fn with_rotation(mut self, rotation: Quat) -> Self {
+        self.rotation = rotation;
+        self
+    }
+
+    pub fn with_scale(mut self, scale: Vec3) -> Self {
+        self.scale = scale;
+        self
+    }
+
+    /// Rotates the transform so that its local -Z axis points at `target`.
+    pub fn looking_at(mut self, target: Vec3, up: Vec3) -> Self {
+        let forward = (target - self.translation).normalize_or(Vec3::NEG_Z);
+        let right = forward.cross(up).normalize_or(Vec3::X);
+        let up = right.cross(forward);
+        self.rotation = Quat::from_mat3(&Mat3::from_cols(right, up, -forward));
+        self
+    }
+
+    pub fn to_affine(&self) -> Affine3A {
+        Affine3A::from_scale_rotation_translation(self.scale, self.rotation, self.translation)
+    }
+}
+
+/// World placement of an entity, computed from the [`Transform`]s of it and its ancestors by
+/// [`propagate_transforms`]. Read it; do not write it.
+#[derive(Component, Clone, Copy, Debug, PartialEq, Default)]
+pub struct GlobalTransform(pub Affine3A);
+
+impl GlobalTransform {
+    pub fn translation(&self) -> Vec3 {
+        self.0.translation.into()
+    }
+
+    /// The direction the entity's local -Z axis points to in the world (cameras and lights look along it).
+    pub fn forward(&self) -> Vec3 {
+        self.0.transform_vector3(Vec3::NEG_Z).normalize_or(Vec3::NEG_Z)
+    }
+}
+
+/// Computes every [`GlobalTransform`] from the [`Transform`] hierarchy (parents through [`ChildOf`]).
+///
+/// Roots are entities with a `Transform` and no `ChildOf`; the walk goes down through `Children`, so
+/// each entity is visited once per frame, after its parent.
+pub fn propagate_transforms(
+    roots: Query<Entity, (With<Transform>, Without<ChildOf>)>,
+    children: Query<&Children>,
+    mut transforms: Query<(&Transform, &mut GlobalTransform)>,
+) {
+    let mut stack: Vec<(Entity, Affine3A)> = roots.iter().map(|e| (e, Affine3A::IDENTITY)).collect();
+    while let Some((entity, parent)) = stack.pop() {
+        let Ok((local, mut global)) = transforms.get_mut(entity) else { continue };
+        let world = parent * local.to_affine();
+        if global.0 != world {
+            global.0 = world;
+        }
+        if let Ok(kids) = children.get(entity) {
+            stack.extend(kids.iter().map(|c| (c, world)));
+        }
+    }
+}
+
+/// A perspective camera looking along its local -Z axis.
+#[derive(Component, Clone, Copy, Debug, PartialEq)]
+#[require(Transform)]
+pub struct Camera {
+    /// Vertical field of view in radians.
+    pub yfov: f32,
+    /// Distance of the near plane; the far plane is at infinity (reverse-Z depth).
+    pub znear: f32,
+    /// Linear scale applied to radiance before tonemapping; 1 keeps the radiometric values as they are.
+    pub exposure: f32,
+}
+
+impl Default for Camera {
+    fn default() -> Self {
+        Self { yfov: 50f32.to_radians(), znear: 0.05, exposure: 1.0 }
+    }
+}
+
+/// A light infinitely far away. `intensity` is the irradiance (W/m²) on a surface facing it; it shines
+/// along the entity's local -Z axis.
+#[derive(Component, Clone, Copy, Debug, PartialEq)]
+#[require(Transform)]
+pub struct DirectionalLight {
+    pub color: Vec3,
+    pub intensity: f32,
+}
+
+/// A point light. `intensity` is radiant intensity (W/sr): irradiance `intensity·cosθ/d²` at distance d.
+#[derive(Component, Clone, Copy, Debug, PartialEq)]
+#[require(Transform)]
+pub struct PointLight {
+    pub color: Vec3,
+    pub intensity: f32,
+    /// Distance past which the light is cut off smoothly (glTF's window); `None` is unlimited.
+    pub range: Option<f32>,
+}
+
+/// A spot light shining along the entity's local -Z axis, with glTF's smooth cone falloff between
+/// `inner_cone_angle` and `outer_cone_angle` (radians, from the axis).
+#[derive(Component, Clone, Copy, Debug, PartialEq)]
+#[require(Transform)]
+pub struct SpotLight {
+    pub color: Vec3,
+    pub intensity: f32,
+    pub range: Option<f32>,
+    pub inner_cone_angle: f32,
+    pub outer_cone_angle: f32,
+}
+
+/// Draws a shared mesh asset with a shared material at the entity's [`GlobalTransform`].
+#[derive(Component, Clone, Copy, Debug, PartialEq, Eq)]
+#[require(Transform)]
+pub struct MeshInstance {
+    pub mesh: Handle<Mesh>,
+    pub material: Handle<Material>,
+}
+
+/// Moves an entity along a circle over time (used by built-in scenes for moving lights).
+#[derive(Component, Clone, Copy, Debug, PartialEq)]
+pub struct Orbit {
+    pub center: Vec3,
+    pub radius: f32,
+    /// Seconds per revolution.
+    pub period: f32,
+    /// Point the entity's -Z axis at, if any, while it moves.
+    pub look_at: Option<Vec3>,
+}
+
+/// A name for an entity, from the imported node or given by the scene builder.
+#[derive(Component, Clone, Debug, PartialEq, Eq)]
+pub struct Name(pub String);
+
+/// A typed index into an [`Assets`] store.
+pub struct Handle<T> {
+    index: u32,
+    _marker: PhantomData<fn() -> T>,
+}
+
+impl<T> Handle<T> {
+    pub const fn from_index(index: u32) -> Self {
+        Self { index, _marker: PhantomData }
+    }
+
+    pub const fn index(self) -> u32 {
+        self.index
+    }
+}
+
+impl<T> Clone for Handle<T> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+impl<T> Copy for Handle<T> {}
+impl<T> PartialEq for Handle<T> {
+    fn eq(&self, other: &Self) -> bool {
+        self.index == other.index
+    }
+}
+impl<T> Eq for Handle<T> {}
+impl<T> std::hash::Hash for Handle<T> {
+    fn hash<H: std::hash::Hasher>(&self, state: &mut H) {
+        self.index.hash(state)
+    }
+}
+impl<T> std::fmt::Debug for Handle<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Handle<{}>({})", std::any::type_name::<T>().rsplit("::").next().unwrap_or("?"), self.index)
+    }
+}
+
+/// A store of shared assets (meshes, materials, images). Adding bumps `generation` so that the
+/// renderer knows to upload again; assets are never removed while handles may point at them.
+#[derive(Resource)]
+pub struct Assets<T> {
+    items: Vec<T>,
+    generation: u64,
+}
+
+impl<T> Default for Assets<T> {
+    fn default() -> Self {
+        Self { items: Vec::new(), generation: 0 }
+    }
+}
+
+impl<T> Assets<T> {
+    pub fn add(&mut self, item: T) -> Handle<T> {
+        self.items.push(item);
+        self.generation += 1;
+        Handle::from_index(self.items.len() as u32 - 1)
+    }
+
+    pub fn get(&self, handle: Handle<T>) -> Option<&T> {
+        self.items.get(handle.index as usize)
+    }
+
+    /// Mutable access; marks the store changed.
+    pub fn get_mut(&mut self, handle: Handle<T>) -> Option<&mut T> {
+        self.generation += 1;
+        self.items.get_mut(handle.index as usize)
+    }
+
+    pub fn iter(&self) -> impl Iterator<Item = (Handle<T>, &T)> {
+        self.items.iter().enumerate().map(|(i, t)| (Handle::from_index(i as u32), t))
+    }
+
+    pub fn len(&self) -> usize {
+        self.items.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.items.is_empty()
+    }
+
+    /// Increases whenever an asset is added or mutably borrowed.
+    pub fn generation(&self) -> u64 {
+        self.generation
+    }
+}
+
+/// A triangle mesh in its local space. Positions and normals are finite (importers check), normals
+/// are unit length, and every index is below `positions.len()`.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct Mesh {
+    pub name: String,
+    pub positions: Vec<Vec3>,
+    pub normals: Vec<Vec3>,
+    /// Texture coordinates; empty when the mesh has none (then all are zero).
+    pub uvs: Vec<Vec2>,
+    pub indices: Vec<u32>,
+}
+
+impl Mesh {
+    pub fn triangle_count(&self) -> usize {
+        self.indices.len() / 3
+    }
+
+    /// Area-weighted vertex normals from the triangles, for meshes that come without normals.
+    pub fn compute_normals(&mut self) {
+        let mut normals = vec![Vec3::ZERO; self.positions.len()];
+        for tri in self.indices.chunks_exact(3) {
+            let [a, b, c] = [tri[0], tri[1], tri[2]].map(|i| self.positions[i as usize]);
+            let n = (b - a).cross(c - a);
+            for &i in tri {
+                normals[i as usize] += n;
+            }
+        }
+        self.normals = normals.into_iter().map(|n| n.normalize_or(Vec3::Y)).collect();
+    }
+
+    /// Local-space bounds (min, max); `None` for an empty mesh.
+    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
+        let first = *self.positions.first()?;
+        Some(self.positions.iter().fold((first, first), |(lo, hi), &p| (lo.min(p), hi.max(p))))
+    }
+}
+
+/// An RGBA8 image whose colour channels are sRGB-encoded (as glTF base colour and emissive textures are).
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct Image {
+    pub name: String,
+    pub width: u32,
+    pub height: u32,
+    pub rgba8: Vec<u8>,
+}
+
+/// An affine transform of texture coordinates (glTF's `KHR_texture_transform`): `uv' = T·R·S·uv`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UvTransform {
+    pub offset: Vec2,
+    pub rotation: f32,
+    pub scale: Vec2,
+}
+
+impl Default for UvTransform {
+    fn default() -> Self {
+        Self { offset: Vec2::ZERO, rotation: 0.0, scale: Vec2::ONE }
+    }
+}
+
+impl UvTransform {
+    /// The two rows of the 2×3 matrix, as `(a, b, c)` with `u' = a·u + b·v + c`.
+    pub fn rows(&self) -> [Vec3; 2] {
+        // glTF: translation * rotation * scale, where rotation is [[cos, sin], [-sin, cos]].
+        let (s, c) = self.rotation.sin_cos();
+        [
+            Vec3::new(c * self.scale.x, s * self.scale.y, self.offset.x),
+            Vec3::new(-s * self.scale.x, c * self.scale.y, self.offset.y),
+        ]
+    }
+}
+
+/// A texture reference inside a material.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TextureRef {
+    pub image: Handle<Image>,
+    pub transform: UvTransform,
+}
+
+/// A Lambertian material with emission. Base colour = factor × texture; emitted radiance =
+/// factor × texture × strength (linear, W/(m²·sr)).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    pub base_color: glam::Vec4,
+    pub base_color_texture: Option<TextureRef>,
+    pub emissive: Vec3,
+    pub emissive_texture: Option<TextureRef>,
+    pub emissive_strength: f32,
+}
+
+impl Default for Material {
+    fn default() -> Self {
+        Self {
+            name: String::new(),
+            base_color: glam::Vec4::ONE,
+            base_color_texture: None,
+            emissive: Vec3::ZERO,
+            emissive_texture: None,
+            emissive_strength: 1.0,
+        }
+    }
+}
+
+impl Material {
+    pub fn diffuse(name: &str, color: Vec3) -> Self {
+        Self { name: name.into(), base_color: color.extend(1.0), ..Default::default() }
+    }
+
+    pub fn emissive(name: &str, radiance: Vec3) -> Self {
+        Self { name: name.into(), base_color: glam::Vec4::new(0.0, 0.0, 0.0, 1.0), emissive: radiance, ..Default::default() }
+    }
+
+    pub fn is_emissive(&self) -> bool {
+        self.emissive.max_element() * self.emissive_strength > 0.0
+    }
+}
+
+/// What a node of a scene description carries besides its transform.
+#[derive(Clone, Debug, PartialEq)]
+pub enum NodeContent {
+    Empty,
+    /// One instance per primitive: (mesh, material) pairs in the scene's own asset lists.
+    Meshes(Vec<(usize, usize)>),
+    Camera(Camera),
+    DirectionalLight(DirectionalLight),
+    PointLight(PointLight),
+    SpotLight(SpotLight),
+}
+
+/// A node of a scene description.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneNode {
+    pub name: String,
+    pub transform: Transform,
+    pub parent: Option<usize>,
+    pub content: Vec<NodeContent>,
+    pub orbit: Option<Orbit>,
+}
+
+/// A scene held outside the ECS: what importers and built-in scene builders produce. Nothing in the
+/// world changes until [`SceneDescription::spawn`] succeeds, so a failed load leaves the previous scene
+/// intact. Mesh, material and image references are indices into the description's own lists.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SceneDescription {
+    pub name: String,
+    pub meshes: Vec<Mesh>,
+    pub materials: Vec<Material>,
+    pub images: Vec<Image>,
+    /// Nodes in an order where every parent comes before its children.
+    pub nodes: Vec<SceneNode>,
+}
+
+/// Marks the root entity of a spawned scene; despawning it removes the whole scene.
+#[derive(Component, Clone, Debug)]
+pub struct SceneRoot {
+    pub name: String,
+}
+
+impl SceneDescription {
+    pub fn add_node(&mut self, name: &str, transform: Transform, parent: Option<usize>, content: Vec<NodeContent>) -> usize {
+        self.nodes.push(SceneNode { name: name.into(), transform, parent, content, orbit: None });
+        self.nodes.len() - 1
+    }
+
+    pub fn add_mesh(&mut self, mesh: Mesh) -> usize {
+        self.meshes.push(mesh);
+        self.meshes.len() - 1
+    }
+
+    pub fn add_material(&mut self, material: Material) -> usize {
+        self.materials.push(material);
+        self.materials.len() - 1
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.meshes.iter().map(Mesh::triangle_count).sum()
+    }
+
+    pub fn has_camera(&self) -> bool {
+        self.nodes.iter().any(|n| n.content.iter().any(|c| matches!(c, NodeContent::Camera(_))))
+    }
+
+    /// World-space bounds of every mesh instance, computed from the node hierarchy.
+    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
+        let world = self.world_transforms();
+        let mut out: Option<(Vec3, Vec3)> = None;
+        for (node, xf) in self.nodes.iter().zip(&world) {
+            for content in &node.content {
+                let NodeContent::Meshes(list) = content else { continue };
+                for &(mesh, _) in list {
+                    for &p in &self.meshes[mesh].positions {
+                        let p = xf.transform_point3(p);
+                        out = Some(match out {
+                            None => (p, p),
+                            Some((lo, hi)) => (lo.min(p), hi.max(p)),
+                        });
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// World transform of every node (parents come first in `nodes`).
+    pub fn world_transforms(&self) -> Vec<Affine3A> {
+        let mut world: Vec<Affine3A> = Vec::with_capacity(self.nodes.len());
+        for node in &self.nodes {
+            let parent = node.parent.map_or(Affine3A::IDENTITY, |p| world[p]);
+            world.push(parent * node.transform.to_affine());
+        }
+        world
+    }
+
+    /// Moves the assets into the world's stores and spawns one entity per node under a [`SceneRoot`].
+    /// Returns the root entity.
+    pub fn spawn(self, world: &mut World) -> Entity {
+        let image_handles: Vec<Handle<Image>> = {
+            let mut images = world.get_resource_or_insert_with(Assets::<Image>::default);
+            self.images.into_iter().map(|i| images.add(i)).collect()
+        };
+        let remap = |t: Option<TextureRef>| {
+            t.map(|t| TextureRef { image: image_handles[t.image.index() as usize], transform: t.transform })
+        };
+        let material_handles: Vec<Handle<Material>> = {
+            let mut materials = world.get_resource_or_insert_with(Assets::<Material>::default);
+            self.materials
+                .into_iter()
+                .map(|mut m| {
+                    m.base_color_texture = remap(m.base_color_texture);
+                    m.emissive_texture = remap(m.emissive_texture);
+                    materials.add(m)
+                })
+                .collect()
+        };
+        let mesh_handles: Vec<Handle<Mesh>> = {
+            let mut meshes = world.get_resource_or_insert_with(Assets::<Mesh>::default);
+            self.meshes.into_iter().map(|m| meshes.add(m)).collect()
+        };
+        let root = world.spawn((SceneRoot { name: self.name.clone() }, Name(self.name), Transform::IDENTITY)).id();
+        let mut entities: Vec<Entity> = Vec::with_capacity(self.nodes.len());
+        for node in self.nodes {
+            let parent = node.parent.map_or(root, |p| entities[p]);
+            let mut e = world.spawn((Name(node.name), node.transform, ChildOf(parent)));
+            if let Some(orbit) = node.orbit {
+                e.insert(orbit);
+            }
+            for content in node.content {
+                match content {
+                    NodeContent::Empty => {}
+                    NodeContent::Camera(c) => {
+                        e.insert(c);
+                    }
+                    NodeContent::DirectionalLight(l) => {
+                        e.insert(l);
+                    }
+                    NodeContent::PointLight(l) => {
+                        e.insert(l);
+                    }
+                    NodeContent::SpotLight(l) => {
+                        e.insert(l);
+                    }
+                    NodeContent::Meshes(list) => {
+                        let id = e.id();
+                        for (mesh, material) in list {
+                            let instance = MeshInstance { mesh: mesh_handles[mesh], material: material_handles[material] };
+                            e.world_scope(|w| {
+                                w.spawn((Name(String::new()), Transform::IDENTITY, instance, ChildOf(id)));
+                            });
+                        }
+                    }
+                }
+            }
+            entities.push(e.id());
+        }
+        root
+    }
+}
+
+/// Moves entities with an [`Orbit`] along their circle, from the engine's fixed-step [`crate::app::Time`].
+pub fn animate_orbits(time: Res<crate::app::Time>, mut query: Query<(&Orbit, &mut Transform)>) {
+    for (orbit, mut transform) in &mut query {
+        let angle = std::f32::consts::TAU * (time.elapsed_seconds / orbit.period.max(1e-3) as f64) as f32;
+        let (s, c) = angle.sin_cos();
+        let position = orbit.center + Vec3::new(c * orbit.radius, 0.0, s * orbit.radius);
+        let mut t = Transform { translation: position, ..*transform };
+        if let Some(target) = orbit.look_at {
+            let up = if (target - position).normalize_or_zero().y.abs() > 0.99 { Vec3::Z } else { Vec3::Y };
+            t = t.looking_at(target, up);
+        }
+        *transform = t;
+    }
+}

@@ -1,0 +1,128 @@
+//! The windowed runner (winit 0.30): one window, the camera path presented to its surface, wall-clock
+//! time. A window resized to zero or minimized skips frames instead of failing.
+
+use std::sync::Arc;
+
+use bevy_app::App;
+use winit::application::ApplicationHandler;
+use winit::event::{ElementState, KeyEvent, WindowEvent};
+use winit::event_loop::{ActiveEventLoop, EventLoop};
+use winit::keyboard::{Key, NamedKey};
+use winit::window::{Window, WindowId};
+
+use crate::app::{EnginePlugin, Time, finish_plugins};
+use crate::gpu::{GpuContext, GpuOptions};
+use crate::headless::add_default_camera;
+use crate::render::{RenderPlugin, RenderSize, SurfaceTarget, blit_program};
+use crate::scene::SceneDescription;
+
+/// Why the window could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum WindowError {
+    #[error("cannot open a window (is a display available? set DISPLAY or WAYLAND_DISPLAY): {0}")]
+    EventLoop(String),
+    #[error("cannot create the window or its surface: {0}")]
+    Surface(String),
+    #[error(transparent)]
+    Gpu(#[from] crate::gpu::GpuError),
+}
+
+/// Opens a window showing `scene` until it is closed or Esc is pressed.
+pub fn run_windowed(mut scene: SceneDescription) -> Result<(), WindowError> {
+    if !scene.has_camera() {
+        add_default_camera(&mut scene);
+    }
+    let event_loop = EventLoop::new().map_err(|e| WindowError::EventLoop(e.to_string()))?;
+    let mut runner = WindowedRunner { scene: Some(scene), state: None, error: None };
+    event_loop.run_app(&mut runner).map_err(|e| WindowError::EventLoop(e.to_string()))?;
+    runner.error.map_or(Ok(()), Err)
+}
+
+struct WindowState {
+    window: Arc<Window>,
+    app: App,
+}
+
+struct WindowedRunner {
+    scene: Option<SceneDescription>,
+    state: Option<WindowState>,
+    error: Option<WindowError>,
+}
+
+impl WindowedRunner {
+    fn open(&mut self, event_loop: &ActiveEventLoop) -> Result<WindowState, WindowError> {
+        let attributes = Window::default_attributes().with_title("game_demo").with_inner_size(winit::dpi::LogicalSize::new(1280, 720));
+        let window = Arc::new(event_loop.create_window(attributes).map_err(|e| WindowError::Surface(e.to_string()))?);
+        let instance = GpuContext::create_instance();
+        let surface = instance.create_surface(window.clone()).map_err(|e| WindowError::Surface(e.to_string()))?;
+        let gpu = GpuContext::new(GpuOptions { compatible_surface: Some(&surface), instance: Some(instance.clone()), ..Default::default() })?;
+        let size = window.inner_size();
+        let caps = surface.get_capabilities(&gpu.adapter);
+        // The image is sRGB-encoded by the tonemapper: present it through a non-sRGB format.
+        let format = caps.formats.iter().copied().find(|f| !f.is_srgb()).or(caps.formats.first().copied()).ok_or_else(|| WindowError::Surface("the surface supports no format".into()))?;
+        let mut config = surface
+            .get_default_config(&gpu.adapter, size.width.max(1), size.height.max(1))
+            .ok_or_else(|| WindowError::Surface("the surface is not supported by the adapter".into()))?;
+        config.format = format;
+        surface.configure(&gpu.device, &config);
+        let blit = blit_program(&gpu, format).map_err(|e| WindowError::Surface(e.to_string()))?;
+
+        let mut app = App::new();
+        app.insert_resource(Time::real());
+        app.add_plugins((EnginePlugin, RenderPlugin { gpu: gpu.clone(), size: RenderSize { width: config.width, height: config.height } }));
+        app.insert_resource(SurfaceTarget { surface, config, blit: Arc::new(blit) });
+        app.world_mut().resource_mut::<crate::render::FrameTimings>().keep = 600;
+        if let Some(scene) = self.scene.take() {
+            scene.spawn(app.world_mut());
+        }
+        finish_plugins(&mut app);
+        window.request_redraw();
+        Ok(WindowState { window, app })
+    }
+}
+
+impl ApplicationHandler for WindowedRunner {
+    fn resumed(&mut self, event_loop: &ActiveEventLoop) {
+        if self.state.is_some() {
+            return;
+        }
+        match self.open(event_loop) {
+            Ok(state) => self.state = Some(state),
+            Err(e) => {
+                self.error = Some(e);
+                event_loop.exit();
+            }
+        }
+    }
+
+    fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
+        let Some(state) = &mut self.state else { return };
+        match event {
+            WindowEvent::CloseRequested
+            | WindowEvent::KeyboardInput { event: KeyEvent { logical_key: Key::Named(NamedKey::Escape), state: ElementState::Pressed, .. }, .. } => {
+                event_loop.exit()
+            }
+            WindowEvent::Resized(size) => {
+                // Zero-sized (minimized) windows keep their last configuration; frames are skipped.
+                if size.width > 0 && size.height > 0 {
+                    let world = state.app.world_mut();
+                    let gpu = world.resource::<GpuContext>().clone();
+                    let mut target = world.resource_mut::<SurfaceTarget>();
+                    target.config.width = size.width;
+                    target.config.height = size.height;
+                    target.surface.configure(&gpu.device, &target.config);
+                    world.insert_resource(RenderSize { width: size.width, height: size.height });
+                }
+                state.window.request_redraw();
+            }
+            WindowEvent::RedrawRequested => {
+                let size = state.window.inner_size();
+                if size.width > 0 && size.height > 0 {
+                    state.app.update();
+                }
+                state.window.request_redraw();
+            }
+            _ => {}
+        }
+    }
+}

@@ -1,0 +1,33 @@
+// Shared constants and numerically guarded helpers.
+
+const PI: f32 = 3.14159265358979;
+const INV_PI: f32 = 0.318309886183791;
+// Largest finite half float: radiance written to f16 targets is clamped below it.
+const HALF_MAX: f32 = 65504.0;
+
+// Normalizes v, or returns `fallback` when v is zero, tiny or not finite.
+fn safe_normalize(v: vec3<f32>, fallback: vec3<f32>) -> vec3<f32> {
+    let len2 = dot(v, v);
+    if !(len2 > 1e-30) || !(len2 < 1e30) {
+        return fallback;
+    }
+    return v * inverseSqrt(len2);
+}
+
+// Replaces NaN and negative values by zero and clamps to a finite maximum.
+fn sanitize_radiance(c: vec3<f32>) -> vec3<f32> {
+    // NaN fails every comparison, so select() keeps it out.
+    let ok = (c >= vec3<f32>(0.0)) & (c <= vec3<f32>(3.0e38));
+    return select(vec3<f32>(0.0), c, ok);
+}
+
+fn luminance(c: vec3<f32>) -> f32 {
+    return dot(c, vec3<f32>(0.2126, 0.7152, 0.0722));
+}
+
+// The sRGB transfer function (linear -> encoded), per channel, for values in [0, 1].
+fn srgb_encode(c: vec3<f32>) -> vec3<f32> {
+    let lo = c * 12.92;
+    let hi = 1.055 * pow(max(c, vec3<f32>(0.0031308)), vec3<f32>(1.0 / 2.4)) - 0.055;
+    return select(hi, lo, c <= vec3<f32>(0.0031308));
+}
