@@ -52,14 +52,15 @@ pub enum RenderError {
     Write { path: String, message: String },
 }
 
-/// Adds a camera that frames the scene's bounds from the front (+Z), for scenes that have none.
+/// Adds a camera that frames the scene's bounds in a three-quarter view from the front (+Z) and
+/// above, for scenes that have none.
 pub fn add_default_camera(scene: &mut SceneDescription) {
     let (lo, hi) = scene.bounds().unwrap_or((Vec3::splat(-1.0), Vec3::splat(1.0)));
     let center = (lo + hi) * 0.5;
     let radius = ((hi - lo).length() * 0.5).max(1e-3);
     let camera = Camera::default();
     let distance = radius / (camera.yfov * 0.5).sin();
-    let eye = center + Vec3::new(0.0, radius * 0.3, distance);
+    let eye = center + Vec3::new(0.35, 0.6, 1.0).normalize() * distance;
     let transform = Transform::from_translation(eye).looking_at(center, Vec3::Y);
     scene.add_node("default_camera", transform, None, vec![NodeContent::Camera(Camera { znear: (radius * 1e-3).max(1e-6), ..camera })]);
 }

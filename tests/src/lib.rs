@@ -1,1 +1,61 @@
+//! Support for the workspace tests: GPU access under the CI rules, FLIP comparisons and golden images.
+//!
+//! Golden images live in `tests/golden/`. Re-bless them with `BLESS=1 make test` (or `BLESS=1 cargo
+//! test`); a failing comparison writes `<name>_actual.png` and `<name>_flip.png` (the error map, magma
+//! colour map) beside the reference.
 
+use std::path::{Path, PathBuf};
+
+pub use engine::gpu::GpuContext;
+
+/// A GPU context whose validation errors panic, or `None` (test skipped) when there is no adapter
+/// outside CI. Under `CI=true` a missing adapter fails the test.
+pub fn gpu(test: &str) -> Option<GpuContext> {
+    GpuContext::for_tests(test)
+}
+
+/// Mean FLIP error between two RGBA8 sRGB images of the same size, and the per-pixel error map.
+pub fn flip(reference: &[u8], test: &[u8], width: u32, height: u32) -> (f32, nv_flip::FlipImageFloat) {
+    let rgb = |rgba: &[u8]| -> Vec<u8> { rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect() };
+    let reference = nv_flip::FlipImageRgb8::with_data(width, height, &rgb(reference));
+    let test = nv_flip::FlipImageRgb8::with_data(width, height, &rgb(test));
+    let map = nv_flip::flip(reference, test, nv_flip::DEFAULT_PIXELS_PER_DEGREE);
+    let mean = nv_flip::FlipPool::from_image(&map).mean();
+    (mean, map)
+}
+
+pub fn golden_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("golden")
+}
+
+/// Compares an RGBA8 image with `tests/golden/<name>.png` by mean FLIP; fails above `max_mean_flip`.
+/// With `BLESS=1` the image becomes the new reference instead.
+pub fn assert_golden(name: &str, width: u32, height: u32, rgba: &[u8], max_mean_flip: f32) -> f32 {
+    let dir = golden_dir();
+    let reference_path = dir.join(format!("{name}.png"));
+    if std::env::var("BLESS").is_ok_and(|v| v == "1") {
+        std::fs::create_dir_all(&dir).expect("create tests/golden");
+        image::save_buffer(&reference_path, rgba, width, height, image::ExtendedColorType::Rgba8).expect("write golden image");
+        eprintln!("blessed {}", reference_path.display());
+        return 0.0;
+    }
+    let reference = image::open(&reference_path)
+        .unwrap_or_else(|e| panic!("{}: {e} (run with BLESS=1 to create it)", reference_path.display()))
+        .to_rgba8();
+    assert_eq!((reference.width(), reference.height()), (width, height), "{name}: golden image size differs");
+    let (mean, map) = flip(reference.as_raw(), rgba, width, height);
+    if mean > max_mean_flip {
+        let actual = dir.join(format!("{name}_actual.png"));
+        image::save_buffer(&actual, rgba, width, height, image::ExtendedColorType::Rgba8).expect("write actual image");
+        let magma = map.apply_color_lut(&nv_flip::magma_lut());
+        let flip_path = dir.join(format!("{name}_flip.png"));
+        image::save_buffer(&flip_path, &magma.to_vec(), width, height, image::ExtendedColorType::Rgb8).expect("write FLIP map");
+        panic!(
+            "{name}: mean FLIP {mean:.4} > {max_mean_flip} against {}; wrote {} and {}",
+            reference_path.display(),
+            actual.display(),
+            flip_path.display()
+        );
+    }
+    mean
+}

@@ -1,0 +1,38 @@
+# Quick start: `make run` renders the default scene headless; `make test` runs every test on a real
+# Vulkan driver (Mesa's lavapipe is installed when no Vulkan driver is present).
+
+CARGO ?= cargo
+SCENE ?= cornell
+OUT ?= out/$(SCENE)
+SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
+# lavapipe's window-system code complains when this is unset, even headless.
+export XDG_RUNTIME_DIR ?= /tmp/xdg-runtime-$(shell id -u)
+
+.PHONY: run test lint vulkan-driver bless
+
+run: vulkan-driver
+	@mkdir -p $(XDG_RUNTIME_DIR) && chmod 700 $(XDG_RUNTIME_DIR)
+	$(CARGO) run --release -p game_demo -- render --scene $(SCENE) --width 1280 --height 720 --out $(OUT)
+	@echo "images: $(OUT)/image.png (tonemapped sRGB), $(OUT)/image.exr (linear radiance); GPU times: $(OUT)/timings.json"
+
+test: vulkan-driver
+	@mkdir -p $(XDG_RUNTIME_DIR) && chmod 700 $(XDG_RUNTIME_DIR)
+	$(CARGO) test --workspace --no-fail-fast
+
+# Re-create the golden images of the image tests from the current renderer.
+bless: vulkan-driver
+	BLESS=1 $(CARGO) test --workspace
+
+lint:
+	$(CARGO) fmt --all --check
+	$(CARGO) clippy --workspace --all-targets -- -D warnings
+
+# Installs Mesa's Vulkan drivers (lavapipe, a software rasterizer) and the Vulkan loader with apt,
+# only when no Vulkan driver manifest or loader is present.
+vulkan-driver:
+	@if ls /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json >/dev/null 2>&1 && ldconfig -p | grep -q 'libvulkan.so.1 '; then \
+		: ; \
+	else \
+		echo "no Vulkan driver found: installing mesa-vulkan-drivers and libvulkan1"; \
+		$(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq mesa-vulkan-drivers libvulkan1; \
+	fi
