@@ -205,10 +205,10 @@ impl RenderGraph {
         let mut report = FrameReport::default();
         let timer = timer.filter(|_| gpu.timestamps);
         let ran_count = live.iter().filter(|&&l| l).count() as u32;
-        let queries = timer.map(|t| {
+        let mut queries = timer;
+        if let Some(t) = queries.as_mut() {
             t.reserve(&gpu.device, ran_count * 2);
-            t
-        });
+        }
         let mut query_index = 0u32;
         for (pass, is_live) in self.passes.iter_mut().zip(&live) {
             if !is_live {

@@ -5,7 +5,7 @@ use crate::gpu::GpuContext;
 /// Reads a whole 2D texture of a non-block format into tightly packed rows.
 pub fn read_texture(gpu: &GpuContext, texture: &wgpu::Texture) -> Vec<u8> {
     let (width, height) = (texture.width(), texture.height());
-    let texel = u32::from(texture.format().block_copy_size(None).expect("a colour format"));
+    let texel = texture.format().block_copy_size(None).expect("a colour format");
     let row = width * texel;
     let padded = row.next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
     let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
