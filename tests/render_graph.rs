@@ -88,7 +88,8 @@ fn only_live_passes_record_commands_on_the_gpu_and_report_their_time() {
     let usage = wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC;
     let mut first = g.create_buffer("first", BufferDesc { size: 64, usage });
     let mut skipped = g.create_buffer("skipped", BufferDesc { size: 64, usage });
-    let external = gpu.device.create_buffer(&wgpu::BufferDescriptor { label: Some("external"), size: 64, usage, mapped_at_creation: false });
+    let external =
+        gpu.device.create_buffer(&wgpu::BufferDescriptor { label: Some("external"), size: 64, usage, mapped_at_creation: false });
     let mut ext = g.import_buffer("external", &external);
     for (label, write_skipped) in [("clear_first", false), ("clear_skipped", true)] {
         let log = ran.clone();

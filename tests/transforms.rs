@@ -15,7 +15,11 @@ fn run(world: &mut World) {
 fn children_inherit_translation_rotation_and_scale() {
     let mut world = World::new();
     let parent = world
-        .spawn(Transform::from_xyz(10.0, 0.0, 0.0).with_rotation(Quat::from_rotation_y(std::f32::consts::FRAC_PI_2)).with_scale(Vec3::splat(2.0)))
+        .spawn(
+            Transform::from_xyz(10.0, 0.0, 0.0)
+                .with_rotation(Quat::from_rotation_y(std::f32::consts::FRAC_PI_2))
+                .with_scale(Vec3::splat(2.0)),
+        )
         .id();
     let child = world.spawn((Transform::from_xyz(1.0, 0.0, 0.0), ChildOf(parent))).id();
     let grandchild = world.spawn((Transform::from_xyz(0.0, 1.0, 0.0), ChildOf(child))).id();
@@ -50,9 +54,9 @@ fn the_headless_clock_is_fixed_step_and_deterministic() {
     #[derive(Resource, Default)]
     struct Seen(Vec<(u64, f64)>);
     let mut app = App::new();
-    app.add_plugins(engine::app::EnginePlugin).init_resource::<Seen>().add_systems(engine::bevy_app::Update, |t: Res<engine::app::Time>, mut s: ResMut<Seen>| {
-        s.0.push((t.frame, t.elapsed_seconds))
-    });
+    app.add_plugins(engine::app::EnginePlugin)
+        .init_resource::<Seen>()
+        .add_systems(engine::bevy_app::Update, |t: Res<engine::app::Time>, mut s: ResMut<Seen>| s.0.push((t.frame, t.elapsed_seconds)));
     app.insert_resource(engine::app::Time::fixed(0.25));
     engine::app::run_headless(&mut app, 4);
     assert_eq!(app.world().resource::<Seen>().0, [(0, 0.0), (1, 0.25), (2, 0.5), (3, 0.75)]);

@@ -83,8 +83,7 @@ impl GpuContext {
         let backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY);
         let wanted_name = std::env::var("WGPU_ADAPTER_NAME").ok().filter(|s| !s.is_empty());
         let adapters = instance.enumerate_adapters(backends).await;
-        let seen: Vec<String> =
-            adapters.iter().map(|a| format!("{} ({:?})", a.get_info().name, a.get_info().backend)).collect();
+        let seen: Vec<String> = adapters.iter().map(|a| format!("{} ({:?})", a.get_info().name, a.get_info().backend)).collect();
         let compatible = |a: &wgpu::Adapter| options.compatible_surface.is_none_or(|s| a.is_surface_supported(s));
         let adapter = match &wanted_name {
             Some(name) => {

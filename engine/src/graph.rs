@@ -346,7 +346,12 @@ impl TransientPool {
 
     fn take_buffer(&mut self, device: &wgpu::Device, name: &str, desc: BufferDesc) -> wgpu::Buffer {
         self.buffers.get_mut(&desc).and_then(Vec::pop).unwrap_or_else(|| {
-            device.create_buffer(&wgpu::BufferDescriptor { label: Some(name), size: desc.size.max(4), usage: desc.usage, mapped_at_creation: false })
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(name),
+                size: desc.size.max(4),
+                usage: desc.usage,
+                mapped_at_creation: false,
+            })
         })
     }
 

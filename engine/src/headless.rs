@@ -117,7 +117,13 @@ impl RenderedFrame {
         let json = dir.join("timings.json");
         let mut timings = FrameTimings::default();
         timings.frames = self.timings.clone();
-        let file = TimingsFile { adapter: &self.adapter, width: self.width, height: self.height, mean_gpu_ms: timings.mean_ms(), frames: &self.timings };
+        let file = TimingsFile {
+            adapter: &self.adapter,
+            width: self.width,
+            height: self.height,
+            mean_gpu_ms: timings.mean_ms(),
+            frames: &self.timings,
+        };
         let text = serde_json::to_string_pretty(&file).map_err(|e| io(&json, &e))?;
         std::fs::write(&json, text).map_err(|e| io(&json, &e))?;
         Ok(())

@@ -323,10 +323,7 @@ impl UvTransform {
     pub fn rows(&self) -> [Vec3; 2] {
         // glTF: translation * rotation * scale, where rotation is [[cos, sin], [-sin, cos]].
         let (s, c) = self.rotation.sin_cos();
-        [
-            Vec3::new(c * self.scale.x, s * self.scale.y, self.offset.x),
-            Vec3::new(-s * self.scale.x, c * self.scale.y, self.offset.y),
-        ]
+        [Vec3::new(c * self.scale.x, s * self.scale.y, self.offset.x), Vec3::new(-s * self.scale.x, c * self.scale.y, self.offset.y)]
     }
 }
 
@@ -479,9 +476,8 @@ impl SceneDescription {
             let mut images = world.get_resource_or_insert_with(Assets::<Image>::default);
             self.images.into_iter().map(|i| images.add(i)).collect()
         };
-        let remap = |t: Option<TextureRef>| {
-            t.map(|t| TextureRef { image: image_handles[t.image.index() as usize], transform: t.transform })
-        };
+        let remap =
+            |t: Option<TextureRef>| t.map(|t| TextureRef { image: image_handles[t.image.index() as usize], transform: t.transform });
         let material_handles: Vec<Handle<Material>> = {
             let mut materials = world.get_resource_or_insert_with(Assets::<Material>::default);
             self.materials

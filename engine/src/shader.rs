@@ -203,7 +203,12 @@ pub struct RenderTargets<'a> {
 }
 
 /// Parses `file` and creates a render pipeline from its `vs_main` and `fs_main` entry points.
-pub fn render_program(device: &wgpu::Device, file: &str, label: &str, targets: RenderTargets<'_>) -> Result<Program<wgpu::RenderPipeline>, ShaderError> {
+pub fn render_program(
+    device: &wgpu::Device,
+    file: &str,
+    label: &str,
+    targets: RenderTargets<'_>,
+) -> Result<Program<wgpu::RenderPipeline>, ShaderError> {
     let parsed = parse(file)?;
     let module = parsed.create_module(device);
     let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {

@@ -55,11 +55,18 @@ impl WindowedRunner {
         let window = Arc::new(event_loop.create_window(attributes).map_err(|e| WindowError::Surface(e.to_string()))?);
         let instance = GpuContext::create_instance();
         let surface = instance.create_surface(window.clone()).map_err(|e| WindowError::Surface(e.to_string()))?;
-        let gpu = GpuContext::new(GpuOptions { compatible_surface: Some(&surface), instance: Some(instance.clone()), ..Default::default() })?;
+        let gpu =
+            GpuContext::new(GpuOptions { compatible_surface: Some(&surface), instance: Some(instance.clone()), ..Default::default() })?;
         let size = window.inner_size();
         let caps = surface.get_capabilities(&gpu.adapter);
         // The image is sRGB-encoded by the tonemapper: present it through a non-sRGB format.
-        let format = caps.formats.iter().copied().find(|f| !f.is_srgb()).or(caps.formats.first().copied()).ok_or_else(|| WindowError::Surface("the surface supports no format".into()))?;
+        let format = caps
+            .formats
+            .iter()
+            .copied()
+            .find(|f| !f.is_srgb())
+            .or(caps.formats.first().copied())
+            .ok_or_else(|| WindowError::Surface("the surface supports no format".into()))?;
         let mut config = surface
             .get_default_config(&gpu.adapter, size.width.max(1), size.height.max(1))
             .ok_or_else(|| WindowError::Surface("the surface is not supported by the adapter".into()))?;
@@ -99,9 +106,10 @@ impl ApplicationHandler for WindowedRunner {
         let Some(state) = &mut self.state else { return };
         match event {
             WindowEvent::CloseRequested
-            | WindowEvent::KeyboardInput { event: KeyEvent { logical_key: Key::Named(NamedKey::Escape), state: ElementState::Pressed, .. }, .. } => {
-                event_loop.exit()
-            }
+            | WindowEvent::KeyboardInput {
+                event: KeyEvent { logical_key: Key::Named(NamedKey::Escape), state: ElementState::Pressed, .. },
+                ..
+            } => event_loop.exit(),
             WindowEvent::Resized(size) => {
                 // Zero-sized (minimized) windows keep their last configuration; frames are skipped.
                 if size.width > 0 && size.height > 0 {

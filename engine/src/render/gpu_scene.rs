@@ -11,8 +11,7 @@ use glam::{Mat3, Mat4, Vec3};
 use super::gpu_types::*;
 use crate::gpu::GpuContext;
 use crate::scene::{
-    Assets, Camera, DirectionalLight, GlobalTransform, Image, Material, Mesh, MeshInstance, PointLight, SpotLight,
-    TextureRef,
+    Assets, Camera, DirectionalLight, GlobalTransform, Image, Material, Mesh, MeshInstance, PointLight, SpotLight, TextureRef,
 };
 
 /// A storage or uniform buffer that grows when its contents do. Never empty: an empty array is
@@ -36,7 +35,12 @@ impl GrowableBuffer {
         let grew = needed > self.buffer.size();
         if grew {
             let size = needed.next_power_of_two();
-            self.buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor { label: Some(self.label), size, usage: self.usage, mapped_at_creation: false });
+            self.buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(self.label),
+                size,
+                usage: self.usage,
+                mapped_at_creation: false,
+            });
         }
         if !bytes.is_empty() {
             gpu.queue.write_buffer(&self.buffer, 0, bytes);
@@ -98,7 +102,12 @@ impl GpuScene {
     pub fn new(gpu: &GpuContext) -> Self {
         let storage = wgpu::BufferUsages::STORAGE;
         let atlas = create_atlas_texture(gpu, 1, 1);
-        gpu.queue.write_texture(atlas.as_image_copy(), &[255; 4], wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(4), rows_per_image: None }, wgpu::Extent3d { width: 1, height: 1, depth_or_array_layers: 1 });
+        gpu.queue.write_texture(
+            atlas.as_image_copy(),
+            &[255; 4],
+            wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(4), rows_per_image: None },
+            wgpu::Extent3d { width: 1, height: 1, depth_or_array_layers: 1 },
+        );
         Self {
             view: GrowableBuffer::new(&gpu.device, "view_uniform", wgpu::BufferUsages::UNIFORM),
             lights: GrowableBuffer::new(&gpu.device, "lights", storage),

@@ -314,7 +314,13 @@ pub fn render_camera_frame(
             let group1 = program.bind_group(
                 &ctx.gpu.device,
                 1,
-                &[("gbuffer_depth", d), ("gbuffer_normal", n), ("gbuffer_albedo", a), ("gbuffer_emissive", e), ("radiance_out", wgpu::BindingResource::TextureView(ctx.view(out)))],
+                &[
+                    ("gbuffer_depth", d),
+                    ("gbuffer_normal", n),
+                    ("gbuffer_albedo", a),
+                    ("gbuffer_emissive", e),
+                    ("radiance_out", wgpu::BindingResource::TextureView(ctx.view(out))),
+                ],
             );
             dispatch(ctx.encoder, ctx.label, &program.pipeline, &[&group0, &group1], workgroups(size));
         });
@@ -331,7 +337,10 @@ pub fn render_camera_frame(
             let group1 = program.bind_group(
                 &ctx.gpu.device,
                 1,
-                &[("hdr_in", wgpu::BindingResource::TextureView(ctx.view(input))), ("ldr_out", wgpu::BindingResource::TextureView(ctx.view(out)))],
+                &[
+                    ("hdr_in", wgpu::BindingResource::TextureView(ctx.view(input))),
+                    ("ldr_out", wgpu::BindingResource::TextureView(ctx.view(out))),
+                ],
             );
             dispatch(ctx.encoder, ctx.label, &program.pipeline, &[&group0, &group1], workgroups(size));
         });
@@ -388,7 +397,13 @@ fn acquire_surface(gpu: &GpuContext, target: &SurfaceTarget) -> Option<wgpu::Sur
 }
 
 /// Records one compute pass with the given bind groups (0, 1, …).
-pub fn dispatch(encoder: &mut wgpu::CommandEncoder, label: &str, pipeline: &wgpu::ComputePipeline, groups: &[&wgpu::BindGroup], (x, y): (u32, u32)) {
+pub fn dispatch(
+    encoder: &mut wgpu::CommandEncoder,
+    label: &str,
+    pipeline: &wgpu::ComputePipeline,
+    groups: &[&wgpu::BindGroup],
+    (x, y): (u32, u32),
+) {
     let mut cp = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(label), timestamp_writes: None });
     cp.set_pipeline(pipeline);
     for (i, g) in groups.iter().enumerate() {

@@ -1,0 +1,352 @@
+//! The scene importers: the glTF fixture's hierarchy, transforms, meshes, materials, lights and
+//! camera; the OBJ Cornell box; the shared Kenney models; and the broken-file corpus, where every
+//! file must fail with a message naming the file and the problem, and nothing may panic.
+
+use std::f32::consts::FRAC_PI_4;
+use std::path::{Path, PathBuf};
+
+use bevy_ecs::world::World;
+use engine::import::{ImportError, load_scene, validate_mesh};
+use engine::scene::{Camera, DirectionalLight, MeshInstance, NodeContent, PointLight, SceneDescription, SpotLight, UvTransform};
+use glam::{Vec2, Vec3, Vec4};
+
+fn fixtures() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures")
+}
+
+fn load(name: &str) -> SceneDescription {
+    let path = fixtures().join(name);
+    load_scene(&path).unwrap_or_else(|e| panic!("{} should load: {e}", path.display()))
+}
+
+fn node(scene: &SceneDescription, name: &str) -> usize {
+    scene.nodes.iter().position(|n| n.name == name).unwrap_or_else(|| panic!("no node named {name}"))
+}
+
+fn material(scene: &SceneDescription, name: &str) -> usize {
+    scene.materials.iter().position(|m| m.name == name).unwrap_or_else(|| panic!("no material named {name}"))
+}
+
+fn mesh_instances(scene: &SceneDescription, node_index: usize) -> Vec<(usize, usize)> {
+    scene.nodes[node_index]
+        .content
+        .iter()
+        .flat_map(|c| match c {
+            NodeContent::Meshes(list) => list.clone(),
+            _ => Vec::new(),
+        })
+        .collect()
+}
+
+fn assert_near(actual: Vec3, expected: Vec3, what: &str) {
+    assert!(actual.abs_diff_eq(expected, 1e-5), "{what}: {actual} != {expected}");
+}
+
+fn assert_valid(scene: &SceneDescription, file: &str) {
+    for (i, mesh) in scene.meshes.iter().enumerate() {
+        validate_mesh(mesh, Path::new(file), &format!("mesh {i}")).unwrap();
+    }
+    for (i, node) in scene.nodes.iter().enumerate() {
+        if let Some(parent) = node.parent {
+            assert!(parent < i, "{file}: node {i} comes before its parent {parent}");
+        }
+        for (mesh, material) in mesh_instances(scene, i) {
+            assert!(mesh < scene.meshes.len() && material < scene.materials.len());
+        }
+    }
+    for material in &scene.materials {
+        for texture in [material.base_color_texture, material.emissive_texture].into_iter().flatten() {
+            assert!((texture.image.index() as usize) < scene.images.len());
+        }
+    }
+}
+
+#[test]
+fn gltf_hierarchy_transforms_and_content() {
+    let scene = load("hierarchy.gltf");
+    assert_valid(&scene, "hierarchy.gltf");
+    assert_eq!(scene.name, "hierarchy");
+
+    // The default scene's nodes, parents first; the node outside the scene is not imported.
+    let names: Vec<&str> = scene.nodes.iter().map(|n| n.name.as_str()).collect();
+    assert_eq!(names, ["Parent", "Child", "StripNode", "StripCopy", "Camera", "PointLight", "SpotLight", "Sun", "OrthoCamera"]);
+    let parent = node(&scene, "Parent");
+    let child = node(&scene, "Child");
+    assert_eq!(scene.nodes[parent].parent, None);
+    assert_eq!(scene.nodes[child].parent, Some(parent));
+    assert_eq!(scene.nodes[node(&scene, "StripNode")].parent, Some(parent));
+
+    // Parent: T(1,0,0)·R_y(90°)·S(2); the child's (0,0,1) lands at (1,0,0) + 2·(1,0,0).
+    let world = scene.world_transforms();
+    assert_near(scene.nodes[parent].transform.scale, Vec3::splat(2.0), "parent scale");
+    assert_near(world[child].translation.into(), Vec3::new(3.0, 0.0, 0.0), "child world position");
+    assert_near(world[node(&scene, "StripNode")].translation.into(), Vec3::new(1.0, 2.0, 0.0), "strip node");
+    // A node given as a matrix is decomposed.
+    let camera_node = node(&scene, "Camera");
+    assert_near(scene.nodes[camera_node].transform.translation, Vec3::new(0.0, 1.0, 5.0), "camera translation");
+
+    // One mesh per (mesh, primitive) actually used, one material per glTF material plus the default.
+    assert_eq!(scene.meshes.len(), 3);
+    assert_eq!(scene.materials.len(), 3);
+    assert_eq!(scene.images.len(), 1);
+    let textured = material(&scene, "Textured");
+    let glow = material(&scene, "Glow");
+    let default = material(&scene, "default");
+    let parts = mesh_instances(&scene, child);
+    assert_eq!(parts.len(), 2, "one instance per primitive");
+    assert_eq!((parts[0].1, parts[1].1), (textured, glow), "primitive → material");
+    let strip = mesh_instances(&scene, node(&scene, "StripNode"));
+    assert_eq!(strip, mesh_instances(&scene, node(&scene, "StripCopy")), "shared mesh is imported once");
+    assert_eq!(strip.len(), 1);
+    assert_eq!(strip[0].1, default);
+
+    // Primitive 0: indexed quad with normals and UVs.
+    let quad = &scene.meshes[parts[0].0];
+    assert_eq!((quad.positions.len(), quad.indices.len()), (4, 6));
+    assert_eq!(quad.uvs.len(), 4);
+    assert!(quad.normals.iter().all(|n| n.abs_diff_eq(Vec3::Z, 1e-6)));
+    // Primitive 1: non-indexed triangle without normals: indices 0..3, computed normals.
+    let triangle = &scene.meshes[parts[1].0];
+    assert_eq!(triangle.indices, [0, 1, 2]);
+    assert!(triangle.uvs.is_empty());
+    assert!(triangle.normals.iter().all(|n| n.abs_diff_eq(Vec3::Y, 1e-6)), "{:?}", triangle.normals);
+    // A triangle strip of 4 vertices becomes 2 triangles facing +Z.
+    let strip_mesh = &scene.meshes[strip[0].0];
+    assert_eq!(strip_mesh.triangle_count(), 2);
+    assert!(strip_mesh.normals.iter().all(|n| n.abs_diff_eq(Vec3::Z, 1e-6)), "{:?}", strip_mesh.normals);
+    assert_eq!(scene.triangle_count(), 2 + 1 + 2);
+
+    // Base colour factor and texture with KHR_texture_transform.
+    let textured = &scene.materials[textured];
+    assert_eq!(textured.base_color, Vec4::new(1.0, 0.5, 0.25, 1.0));
+    let texture = textured.base_color_texture.expect("base colour texture");
+    assert_eq!(texture.transform, UvTransform { offset: Vec2::new(0.5, 0.25), rotation: 0.3, scale: Vec2::new(2.0, 3.0) });
+    let image = &scene.images[texture.image.index() as usize];
+    assert_eq!((image.name.as_str(), image.width, image.height), ("checker", 2, 2));
+    assert_eq!(image.rgba8.len(), 16);
+    assert_eq!(&image.rgba8[..8], &[255, 0, 0, 255, 0, 255, 0, 255]);
+    assert!(!textured.is_emissive());
+
+    // Emissive factor with KHR_materials_emissive_strength.
+    let glow = &scene.materials[glow];
+    assert_eq!(glow.emissive, Vec3::new(1.0, 0.5, 0.25));
+    assert_eq!(glow.emissive_strength, 5.0);
+    assert!(glow.is_emissive());
+    let default = &scene.materials[default];
+    assert_eq!((default.base_color, default.emissive), (Vec4::ONE, Vec3::ZERO));
+
+    // Lights keep glTF's intensities; the spot's outer cone defaults to π/4.
+    let content = |name: &str| scene.nodes[node(&scene, name)].content.clone();
+    assert_eq!(
+        content("PointLight"),
+        [NodeContent::PointLight(PointLight { color: Vec3::new(1.0, 0.9, 0.8), intensity: 100.0, range: Some(20.0) })]
+    );
+    assert_eq!(
+        content("SpotLight"),
+        [NodeContent::SpotLight(SpotLight {
+            color: Vec3::ONE,
+            intensity: 50.0,
+            range: None,
+            inner_cone_angle: 0.2,
+            outer_cone_angle: FRAC_PI_4
+        })]
+    );
+    assert_eq!(content("Sun"), [NodeContent::DirectionalLight(DirectionalLight { color: Vec3::ONE, intensity: 3.0 })]);
+    // The spot light is turned to shine down.
+    let spot_forward = world[node(&scene, "SpotLight")].transform_vector3(Vec3::NEG_Z);
+    assert_near(spot_forward, Vec3::NEG_Y, "spot light direction");
+
+    // Perspective camera; the orthographic one is skipped.
+    assert_eq!(content("Camera"), [NodeContent::Camera(Camera { yfov: 0.8, znear: 0.1, exposure: 1.0 })]);
+    assert!(content("OrthoCamera").is_empty());
+    assert!(scene.has_camera());
+}
+
+#[test]
+fn glb_matches_gltf() {
+    // The same scene with its buffer in the GLB binary chunk and its image in a buffer view.
+    let gltf = load("hierarchy.gltf");
+    let glb = load("hierarchy.glb");
+    assert_eq!(glb.name, "hierarchy");
+    assert_eq!(glb.nodes, gltf.nodes);
+    assert_eq!(glb.meshes, gltf.meshes);
+    assert_eq!(glb.materials, gltf.materials);
+    assert_eq!(glb.images, gltf.images);
+}
+
+#[test]
+fn imported_scene_spawns() {
+    let scene = load("hierarchy.gltf");
+    let mut world = World::new();
+    scene.spawn(&mut world);
+    let instances = world.query::<&MeshInstance>().iter(&world).count();
+    assert_eq!(instances, 2 + 1 + 1, "two primitives on Child, one strip on each of two nodes");
+}
+
+#[test]
+fn obj_cornell_box() {
+    let scene = load("cornell_box.obj");
+    assert_valid(&scene, "cornell_box.obj");
+    assert_eq!(scene.name, "cornell_box");
+    let names: Vec<&str> = scene.nodes.iter().map(|n| n.name.as_str()).collect();
+    assert_eq!(names, ["floor", "ceiling", "back_wall", "left_wall", "right_wall", "short_box", "tall_box", "light"]);
+    assert!(scene.nodes.iter().all(|n| n.parent.is_none()));
+    // 5 walls and the light are quads, each box has 5 quads.
+    assert_eq!(scene.triangle_count(), 6 * 2 + 2 * 5 * 2);
+
+    let kd = |name: &str| scene.materials[material(&scene, name)].base_color;
+    assert_eq!(kd("red"), Vec4::new(0.63, 0.065, 0.05, 1.0));
+    assert_eq!(kd("green"), Vec4::new(0.14, 0.45, 0.091, 1.0));
+    assert_eq!(kd("white"), Vec4::new(0.725, 0.71, 0.68, 1.0));
+    let light = &scene.materials[material(&scene, "light")];
+    assert_eq!(light.emissive, Vec3::new(17.0, 12.0, 4.0));
+    assert!(light.is_emissive());
+    assert_eq!(scene.materials.iter().filter(|m| m.is_emissive()).count(), 1);
+
+    let material_of = |node_name: &str| {
+        let instances = mesh_instances(&scene, node(&scene, node_name));
+        assert_eq!(instances.len(), 1);
+        scene.materials[instances[0].1].name.clone()
+    };
+    assert_eq!(material_of("left_wall"), "red");
+    assert_eq!(material_of("right_wall"), "green");
+    assert_eq!(material_of("light"), "light");
+    assert_eq!(material_of("tall_box"), "white");
+
+    // Walls face the inside of the room, the light faces down.
+    let normal_of = |node_name: &str| scene.meshes[mesh_instances(&scene, node(&scene, node_name))[0].0].normals[0];
+    assert_near(normal_of("floor"), Vec3::Y, "floor normal");
+    assert_near(normal_of("ceiling"), Vec3::NEG_Y, "ceiling normal");
+    assert_near(normal_of("back_wall"), Vec3::NEG_Z, "back wall normal");
+    assert_near(normal_of("right_wall"), Vec3::X, "right wall normal");
+    assert_near(normal_of("light"), Vec3::NEG_Y, "light normal");
+    let (lo, hi) = scene.bounds().expect("bounds");
+    assert_near(lo, Vec3::ZERO, "lower bound");
+    assert_near(hi, Vec3::new(0.556, 0.5488, 0.5592), "upper bound");
+}
+
+/// Every broken fixture, with a word its error message must contain.
+const BROKEN: &[(&str, &str)] = &[
+    ("truncated.glb", "truncated"),
+    ("bad_header.glb", "smaller than the 12-byte header"),
+    ("invalid_json.gltf", "invalid glTF JSON"),
+    ("empty.gltf", "file is empty"),
+    ("empty.obj", "file is empty"),
+    ("unknown_extension.fbx", "unsupported file extension \".fbx\""),
+    ("index_out_of_range.gltf", "index 999 out of range for 3 vertices"),
+    ("nan_position.gltf", "vertex 1 has non-finite position (NaN, 0, 0)"),
+    ("missing_buffer.gltf", "'does_not_exist.bin' not found"),
+    ("short_buffer.gltf", "too short"),
+    ("missing_texture.gltf", "texture image 'textures/missing.png' not found"),
+    ("bad_image.gltf", "cannot decode image"),
+    ("lines_mode.gltf", "unsupported primitive mode Lines"),
+    ("node_cycle.gltf", "more than once"),
+    ("bad_accessor_index.gltf", "refers to accessor 7"),
+    ("accessor_out_of_bounds.gltf", "do not fit in buffer view"),
+    ("huge_count.gltf", "exceeds the limit"),
+    ("bad_face_index.obj", "line 7: f vertex index 9 out of range"),
+    ("missing_mtl.obj", "material library 'does_not_exist.mtl' not found"),
+    ("missing_texture.obj", "texture image 'textures/missing_diffuse.png' not found"),
+    ("bad_color.obj", "line 2: 'Kd' needs 3 numbers"),
+];
+
+#[test]
+fn broken_files_name_the_file_and_the_problem() {
+    let dir = fixtures().join("broken");
+    for (name, detail) in BROKEN {
+        let path = dir.join(name);
+        assert!(path.exists(), "fixture {} is missing", path.display());
+        let error = match load_scene(&path) {
+            Ok(_) => panic!("{name} loaded, but it is broken"),
+            Err(error) => error,
+        };
+        let message = error.to_string();
+        assert!(message.contains(name), "{name}: message does not name the file: {message}");
+        assert!(message.contains(detail), "{name}: message lacks {detail:?}: {message}");
+        assert_eq!(error.file(), path.as_path());
+    }
+    // The resolved location of a missing reference is given too.
+    let error = load_scene(&dir.join("missing_texture.gltf")).unwrap_err();
+    assert!(
+        matches!(&error, ImportError::MissingFile { resolved, .. } if resolved.is_absolute() && resolved.ends_with("textures/missing.png")),
+        "{error:?}"
+    );
+    // A file that does not exist at all.
+    let error = load_scene(&dir.join("no_such_file.gltf")).unwrap_err();
+    assert!(matches!(error, ImportError::Io { .. }) && error.to_string().contains("no_such_file.gltf"), "{error}");
+}
+
+/// Loads `path` inside `catch_unwind`; fails the test on a panic.
+fn load_without_panic(path: &Path) -> Result<SceneDescription, ImportError> {
+    std::panic::catch_unwind(|| load_scene(path)).unwrap_or_else(|_| panic!("load_scene panicked on {}", path.display()))
+}
+
+#[test]
+fn broken_files_never_panic() {
+    let mut count = 0;
+    for entry in std::fs::read_dir(fixtures().join("broken")).unwrap() {
+        let path = entry.unwrap().path();
+        // Companion files (.mtl) are rejected by extension; everything in the corpus fails.
+        assert!(load_without_panic(&path).is_err(), "{} loaded", path.display());
+        count += 1;
+    }
+    assert!(count >= BROKEN.len());
+}
+
+#[test]
+fn every_truncation_of_a_valid_file_fails_cleanly() {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("loaders-truncated-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for (name, step) in [("hierarchy.glb", 7), ("hierarchy.gltf", 97), ("cornell_box.obj", 1)] {
+        let bytes = std::fs::read(fixtures().join(name)).unwrap();
+        let extension = Path::new(name).extension().unwrap();
+        let path = dir.join("truncated").with_extension(extension);
+        if extension == "obj" {
+            std::fs::copy(fixtures().join("cornell_box.mtl"), dir.join("cornell_box.mtl")).unwrap();
+        }
+        for length in (0..bytes.len()).step_by(step) {
+            std::fs::write(&path, &bytes[..length]).unwrap();
+            let result = load_without_panic(&path);
+            // A cut OBJ may still be a valid (smaller) OBJ; cut glTF/GLB files never are.
+            if extension != "obj" {
+                assert!(result.is_err(), "{name} cut to {length} bytes loaded");
+            }
+        }
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn kenney_models() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/assets/kenney_fps");
+    if !dir.is_dir() {
+        let message = format!("shared Kenney models not found at {}", dir.display());
+        if std::env::var("CI").as_deref() == Ok("true") {
+            panic!("{message}");
+        }
+        eprintln!("skipping kenney_models: {message}");
+        return;
+    }
+    let mut models: Vec<PathBuf> =
+        std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().path()).filter(|p| p.extension().is_some_and(|e| e == "glb")).collect();
+    models.sort();
+    assert!(!models.is_empty(), "no .glb files in {}", dir.display());
+    for path in &models {
+        let scene = load_scene(path).unwrap_or_else(|e| panic!("{e}"));
+        let name = path.display();
+        assert_valid(&scene, &name.to_string());
+        assert!(scene.triangle_count() > 0, "{name}: no triangles");
+        assert!(!scene.nodes.is_empty(), "{name}: no nodes");
+        let textures: Vec<_> = scene.materials.iter().filter_map(|m| m.base_color_texture).collect();
+        assert!(!textures.is_empty(), "{name}: no base colour texture");
+        for texture in textures {
+            // The files carry KHR_texture_transform with only a texCoord: the identity transform.
+            assert_eq!(texture.transform, UvTransform::default(), "{name}");
+            let image = &scene.images[texture.image.index() as usize];
+            assert_eq!(image.name, "colormap", "{name}: Textures/colormap.png");
+            assert!(image.width > 0 && image.height > 0, "{name}: empty image");
+            assert_eq!(image.rgba8.len(), (image.width * image.height * 4) as usize, "{name}");
+        }
+        assert_eq!(scene.images.len(), 1, "{name}: the shared colormap is decoded once");
+    }
+}
