@@ -1,6 +1,6 @@
-// Direct lighting of the G-buffer: emission + Lambertian reflection of every punctual light.
-// Pixels with no surface take the sky radiance.
-#include "scene.inc.wgsl"
+// Direct lighting of the G-buffer: emission + Lambertian reflection of every punctual light, each
+// tested for occlusion with a shadow ray (hard shadows). Pixels with no surface take the sky radiance.
+#include "ray_tracing.inc.wgsl"
 
 @group(1) @binding(0) var gbuffer_depth: texture_depth_2d;
 @group(1) @binding(1) var gbuffer_normal: texture_2d<f32>;
@@ -30,9 +30,17 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let n = textureLoad(gbuffer_normal, id.xy, 0).xyz;
     let albedo = textureLoad(gbuffer_albedo, id.xy, 0).rgb;
     var radiance = textureLoad(gbuffer_emissive, id.xy, 0).rgb;
+    let origin = offset_ray_origin(p, n);
     for (var i = 0u; i < view.light_count; i++) {
         let s = sample_light(lights[i], p, n);
-        radiance += albedo * INV_PI * s.irradiance;
+        if all(s.irradiance <= vec3<f32>(0.0)) {
+            continue;
+        }
+        // Shadow ray towards the light, stopping just short of it.
+        let shadow = Ray(origin, 0.0, s.to_light, s.distance * (1.0 - 1e-4));
+        if !trace_any(shadow) {
+            radiance += albedo * INV_PI * s.irradiance;
+        }
     }
     textureStore(radiance_out, id.xy, vec4<f32>(sanitize_radiance(radiance), 1.0));
 }

@@ -25,6 +25,8 @@ struct GpuInstance {
     world_from_local: mat4x4<f32>,
     // Inverse transpose of world_from_local's linear part, for normals.
     normal_from_local: mat4x4<f32>,
+    // Inverse of world_from_local (zero when singular): rays go into instance space with it.
+    local_from_world: mat4x4<f32>,
     material: u32,
     mesh: u32,
     _pad0: u32,

@@ -80,6 +80,7 @@ pub fn render_scene(gpu: &GpuContext, mut scene: SceneDescription, settings: &He
     let mut app = App::new();
     app.add_plugins((EnginePlugin, RenderPlugin { gpu: gpu.clone(), size: RenderSize { width: settings.width, height: settings.height } }));
     app.world_mut().resource_mut::<FrameTimings>().wait_each_frame = true;
+    app.insert_resource(crate::rt::WaitForBlasBuilds(true));
     scene.spawn(app.world_mut());
     app.insert_resource(Time::fixed(settings.step));
     run_headless(&mut app, settings.frames);

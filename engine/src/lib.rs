@@ -15,6 +15,7 @@ pub mod graph;
 pub mod headless;
 pub mod import;
 pub mod render;
+pub mod rt;
 pub mod scene;
 pub mod shader;
 pub mod window;

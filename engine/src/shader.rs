@@ -11,6 +11,8 @@ use std::collections::BTreeMap;
 pub const SHADER_FILES: &[(&str, &str)] = &[
     ("common.inc.wgsl", include_str!("../../shaders/common.inc.wgsl")),
     ("scene.inc.wgsl", include_str!("../../shaders/scene.inc.wgsl")),
+    ("ray_tracing.inc.wgsl", include_str!("../../shaders/ray_tracing.inc.wgsl")),
+    ("trace_rays.wgsl", include_str!("../../shaders/trace_rays.wgsl")),
     ("gbuffer.wgsl", include_str!("../../shaders/gbuffer.wgsl")),
     ("direct_lighting.wgsl", include_str!("../../shaders/direct_lighting.wgsl")),
     ("tonemap.wgsl", include_str!("../../shaders/tonemap.wgsl")),

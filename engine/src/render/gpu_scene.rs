@@ -3,10 +3,11 @@
 //! Meshes, images and materials are uploaded when their asset store changes; instances, lights and
 //! the view are written every frame (a few kilobytes for the scenes of this issue).
 
+use std::collections::HashMap;
 use std::ops::Range;
 
 use bevy_ecs::prelude::*;
-use glam::{Mat3, Mat4, Vec3};
+use glam::{Affine3A, Mat3, Mat4, Vec3};
 
 use super::gpu_types::*;
 use crate::gpu::GpuContext;
@@ -89,6 +90,8 @@ pub struct GpuScene {
     pub sampler: wgpu::Sampler,
     pub mesh_ranges: Vec<MeshRange>,
     pub draws: Vec<Draw>,
+    slots: InstanceSlots,
+    changes: InstanceChanges,
     pub light_count: u32,
     /// Which light kinds the scene has, so passes can leave out what it does not need.
     pub has_spot_lights: bool,
@@ -125,6 +128,8 @@ impl GpuScene {
             }),
             mesh_ranges: Vec::new(),
             draws: Vec::new(),
+            slots: InstanceSlots::default(),
+            changes: InstanceChanges::default(),
             light_count: 0,
             has_spot_lights: false,
             view_uniform: ViewUniform::zeroed(),
@@ -145,6 +150,26 @@ impl GpuScene {
             ("vertices", self.vertices.buffer.as_entire_binding()),
             ("instances", self.instances.buffer.as_entire_binding()),
         ]
+    }
+
+    /// How the instances changed in this frame's prepare stage.
+    pub fn instance_changes(&self) -> &InstanceChanges {
+        &self.changes
+    }
+
+    /// Every live instance as (slot, mesh index, world transform).
+    pub fn live_instances(&self) -> Vec<(u32, u32, Affine3A)> {
+        self.slots.placement.iter().enumerate().filter_map(|(i, p)| p.map(|(m, w)| (i as u32, m, w))).collect()
+    }
+
+    /// Mesh index and world transform of the instance in `slot`, if it is live.
+    pub fn instance_placement(&self, slot: u32) -> Option<(u32, Affine3A)> {
+        self.slots.placement.get(slot as usize).copied().flatten()
+    }
+
+    /// Number of instance slots (live or free); instance indices in shaders are below this.
+    pub fn instance_slot_count(&self) -> usize {
+        self.slots.data.len()
     }
 
     fn upload_geometry(&mut self, gpu: &GpuContext, meshes: &Assets<Mesh>) {
@@ -296,9 +321,98 @@ fn fill_atlas(images: &[&Image], sizes: &[(u32, u32)], layout: ShelfLayout) -> P
     PackedAtlas { width: aw, height: ah, rgba8, rects }
 }
 
+/// Instance slots: an entity keeps its slot (its index in the instance buffer and in shaders) for
+/// as long as it is an instance; freed slots are reused.
+#[derive(Default)]
+struct InstanceSlots {
+    by_entity: HashMap<Entity, u32>,
+    free: Vec<u32>,
+    data: Vec<GpuInstance>,
+    placement: Vec<Option<(u32, Affine3A)>>,
+}
+
+impl InstanceSlots {
+    /// The entity's slot, allocating one if needed, and the mesh it had before (None if new).
+    fn acquire(&mut self, entity: Entity) -> (u32, Option<u32>) {
+        if let Some(&slot) = self.by_entity.get(&entity) {
+            return (slot, self.placement[slot as usize].map(|p| p.0));
+        }
+        let slot = self.free.pop().unwrap_or_else(|| {
+            self.data.push(GpuInstance::zeroed());
+            self.placement.push(None);
+            self.data.len() as u32 - 1
+        });
+        self.by_entity.insert(entity, slot);
+        (slot, None)
+    }
+
+    fn release(&mut self, entity: Entity) -> Option<u32> {
+        let slot = self.by_entity.remove(&entity)?;
+        self.placement[slot as usize] = None;
+        self.data[slot as usize] = GpuInstance { mesh: u32::MAX, ..GpuInstance::zeroed() };
+        self.free.push(slot);
+        Some(slot)
+    }
+}
+
+/// What changed among the instances in this frame's prepare stage.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct InstanceChanges {
+    /// Instances were added or removed, or changed mesh.
+    pub structure_changed: bool,
+    /// Slots whose transform changed (same mesh).
+    pub moved: Vec<u32>,
+    /// Every slot written this frame.
+    pub dirty: Vec<u32>,
+}
+
+fn gpu_instance(instance: &MeshInstance, transform: &GlobalTransform) -> GpuInstance {
+    let world = Mat4::from(transform.0);
+    let linear = Mat3::from(transform.0.matrix3);
+    let invertible = linear.determinant().abs() > 1e-30;
+    let normal = if invertible { linear.inverse().transpose() } else { linear };
+    let local_from_world = if invertible { world.inverse() } else { Mat4::ZERO };
+    GpuInstance {
+        world_from_local: mat4_cols(world),
+        normal_from_local: mat4_cols(Mat4::from_mat3(normal)),
+        local_from_world: mat4_cols(local_from_world),
+        material: instance.material.index(),
+        mesh: instance.mesh.index(),
+        _pad0: 0,
+        _pad1: 0,
+    }
+}
+
+impl GpuScene {
+    fn upload_instances(&mut self, gpu: &GpuContext, dirty: &[u32]) {
+        let needed = (self.slots.data.len() * size_of::<GpuInstance>()) as u64;
+        if needed > self.instances.buffer.size() || dirty.len() * 4 > self.slots.data.len() {
+            self.instances.write(gpu, bytemuck::cast_slice(&self.slots.data));
+            return;
+        }
+        let mut sorted = dirty.to_vec();
+        sorted.sort_unstable();
+        sorted.dedup();
+        let size = size_of::<GpuInstance>() as u64;
+        let mut start = 0;
+        while start < sorted.len() {
+            let mut end = start + 1;
+            while end < sorted.len() && sorted[end] == sorted[end - 1] + 1 {
+                end += 1;
+            }
+            let (a, b) = (sorted[start] as usize, sorted[end - 1] as usize + 1);
+            gpu.queue.write_buffer(&self.instances.buffer, a as u64 * size, bytemuck::cast_slice(&self.slots.data[a..b]));
+            start = end;
+        }
+    }
+}
+
 fn mat4_cols(m: Mat4) -> [[f32; 4]; 4] {
     m.to_cols_array_2d()
 }
+
+/// Instances that were added, moved or given another mesh or material since the last frame.
+type ChangedInstance = Or<(Changed<GlobalTransform>, Changed<MeshInstance>)>;
 
 /// Prepare stage: uploads what changed and writes this frame's instances, lights and view.
 #[allow(clippy::too_many_arguments)]
@@ -310,7 +424,8 @@ pub fn prepare_gpu_scene(
     meshes: Res<Assets<Mesh>>,
     materials: Res<Assets<Material>>,
     images: Res<Assets<Image>>,
-    instances: Query<(&MeshInstance, &GlobalTransform)>,
+    instances: Query<(Entity, &MeshInstance, &GlobalTransform), ChangedInstance>,
+    mut removed: RemovedComponents<MeshInstance>,
     cameras: Query<(&Camera, &GlobalTransform)>,
     directional: Query<(&DirectionalLight, &GlobalTransform)>,
     points: Query<(&PointLight, &GlobalTransform)>,
@@ -329,33 +444,47 @@ pub fn prepare_gpu_scene(
     }
     scene.seen_generations = Some(generations);
 
-    // Instances and their draws.
-    let mut gpu_instances: Vec<GpuInstance> = Vec::new();
-    let mut draws: Vec<Draw> = Vec::new();
-    for (instance, transform) in &instances {
-        let Some(range) = scene.mesh_ranges.get(instance.mesh.index() as usize) else {
-            log::warn!("mesh instance refers to missing {:?}", instance.mesh);
-            continue;
-        };
-        if materials.get(instance.material).is_none() {
-            log::warn!("mesh instance refers to missing {:?}", instance.material);
+    // Instances: persistent slots, written only when an instance is added, moved or removed.
+    scene.changes = InstanceChanges::default();
+    for entity in removed.read() {
+        if let Some(slot) = scene.slots.release(entity) {
+            scene.changes.structure_changed = true;
+            scene.changes.dirty.push(slot);
+        }
+    }
+    let geometry_changed = seen.map(|s| s.0) != Some(generations.0);
+    for (entity, instance, transform) in &instances {
+        if scene.mesh_ranges.get(instance.mesh.index() as usize).is_none() || materials.get(instance.material).is_none() {
+            log::warn!("{entity}: mesh instance refers to a missing {:?} or {:?}; not drawn", instance.mesh, instance.material);
             continue;
         }
-        let world = Mat4::from(transform.0);
-        let linear = Mat3::from(transform.0.matrix3);
-        let normal = if linear.determinant().abs() > 1e-30 { linear.inverse().transpose() } else { linear };
-        draws.push(Draw { indices: range.indices.clone(), base_vertex: range.base_vertex, instance: gpu_instances.len() as u32 });
-        gpu_instances.push(GpuInstance {
-            world_from_local: mat4_cols(world),
-            normal_from_local: mat4_cols(Mat4::from_mat3(normal)),
-            material: instance.material.index(),
-            mesh: instance.mesh.index(),
-            _pad0: 0,
-            _pad1: 0,
-        });
+        let (slot, previous_mesh) = scene.slots.acquire(entity);
+        let data = gpu_instance(instance, transform);
+        scene.slots.data[slot as usize] = data;
+        scene.slots.placement[slot as usize] = Some((instance.mesh.index(), transform.0));
+        scene.changes.dirty.push(slot);
+        if previous_mesh == Some(instance.mesh.index()) {
+            scene.changes.moved.push(slot);
+        } else {
+            scene.changes.structure_changed = true;
+        }
     }
-    scene.instances.write(&gpu, bytemuck::cast_slice(&gpu_instances));
-    scene.draws = draws;
+    if scene.changes.structure_changed || geometry_changed {
+        let draws = scene
+            .slots
+            .placement
+            .iter()
+            .enumerate()
+            .filter_map(|(slot, p)| {
+                let range = scene.mesh_ranges.get(p.as_ref()?.0 as usize)?;
+                Some(Draw { indices: range.indices.clone(), base_vertex: range.base_vertex, instance: slot as u32 })
+            })
+            .collect();
+        scene.draws = draws;
+    }
+    let dirty = std::mem::take(&mut scene.changes.dirty);
+    scene.upload_instances(&gpu, &dirty);
+    scene.changes.dirty = dirty;
 
     // Lights.
     let mut lights: Vec<GpuLight> = Vec::new();

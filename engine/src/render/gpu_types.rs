@@ -32,6 +32,7 @@ pub struct GpuVertex {
 pub struct GpuInstance {
     pub world_from_local: [[f32; 4]; 4],
     pub normal_from_local: [[f32; 4]; 4],
+    pub local_from_world: [[f32; 4]; 4],
     pub material: u32,
     pub mesh: u32,
     pub _pad0: u32,
@@ -83,4 +84,6 @@ pub const GPU_STRUCTS: &[(&str, usize, &str)] = &[
     ("TextureSlot", size_of::<TextureSlot>(), "scene.inc.wgsl"),
     ("GpuMaterial", size_of::<GpuMaterial>(), "scene.inc.wgsl"),
     ("GpuLight", size_of::<GpuLight>(), "scene.inc.wgsl"),
+    ("GpuBlas", size_of::<crate::rt::GpuBlas>(), "ray_tracing.inc.wgsl"),
+    ("TlasNode", size_of::<crate::rt::TlasNode>(), "ray_tracing.inc.wgsl"),
 ];

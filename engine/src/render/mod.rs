@@ -52,7 +52,8 @@ impl Plugin for RenderPlugin {
             .init_resource::<TransientPool>()
             .init_resource::<GpuTimer>()
             .init_resource::<FrameTimings>()
-            .add_systems(Prepare, (prepare_render_outputs, prepare_gpu_scene))
+            .insert_resource(crate::rt::RayTracingScene::new(&self.gpu))
+            .add_systems(Prepare, (prepare_render_outputs, prepare_gpu_scene, crate::rt::prepare_ray_tracing_scene).chain())
             .add_systems(Render, render_camera_frame);
     }
 }
@@ -243,6 +244,7 @@ fn workgroups(size: RenderSize) -> (u32, u32) {
 pub fn render_camera_frame(
     gpu: Res<GpuContext>,
     scene: Res<GpuScene>,
+    rt: Res<crate::rt::RayTracingScene>,
     pipelines: Res<CameraPipelines>,
     outputs: Res<RenderOutputs>,
     time: Res<Time>,
@@ -261,7 +263,8 @@ pub fn render_camera_frame(
     let mut emissive = graph.create_texture("gbuffer_emissive", texture_desc(size, EMISSIVE_FORMAT, attachment));
     let mut hdr = graph.import_texture("hdr_radiance", &outputs.hdr);
     let mut ldr = graph.import_texture("ldr_image", &outputs.ldr);
-    let scene_bindings = scene.bindings();
+    let mut scene_bindings = scene.bindings();
+    scene_bindings.extend(rt.bindings());
 
     // G-buffer: rasterize every instance.
     {

@@ -1,0 +1,101 @@
+//! A brute-force CPU reference for the GPU traversal: every triangle of every instance, in world space.
+
+use glam::{Affine3A, Vec3};
+
+use crate::scene::Mesh;
+
+/// A ray as the GPU reads it (mirrors WGSL `Ray`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable, PartialEq)]
+pub struct GpuRay {
+    pub origin: [f32; 3],
+    pub tmin: f32,
+    pub direction: [f32; 3],
+    pub tmax: f32,
+}
+
+/// A hit as the GPU writes it (mirrors WGSL `TraceResult` in `trace_rays.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable, PartialEq)]
+pub struct TraceResult {
+    pub t: f32,
+    /// Instance slot, or `u32::MAX` for a miss.
+    pub instance: u32,
+    pub primitive: u32,
+    /// Bit 0: front face.
+    pub flags: u32,
+    pub barycentrics: [f32; 2],
+    /// 1 when any-hit reported an occluder.
+    pub any_hit: u32,
+    pub _pad: u32,
+}
+
+/// The closest hit found by the CPU reference.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CpuHit {
+    pub t: f32,
+    pub instance: u32,
+    pub primitive: u32,
+    pub front_face: bool,
+}
+
+/// World-space triangles of a set of instances, tagged with (instance slot, triangle index).
+pub struct CpuScene {
+    triangles: Vec<([Vec3; 3], u32, u32)>,
+}
+
+impl CpuScene {
+    /// `instances`: (slot, mesh, world transform); `meshes`: by mesh index.
+    pub fn new(instances: &[(u32, u32, Affine3A)], meshes: &[&Mesh]) -> Self {
+        let mut triangles = Vec::new();
+        for &(slot, mesh, world) in instances {
+            let Some(mesh) = meshes.get(mesh as usize) else { continue };
+            for (prim, tri) in mesh.indices.chunks_exact(3).enumerate() {
+                let v = [tri[0], tri[1], tri[2]].map(|i| world.transform_point3(mesh.positions[i as usize]));
+                triangles.push((v, slot, prim as u32));
+            }
+        }
+        Self { triangles }
+    }
+
+    /// Closest hit with t in [tmin, tmax), in f64 so that it is a trustworthy reference.
+    pub fn closest_hit(&self, ray: &GpuRay) -> Option<CpuHit> {
+        let mut best: Option<CpuHit> = None;
+        let mut best_t = f64::from(ray.tmax);
+        for (v, slot, prim) in &self.triangles {
+            if let Some((t, det)) = intersect(ray, v)
+                && t < best_t
+            {
+                best_t = t;
+                best = Some(CpuHit { t: t as f32, instance: *slot, primitive: *prim, front_face: det > 0.0 });
+            }
+        }
+        best
+    }
+
+    /// Distance at which the ray meets one given triangle, if it does.
+    pub fn hit_t(&self, ray: &GpuRay, instance: u32, primitive: u32) -> Option<f32> {
+        let (v, ..) = self.triangles.iter().find(|(_, s, p)| *s == instance && *p == primitive)?;
+        intersect(ray, v).filter(|&(t, _)| t < f64::from(ray.tmax)).map(|(t, _)| t as f32)
+    }
+}
+
+/// Möller–Trumbore in f64: (t, determinant) when the ray meets the triangle at t ≥ tmin.
+fn intersect(ray: &GpuRay, v: &[Vec3; 3]) -> Option<(f64, f64)> {
+    let o = Vec3::from(ray.origin).as_dvec3();
+    let d = Vec3::from(ray.direction).as_dvec3();
+    let [v0, v1, v2] = v.map(|p| p.as_dvec3());
+    let (e1, e2) = (v1 - v0, v2 - v0);
+    let pvec = d.cross(e2);
+    let det = e1.dot(pvec);
+    if det == 0.0 {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let tvec = o - v0;
+    let u = tvec.dot(pvec) * inv;
+    let qvec = tvec.cross(e1);
+    let w = d.dot(qvec) * inv;
+    let t = e2.dot(qvec) * inv;
+    (u >= 0.0 && w >= 0.0 && u + w <= 1.0 && t >= f64::from(ray.tmin)).then_some((t, det))
+}

@@ -1,0 +1,545 @@
+//! The ray-tracing core shared by every ray consumer (camera shadows, DDGI probes, the reference
+//! path tracer): two-level BVHs traversed in WGSL compute shaders (no hardware ray queries).
+//!
+//! - **BLAS**: one per mesh asset, in the mesh's local space, an 8-wide compressed BVH (CWBVH,
+//!   Ylitie et al. 2017) built once by obvhs. Triangles are stored in leaf order (vertex + two edges,
+//!   full float) so that traversal reads them without indirection; each keeps its mesh triangle index.
+//!   Meshes above [`ASYNC_BLAS_TRIANGLES`] are built on a worker thread, off the frame loop, with
+//!   progress in [`BlasBuildProgress`]; until its BLAS is ready an instance is not traced.
+//! - **TLAS**: a binary BVH (obvhs PLOC) over the world bounds of the instances. When entities move
+//!   only their leaves are updated and the TLAS is refitted; it is rebuilt when instances are added
+//!   or removed, or when refitting has let its quality decay. Only changed nodes are uploaded. A static
+//!   scene does no BVH work per frame.
+//!
+//! Traversal lives in `shaders/ray_tracing.inc.wgsl`: closest hit and any hit, the ray transformed
+//! into instance space without normalizing its direction, so `t` is comparable across instances.
+
+pub mod cpu;
+
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::mpsc::{Receiver, Sender, channel};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use bevy_ecs::prelude::*;
+use bytemuck::{Pod, Zeroable};
+use glam::{Affine3A, Vec3, Vec3A};
+use obvhs::aabb::Aabb;
+use obvhs::bvh2::Bvh2;
+use obvhs::cwbvh::CwBvh;
+use obvhs::ploc::{PlocBuilder, PlocSearchDistance, SortPrecision};
+use obvhs::triangle::Triangle;
+
+use crate::gpu::GpuContext;
+use crate::render::gpu_scene::{GpuScene, GrowableBuffer};
+use crate::scene::{Assets, Mesh};
+
+/// Meshes with more triangles than this get their BLAS built on a worker thread.
+pub const ASYNC_BLAS_TRIANGLES: usize = 200_000;
+
+/// The TLAS is rebuilt when refitting has raised its normalized SAH cost by this factor.
+pub const TLAS_REBUILD_COST_RATIO: f64 = 1.5;
+
+/// A bottom-level BVH: a CWBVH over one mesh in its local space.
+#[derive(Clone, Debug)]
+pub struct Blas {
+    pub nodes: Vec<obvhs::cwbvh::node::CwBvhNode>,
+    /// Triangles in leaf order: `[v0.xyz, mesh triangle index as bits], [e1.xyz, 0], [e2.xyz, 0]`.
+    pub triangles: Vec<[f32; 12]>,
+    /// Local-space bounds (`None` for a mesh without triangles).
+    pub bounds: Option<(Vec3, Vec3)>,
+}
+
+impl Blas {
+    /// Builds the BLAS of a mesh. Degenerate triangles are kept (they never report a hit).
+    pub fn build(mesh: &Mesh) -> Self {
+        let tris: Vec<Triangle> = mesh
+            .indices
+            .chunks_exact(3)
+            .map(|t| {
+                let p = |i: u32| Vec3A::from(mesh.positions.get(i as usize).copied().unwrap_or(Vec3::ZERO));
+                Triangle { v0: p(t[0]), v1: p(t[1]), v2: p(t[2]) }
+            })
+            .collect();
+        if tris.is_empty() {
+            return Self { nodes: Vec::new(), triangles: Vec::new(), bounds: None };
+        }
+        let mut time = Duration::ZERO;
+        let cwbvh: CwBvh = obvhs::cwbvh::builder::build_cwbvh_from_tris(&tris, obvhs::BvhBuildParams::medium_build(), &mut time);
+        let triangles = cwbvh
+            .primitive_indices
+            .iter()
+            .map(|&i| {
+                let t = tris[i as usize];
+                let (e1, e2) = (t.v1 - t.v0, t.v2 - t.v0);
+                [t.v0.x, t.v0.y, t.v0.z, f32::from_bits(i), e1.x, e1.y, e1.z, 0.0, e2.x, e2.y, e2.z, 0.0]
+            })
+            .collect();
+        let b = cwbvh.total_aabb;
+        Self { nodes: cwbvh.nodes, triangles, bounds: Some((b.min.into(), b.max.into())) }
+    }
+}
+
+/// Where a BLAS lives in the shared GPU buffers. Mirrors WGSL `GpuBlas`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct GpuBlas {
+    /// First node in `blas_nodes` (in nodes, 80 bytes each); `u32::MAX` when not built.
+    pub node_offset: u32,
+    /// First triangle in `blas_triangles`.
+    pub triangle_offset: u32,
+    pub node_count: u32,
+    pub triangle_count: u32,
+}
+
+/// A TLAS node as the GPU reads it. Mirrors WGSL `TlasNode`. Leaves have `count > 0` and `index` is
+/// the instance slot; inner nodes have `count == 0` and their children at `index` and `index + 1`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct TlasNode {
+    pub min: [f32; 3],
+    pub count: u32,
+    pub max: [f32; 3],
+    pub index: u32,
+}
+
+/// Progress of BLAS builds, for loading screens and logs.
+#[derive(Resource, Clone, Default)]
+pub struct BlasBuildProgress {
+    pub total_triangles: Arc<AtomicUsize>,
+    pub built_triangles: Arc<AtomicUsize>,
+    pub pending_meshes: Arc<AtomicUsize>,
+}
+
+impl BlasBuildProgress {
+    /// Fraction of triangles whose BLAS is built, in [0, 1].
+    pub fn fraction(&self) -> f32 {
+        let total = self.total_triangles.load(Ordering::Relaxed);
+        if total == 0 { 1.0 } else { self.built_triangles.load(Ordering::Relaxed) as f32 / total as f32 }
+    }
+
+    pub fn is_done(&self) -> bool {
+        self.pending_meshes.load(Ordering::Relaxed) == 0
+    }
+}
+
+/// CPU cost of the last frame's BVH work, for benchmarks and the overlay.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct BvhFrameStats {
+    pub tlas_rebuilt: bool,
+    pub tlas_refitted_leaves: usize,
+    pub tlas_nodes_uploaded: usize,
+    pub blas_uploaded: usize,
+    pub cpu_time: Duration,
+}
+
+/// The scene's BVHs on the CPU and the GPU.
+#[derive(Resource)]
+pub struct RayTracingScene {
+    pub blas_nodes: GrowableBuffer,
+    pub blas_triangles: GrowableBuffer,
+    pub blas_info: GrowableBuffer,
+    pub tlas_nodes: GrowableBuffer,
+    blas: Vec<Option<Arc<Blas>>>,
+    gpu_blas: Vec<GpuBlas>,
+    requested_meshes: usize,
+    results: Mutex<Receiver<(usize, Arc<Blas>)>>,
+    sender: Sender<(usize, Arc<Blas>)>,
+    pub progress: BlasBuildProgress,
+    tlas: Option<Bvh2>,
+    /// Instance slot of each TLAS primitive.
+    tlas_slots: Vec<u32>,
+    /// TLAS node → the node index in `gpu_tlas` (same order), and slot → leaf node.
+    slot_leaf: HashMap<u32, usize>,
+    gpu_tlas: Vec<TlasNode>,
+    /// Sum of the half areas of the TLAS's inner nodes, now and right after its last build, each
+    /// over the root's: the normalized SAH cost. Refitting lets it decay; past
+    /// [`TLAS_REBUILD_COST_RATIO`] times its built value the TLAS is rebuilt.
+    inner_area: f64,
+    built_cost: f64,
+    pub stats: BvhFrameStats,
+}
+
+impl RayTracingScene {
+    pub fn new(gpu: &GpuContext) -> Self {
+        let storage = wgpu::BufferUsages::STORAGE;
+        let (sender, results) = channel();
+        let mut scene = Self {
+            blas_nodes: GrowableBuffer::new(&gpu.device, "blas_nodes", storage),
+            blas_triangles: GrowableBuffer::new(&gpu.device, "blas_triangles", storage),
+            blas_info: GrowableBuffer::new(&gpu.device, "blas_info", storage),
+            tlas_nodes: GrowableBuffer::new(&gpu.device, "tlas_nodes", storage),
+            blas: Vec::new(),
+            gpu_blas: Vec::new(),
+            requested_meshes: 0,
+            results: Mutex::new(results),
+            sender,
+            progress: BlasBuildProgress::default(),
+            tlas: None,
+            tlas_slots: Vec::new(),
+            slot_leaf: HashMap::new(),
+            gpu_tlas: Vec::new(),
+            inner_area: 0.0,
+            built_cost: 0.0,
+            stats: BvhFrameStats::default(),
+        };
+        scene.upload_tlas_all(gpu);
+        scene
+    }
+
+    /// Bind group 0 resources of `ray_tracing.inc.wgsl`, by WGSL name.
+    pub fn bindings(&self) -> Vec<(&'static str, wgpu::BindingResource<'_>)> {
+        vec![
+            ("blas_nodes", self.blas_nodes.buffer.as_entire_binding()),
+            ("blas_triangles", self.blas_triangles.buffer.as_entire_binding()),
+            ("blas_info", self.blas_info.buffer.as_entire_binding()),
+            ("tlas_nodes", self.tlas_nodes.buffer.as_entire_binding()),
+        ]
+    }
+
+    /// The TLAS as uploaded (CPU copy).
+    pub fn tlas_nodes_cpu(&self) -> &[TlasNode] {
+        &self.gpu_tlas
+    }
+
+    /// The BLAS of mesh `index`, once built.
+    pub fn blas(&self, index: usize) -> Option<&Blas> {
+        self.blas.get(index).and_then(|b| b.as_deref())
+    }
+
+    /// Starts BLAS builds for meshes added since the last call: small ones now, large ones on a
+    /// worker thread.
+    fn request_blas(&mut self, meshes: &Assets<Mesh>) {
+        let mut background: Vec<(usize, Mesh)> = Vec::new();
+        for (handle, mesh) in meshes.iter().skip(self.requested_meshes) {
+            let index = handle.index() as usize;
+            self.blas.resize(self.blas.len().max(index + 1), None);
+            self.progress.total_triangles.fetch_add(mesh.triangle_count(), Ordering::Relaxed);
+            self.progress.pending_meshes.fetch_add(1, Ordering::Relaxed);
+            if mesh.triangle_count() > ASYNC_BLAS_TRIANGLES {
+                background.push((index, mesh.clone()));
+            } else {
+                let blas = Arc::new(Blas::build(mesh));
+                self.progress.built_triangles.fetch_add(mesh.triangle_count(), Ordering::Relaxed);
+                self.progress.pending_meshes.fetch_sub(1, Ordering::Relaxed);
+                let _ = self.sender.send((index, blas));
+            }
+        }
+        self.requested_meshes = meshes.len();
+        if !background.is_empty() {
+            let sender = self.sender.clone();
+            let progress = self.progress.clone();
+            std::thread::spawn(move || {
+                for (index, mesh) in background {
+                    let started = Instant::now();
+                    let blas = Arc::new(Blas::build(&mesh));
+                    progress.built_triangles.fetch_add(mesh.triangle_count(), Ordering::Relaxed);
+                    progress.pending_meshes.fetch_sub(1, Ordering::Relaxed);
+                    log::info!("BLAS of '{}' ({} triangles) built in {:.2?}", mesh.name, mesh.triangle_count(), started.elapsed());
+                    if sender.send((index, blas)).is_err() {
+                        return;
+                    }
+                }
+            });
+        }
+    }
+
+    /// Collects finished BLAS builds; returns true if any arrived. With `wait`, blocks until every
+    /// requested build has finished (headless rendering, tests).
+    fn receive_blas(&mut self, wait: bool) -> bool {
+        let mut any = false;
+        let mut arrived = Vec::new();
+        {
+            let results = self.results.lock().unwrap_or_else(|e| e.into_inner());
+            loop {
+                let next = if wait && (!self.progress.is_done() || arrived.is_empty()) {
+                    results.recv_timeout(if self.progress.is_done() { Duration::ZERO } else { Duration::from_secs(600) }).ok()
+                } else {
+                    results.try_recv().ok()
+                };
+                let Some(item) = next else { break };
+                arrived.push(item);
+            }
+        }
+        for next in arrived {
+            let (index, blas) = next;
+            self.blas[index] = Some(blas);
+            any = true;
+        }
+        any
+    }
+
+    fn upload_blas(&mut self, gpu: &GpuContext) {
+        let mut nodes: Vec<u8> = Vec::new();
+        let mut triangles: Vec<[f32; 12]> = Vec::new();
+        self.gpu_blas.clear();
+        for blas in &self.blas {
+            let info = match blas {
+                Some(b) if !b.nodes.is_empty() => {
+                    let info = GpuBlas {
+                        node_offset: (nodes.len() / 80) as u32,
+                        triangle_offset: triangles.len() as u32,
+                        node_count: b.nodes.len() as u32,
+                        triangle_count: b.triangles.len() as u32,
+                    };
+                    nodes.extend_from_slice(bytemuck::cast_slice(&b.nodes));
+                    triangles.extend_from_slice(&b.triangles);
+                    info
+                }
+                _ => GpuBlas { node_offset: u32::MAX, triangle_offset: 0, node_count: 0, triangle_count: 0 },
+            };
+            self.gpu_blas.push(info);
+        }
+        self.blas_nodes.write(gpu, &nodes);
+        self.blas_triangles.write(gpu, bytemuck::cast_slice(&triangles));
+        self.blas_info.write(gpu, bytemuck::cast_slice(&self.gpu_blas));
+        self.stats.blas_uploaded += 1;
+    }
+
+    fn instance_aabb(&self, mesh: u32, world: &Affine3A) -> Option<Aabb> {
+        let (lo, hi) = self.blas(mesh as usize)?.bounds?;
+        let mut aabb = Aabb::empty();
+        for i in 0..8 {
+            let corner =
+                Vec3::new(if i & 1 == 0 { lo.x } else { hi.x }, if i & 2 == 0 { lo.y } else { hi.y }, if i & 4 == 0 { lo.z } else { hi.z });
+            aabb.extend(world.transform_point3a(corner.into()));
+        }
+        aabb.valid().then_some(aabb)
+    }
+
+    /// Rebuilds the TLAS from every live instance whose BLAS is ready.
+    fn rebuild_tlas(&mut self, gpu: &GpuContext, instances: &[(u32, u32, Affine3A)]) {
+        let mut aabbs = Vec::with_capacity(instances.len());
+        self.tlas_slots.clear();
+        for &(slot, mesh, world) in instances {
+            if let Some(aabb) = self.instance_aabb(mesh, &world) {
+                aabbs.push(aabb);
+                self.tlas_slots.push(slot);
+            }
+        }
+        self.slot_leaf.clear();
+        if aabbs.is_empty() {
+            self.tlas = None;
+        } else {
+            let indices = (0..aabbs.len() as u32).collect();
+            let mut bvh = PlocBuilder::with_capacity(aabbs.len()).build(PlocSearchDistance::Medium, &aabbs, indices, SortPrecision::U64, 1);
+            bvh.init_parents_if_uninit();
+            self.inner_area = bvh.nodes.iter().filter(|n| !n.is_leaf()).map(|n| f64::from(n.aabb().half_area())).sum();
+            self.built_cost = self.inner_area / f64::from(bvh.nodes[0].aabb().half_area()).max(f64::MIN_POSITIVE);
+            self.tlas = Some(bvh);
+        }
+        self.stats.tlas_rebuilt = true;
+        self.upload_tlas_all(gpu);
+    }
+
+    fn gpu_node(&self, bvh: &Bvh2, i: usize) -> TlasNode {
+        let n = &bvh.nodes[i];
+        let a = n.aabb();
+        let index = if n.is_leaf() { self.tlas_slots[bvh.primitive_indices[n.first_index as usize] as usize] } else { n.first_index };
+        TlasNode { min: a.min.into(), count: n.prim_count, max: a.max.into(), index }
+    }
+
+    fn upload_tlas_all(&mut self, gpu: &GpuContext) {
+        self.gpu_tlas = match &self.tlas {
+            Some(bvh) => (0..bvh.nodes.len()).map(|i| self.gpu_node(bvh, i)).collect(),
+            // An empty TLAS: a root whose inverted bounds no ray can hit.
+            None => vec![TlasNode { min: [f32::MAX; 3], count: 0, max: [f32::MIN; 3], index: 0 }],
+        };
+        if let Some(bvh) = &self.tlas {
+            for (i, n) in bvh.nodes.iter().enumerate() {
+                if n.is_leaf() {
+                    self.slot_leaf.insert(self.tlas_slots[bvh.primitive_indices[n.first_index as usize] as usize], i);
+                }
+            }
+        }
+        self.tlas_nodes.write(gpu, bytemuck::cast_slice(&self.gpu_tlas));
+        self.stats.tlas_nodes_uploaded += self.gpu_tlas.len();
+    }
+
+    /// Moves the leaves of the given instances and refits their ancestors; uploads the changed nodes.
+    /// Returns false when the TLAS should be rebuilt instead (an instance is not in it, or quality decayed).
+    fn refit_tlas(&mut self, gpu: &GpuContext, moved: &[(u32, u32, Affine3A)]) -> bool {
+        let Some(mut bvh) = self.tlas.take() else { return moved.is_empty() };
+        let mut dirty: Vec<usize> = Vec::with_capacity(moved.len() * 8);
+        let mut ok = true;
+        for &(slot, mesh, world) in moved {
+            let (Some(&leaf), Some(aabb)) = (self.slot_leaf.get(&slot), self.instance_aabb(mesh, &world)) else {
+                ok = false;
+                break;
+            };
+            bvh.nodes[leaf].set_aabb(aabb);
+            dirty.push(leaf);
+            let mut index = leaf;
+            while index != 0 {
+                index = bvh.parents[index] as usize;
+                let first = bvh.nodes[index].first_index as usize;
+                let union = bvh.nodes[first].aabb().union(bvh.nodes[first + 1].aabb());
+                if *bvh.nodes[index].aabb() == union {
+                    break;
+                }
+                self.inner_area += f64::from(union.half_area()) - f64::from(bvh.nodes[index].aabb().half_area());
+                bvh.nodes[index].set_aabb(union);
+                dirty.push(index);
+            }
+        }
+        let cost = self.inner_area / f64::from(bvh.nodes[0].aabb().half_area()).max(f64::MIN_POSITIVE);
+        let decayed = cost > TLAS_REBUILD_COST_RATIO * self.built_cost;
+        self.tlas = Some(bvh);
+        if !ok || decayed {
+            return false;
+        }
+        dirty.sort_unstable();
+        dirty.dedup();
+        let bvh = self.tlas.as_ref().expect("just put back");
+        let updated: Vec<TlasNode> = dirty.iter().map(|&i| self.gpu_node(bvh, i)).collect();
+        for (&i, node) in dirty.iter().zip(updated) {
+            self.gpu_tlas[i] = node;
+        }
+        // Upload contiguous runs of changed nodes.
+        let node_size = size_of::<TlasNode>() as u64;
+        let mut start = 0;
+        while start < dirty.len() {
+            let mut end = start + 1;
+            while end < dirty.len() && dirty[end] == dirty[end - 1] + 1 {
+                end += 1;
+            }
+            let (a, b) = (dirty[start], dirty[end - 1] + 1);
+            gpu.queue.write_buffer(&self.tlas_nodes.buffer, a as u64 * node_size, bytemuck::cast_slice(&self.gpu_tlas[a..b]));
+            start = end;
+        }
+        self.stats.tlas_refitted_leaves += moved.len();
+        self.stats.tlas_nodes_uploaded += dirty.len();
+        true
+    }
+}
+
+/// Whether BLAS builds block the frame (headless, deterministic) or run in the background.
+#[derive(Resource, Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct WaitForBlasBuilds(pub bool);
+
+/// Prepare stage (after the GPU scene): builds BLASes for new meshes, and rebuilds or refits the TLAS
+/// from the instance changes the GPU scene recorded this frame.
+pub fn prepare_ray_tracing_scene(
+    gpu: Res<GpuContext>,
+    meshes: Res<Assets<Mesh>>,
+    scene: Res<GpuScene>,
+    wait: Option<Res<WaitForBlasBuilds>>,
+    mut rt: ResMut<RayTracingScene>,
+) {
+    let started = Instant::now();
+    rt.stats = BvhFrameStats::default();
+    if meshes.len() > rt.requested_meshes {
+        rt.request_blas(&meshes);
+    }
+    let new_blas = rt.receive_blas(wait.is_some_and(|w| w.0));
+    if new_blas {
+        rt.upload_blas(&gpu);
+    }
+    let changes = scene.instance_changes();
+    if new_blas || changes.structure_changed {
+        rt.rebuild_tlas(&gpu, &scene.live_instances());
+    } else if !changes.moved.is_empty() {
+        let moved: Vec<(u32, u32, Affine3A)> =
+            changes.moved.iter().filter_map(|&slot| scene.instance_placement(slot).map(|(m, w)| (slot, m, w))).collect();
+        if !rt.refit_tlas(&gpu, &moved) {
+            rt.rebuild_tlas(&gpu, &scene.live_instances());
+        }
+    }
+    if rt.stats.tlas_rebuilt || rt.stats.tlas_refitted_leaves > 0 || new_blas {
+        rt.stats.cpu_time = started.elapsed();
+    }
+}
+
+/// Traces arbitrary rays with `shaders/trace_rays.wgsl`: the GPU side of the CPU-reference tests and
+/// of the trace benchmark.
+pub struct RayTracer {
+    pub program: crate::shader::Program<wgpu::ComputePipeline>,
+}
+
+/// Workgroups of 64 threads covering `count` items, split into (x ≤ 65535, y) as the shader expects.
+pub fn ray_workgroups(count: u32) -> (u32, u32) {
+    let groups = count.div_ceil(64).max(1);
+    (groups.min(65535), groups.div_ceil(65535))
+}
+
+impl RayTracer {
+    pub fn new(gpu: &GpuContext) -> Result<Self, crate::shader::ShaderError> {
+        Ok(Self { program: crate::shader::compute_program(&gpu.device, "trace_rays.wgsl", "main", "trace_rays")? })
+    }
+
+    /// Bind groups for tracing `rays` into `results` (both storage buffers) with `params` (uniform).
+    pub fn bind_groups(
+        &self,
+        gpu: &GpuContext,
+        scene: &GpuScene,
+        rt: &RayTracingScene,
+        params: &wgpu::Buffer,
+        rays: &wgpu::Buffer,
+        results: &wgpu::Buffer,
+    ) -> [wgpu::BindGroup; 2] {
+        let mut group0 = scene.bindings();
+        group0.extend(rt.bindings());
+        [
+            self.program.bind_group(&gpu.device, 0, &group0),
+            self.program.bind_group(
+                &gpu.device,
+                1,
+                &[
+                    ("trace_params", params.as_entire_binding()),
+                    ("trace_rays", rays.as_entire_binding()),
+                    ("trace_results", results.as_entire_binding()),
+                ],
+            ),
+        ]
+    }
+
+    /// Traces `rays` (closest hit, and any hit when asked) and reads the results back. Blocks.
+    pub fn trace(
+        &self,
+        gpu: &GpuContext,
+        scene: &GpuScene,
+        rt: &RayTracingScene,
+        rays: &[cpu::GpuRay],
+        with_any_hit: bool,
+    ) -> Vec<cpu::TraceResult> {
+        use wgpu::util::DeviceExt;
+        let count = rays.len() as u32;
+        let params = gpu.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("trace_params"),
+            contents: bytemuck::cast_slice(&[count, u32::from(with_any_hit), 0, 0]),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+        let ray_buffer = gpu.device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("trace_rays"),
+            contents: if rays.is_empty() { &[0; 32] } else { bytemuck::cast_slice(rays) },
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        let size = (rays.len().max(1) * size_of::<cpu::TraceResult>()) as u64;
+        let results = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("trace_results"),
+            size,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let readback = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("trace_results_readback"),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let groups = self.bind_groups(gpu, scene, rt, &params, &ray_buffer, &results);
+        let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("trace_rays") });
+        crate::render::dispatch(&mut encoder, "trace_rays", &self.program.pipeline, &[&groups[0], &groups[1]], ray_workgroups(count));
+        encoder.copy_buffer_to_buffer(&results, 0, &readback, 0, size);
+        gpu.queue.submit([encoder.finish()]);
+        readback.slice(..).map_async(wgpu::MapMode::Read, |_| {});
+        gpu.wait_idle();
+        let mapped = readback.slice(..).get_mapped_range().expect("mapped after wait");
+        let mut out: Vec<cpu::TraceResult> = bytemuck::pod_collect_to_vec(&mapped);
+        drop(mapped);
+        readback.unmap();
+        out.truncate(rays.len());
+        out
+    }
+}

@@ -1,0 +1,306 @@
+// The ray-tracing core: closest-hit and any-hit traversal of the two-level BVH.
+//
+// TLAS: a binary BVH over instance bounds (stack traversal, nearer child first).
+// BLAS: one 8-wide compressed BVH (CWBVH, Ylitie, Karras and Laine 2017) per mesh, traversed with
+// node and triangle groups in ray-octant order. The ray is taken into instance space with the
+// instance's inverse transform and its direction is NOT normalized, so t means the same thing in
+// every instance and in the world.
+#include "scene.inc.wgsl"
+
+// Where a mesh's BLAS lives in blas_nodes (5 × vec4<u32> = 80 bytes a node) and blas_triangles.
+struct GpuBlas {
+    node_offset: u32,
+    triangle_offset: u32,
+    node_count: u32,
+    triangle_count: u32,
+}
+
+// Leaves: count > 0 and index = instance slot. Inner nodes: children at index and index + 1.
+struct TlasNode {
+    min: vec3<f32>,
+    count: u32,
+    max: vec3<f32>,
+    index: u32,
+}
+
+@group(0) @binding(7) var<storage, read> blas_nodes: array<vec4<u32>>;
+// Three vec4 a triangle, in leaf order: (v0, mesh triangle index as bits), (v1 - v0, 0), (v2 - v0, 0).
+@group(0) @binding(8) var<storage, read> blas_triangles: array<vec4<f32>>;
+@group(0) @binding(9) var<storage, read> blas_info: array<GpuBlas>;
+@group(0) @binding(10) var<storage, read> tlas_nodes: array<TlasNode>;
+
+const RT_NO_HIT: u32 = 0xffffffffu;
+const RT_STACK_SIZE: u32 = 32u;
+
+struct Ray {
+    origin: vec3<f32>,
+    tmin: f32,
+    // Need not be unit length: t is measured in multiples of it.
+    direction: vec3<f32>,
+    tmax: f32,
+}
+
+struct RayHit {
+    t: f32,
+    // Instance slot, or RT_NO_HIT.
+    instance: u32,
+    // Triangle index within the instance's mesh.
+    primitive: u32,
+    // Weights of vertices 1 and 2 (vertex 0 gets 1 - u - v).
+    barycentrics: vec2<f32>,
+    // The ray met the side the triangle's winding faces (counter-clockwise seen from the ray).
+    front_face: bool,
+}
+
+fn rt_no_hit(tmax: f32) -> RayHit {
+    return RayHit(tmax, RT_NO_HIT, 0u, vec2<f32>(0.0), false);
+}
+
+// Directions with zero components would turn slab tests into 0 × inf = NaN: nudge them.
+fn rt_safe_direction(d: vec3<f32>) -> vec3<f32> {
+    let tiny = vec3<f32>(1e-30);
+    return select(d, select(tiny, -tiny, d < vec3<f32>(0.0)), abs(d) < tiny);
+}
+
+// Slab test; returns the entry distance, or +inf when the box is missed within [tmin, tmax].
+fn rt_aabb_entry(lo: vec3<f32>, hi: vec3<f32>, origin: vec3<f32>, inv_dir: vec3<f32>, tmin: f32, tmax: f32) -> f32 {
+    let t0 = (lo - origin) * inv_dir;
+    let t1 = (hi - origin) * inv_dir;
+    let tn = max(max(min(t0.x, t1.x), min(t0.y, t1.y)), max(min(t0.z, t1.z), tmin));
+    let tf = min(min(max(t0.x, t1.x), max(t0.y, t1.y)), min(max(t0.z, t1.z), tmax));
+    return select(3.4e38, tn, tn <= tf);
+}
+
+// Ray octant with each of the four bytes holding (7 - octant), as the CWBVH child order expects.
+fn rt_octant_inv4(d: vec3<f32>) -> u32 {
+    return select(0x04040404u, 0u, d.x < 0.0) | select(0x02020202u, 0u, d.y < 0.0) | select(0x01010101u, 0u, d.z < 0.0);
+}
+
+// Intersects the ray with the eight quantized child boxes of a CWBVH node. Returns the hit mask:
+// bits 24..31 inner children (in octant order), bits 0..23 triangles of the hit leaves.
+fn rt_cwbvh_node_hits(node: u32, origin: vec3<f32>, dir: vec3<f32>, oct_inv4: u32, tmin: f32, tmax: f32) -> u32 {
+    let n0 = blas_nodes[node * 5u];
+    let n1 = blas_nodes[node * 5u + 1u];
+    let n2 = blas_nodes[node * 5u + 2u];
+    let n3 = blas_nodes[node * 5u + 3u];
+    let n4 = blas_nodes[node * 5u + 4u];
+    let p = bitcast<vec3<f32>>(n0.xyz);
+    let e = vec3<u32>(n0.w & 0xffu, (n0.w >> 8u) & 0xffu, (n0.w >> 16u) & 0xffu);
+    // Child planes are p + 2^(e - 127) · q: fold the scale and origin into the ray instead.
+    let scaled_inv_dir = bitcast<vec3<f32>>(e << vec3<u32>(23u)) / dir;
+    let shifted_origin = (p - origin) / dir;
+    let neg = dir < vec3<f32>(0.0);
+    var hit_mask = 0u;
+    for (var half = 0u; half < 2u; half++) {
+        let meta4 = select(n1.w, n1.z, half == 0u);
+        let is_inner4 = (meta4 & (meta4 << 1u)) & 0x10101010u;
+        let inner_mask4 = (is_inner4 >> 4u) * 0xffu;
+        let bit_index4 = (meta4 ^ (oct_inv4 & inner_mask4)) & 0x1f1f1f1fu;
+        let child_bits4 = (meta4 >> 5u) & 0x07070707u;
+        let lo = vec3<u32>(select(n2.y, n2.x, half == 0u), select(n3.y, n3.x, half == 0u), select(n4.y, n4.x, half == 0u));
+        let hi = vec3<u32>(select(n2.w, n2.z, half == 0u), select(n3.w, n3.z, half == 0u), select(n4.w, n4.z, half == 0u));
+        let near4 = select(lo, hi, neg);
+        let far4 = select(hi, lo, neg);
+        for (var j = 0u; j < 4u; j++) {
+            let shift = j * 8u;
+            let qn = vec3<f32>((near4 >> vec3<u32>(shift)) & vec3<u32>(0xffu));
+            let qf = vec3<f32>((far4 >> vec3<u32>(shift)) & vec3<u32>(0xffu));
+            let tn3 = qn * scaled_inv_dir + shifted_origin;
+            let tf3 = qf * scaled_inv_dir + shifted_origin;
+            let tn = max(max(tn3.x, tn3.y), max(tn3.z, tmin));
+            let tf = min(min(tf3.x, tf3.y), min(tf3.z, tmax));
+            if tn <= tf {
+                let child_bits = (child_bits4 >> shift) & 0xffu;
+                let bit_index = (bit_index4 >> shift) & 0xffu;
+                hit_mask |= child_bits << bit_index;
+            }
+        }
+    }
+    return hit_mask;
+}
+
+struct TriangleHit {
+    hit: bool,
+    t: f32,
+    barycentrics: vec2<f32>,
+    front_face: bool,
+}
+
+// Möller–Trumbore against the triangle stored at `index` of blas_triangles. Degenerate triangles and
+// rays in their plane have det == 0 and never hit.
+fn rt_intersect_triangle(index: u32, origin: vec3<f32>, dir: vec3<f32>, tmin: f32, tmax: f32) -> TriangleHit {
+    var out = TriangleHit(false, tmax, vec2<f32>(0.0), false);
+    let v0 = blas_triangles[index * 3u].xyz;
+    let e1 = blas_triangles[index * 3u + 1u].xyz;
+    let e2 = blas_triangles[index * 3u + 2u].xyz;
+    let pvec = cross(dir, e2);
+    let det = dot(e1, pvec);
+    if det == 0.0 {
+        return out;
+    }
+    let inv_det = 1.0 / det;
+    let tvec = origin - v0;
+    let u = dot(tvec, pvec) * inv_det;
+    let qvec = cross(tvec, e1);
+    let v = dot(dir, qvec) * inv_det;
+    let t = dot(e2, qvec) * inv_det;
+    // Written so that NaN fails every test.
+    if u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t >= tmin && t < tmax {
+        out.hit = true;
+        out.t = t;
+        out.barycentrics = vec2<f32>(u, v);
+        out.front_face = det > 0.0;
+    }
+    return out;
+}
+
+struct BlasHit {
+    hit: bool,
+    t: f32,
+    // Index into blas_triangles.
+    triangle: u32,
+    barycentrics: vec2<f32>,
+    front_face: bool,
+}
+
+fn rt_traverse_blas(blas: GpuBlas, origin: vec3<f32>, dir_in: vec3<f32>, tmin: f32, tmax: f32, any_hit: bool) -> BlasHit {
+    var best = BlasHit(false, tmax, 0u, vec2<f32>(0.0), false);
+    let dir = rt_safe_direction(dir_in);
+    let oct_inv4 = rt_octant_inv4(dir);
+    var stack: array<vec2<u32>, RT_STACK_SIZE>;
+    var sp = 0u;
+    // Start with the root as the only inner child of a virtual parent.
+    var current = vec2<u32>(0u, 0x80000000u);
+    loop {
+        var triangles = vec2<u32>(0u, 0u);
+        if (current.y & 0xff000000u) != 0u {
+            let hits = current.y;
+            let child_bit = firstLeadingBit(hits);
+            current.y &= ~(1u << child_bit);
+            if (current.y & 0xff000000u) != 0u && sp < RT_STACK_SIZE {
+                stack[sp] = current;
+                sp += 1u;
+            }
+            let slot = (child_bit - 24u) ^ (oct_inv4 & 0xffu);
+            let relative = countOneBits(hits & ~(0xffffffffu << slot));
+            let node = blas.node_offset + current.x + relative;
+            let hit_mask = rt_cwbvh_node_hits(node, origin, dir, oct_inv4, tmin, best.t);
+            let n0w = blas_nodes[node * 5u].w;
+            let n1 = blas_nodes[node * 5u + 1u];
+            current = vec2<u32>(n1.x, (hit_mask & 0xff000000u) | (n0w >> 24u));
+            triangles = vec2<u32>(n1.y, hit_mask & 0x00ffffffu);
+        }
+        while triangles.y != 0u {
+            let local = firstLeadingBit(triangles.y);
+            triangles.y &= ~(1u << local);
+            let index = blas.triangle_offset + triangles.x + local;
+            let h = rt_intersect_triangle(index, origin, dir_in, tmin, best.t);
+            if h.hit {
+                best = BlasHit(true, h.t, index, h.barycentrics, h.front_face);
+                if any_hit {
+                    return best;
+                }
+            }
+        }
+        if (current.y & 0xff000000u) == 0u {
+            if sp == 0u {
+                break;
+            }
+            sp -= 1u;
+            current = stack[sp];
+        }
+    }
+    return best;
+}
+
+// Traverses the TLAS; for each instance leaf, the BLAS in instance space.
+fn rt_trace(ray: Ray, any_hit: bool) -> RayHit {
+    var best = rt_no_hit(ray.tmax);
+    let inv_dir = 1.0 / rt_safe_direction(ray.direction);
+    let root = tlas_nodes[0];
+    if rt_aabb_entry(root.min, root.max, ray.origin, inv_dir, ray.tmin, ray.tmax) > ray.tmax {
+        return best;
+    }
+    var stack: array<vec2<u32>, RT_STACK_SIZE>;
+    var sp = 0u;
+    var node = 0u;
+    loop {
+        let n = tlas_nodes[node];
+        var descend = false;
+        if n.count > 0u {
+            let instance = instances[n.index];
+            let blas = blas_info[instance.mesh];
+            if blas.node_offset != RT_NO_HIT {
+                let origin = (instance.local_from_world * vec4<f32>(ray.origin, 1.0)).xyz;
+                let dir = (instance.local_from_world * vec4<f32>(ray.direction, 0.0)).xyz;
+                let h = rt_traverse_blas(blas, origin, dir, ray.tmin, best.t, any_hit);
+                if h.hit {
+                    best.t = h.t;
+                    best.instance = n.index;
+                    best.primitive = bitcast<u32>(blas_triangles[h.triangle * 3u].w);
+                    best.barycentrics = h.barycentrics;
+                    best.front_face = h.front_face;
+                    if any_hit {
+                        return best;
+                    }
+                }
+            }
+        } else {
+            let a = tlas_nodes[n.index];
+            let b = tlas_nodes[n.index + 1u];
+            let ta = rt_aabb_entry(a.min, a.max, ray.origin, inv_dir, ray.tmin, best.t);
+            let tb = rt_aabb_entry(b.min, b.max, ray.origin, inv_dir, ray.tmin, best.t);
+            let hit_a = ta <= best.t;
+            let hit_b = tb <= best.t;
+            if hit_a && hit_b {
+                let a_first = ta <= tb;
+                node = select(n.index + 1u, n.index, a_first);
+                if sp < RT_STACK_SIZE {
+                    stack[sp] = vec2<u32>(select(n.index, n.index + 1u, a_first), bitcast<u32>(max(ta, tb)));
+                    sp += 1u;
+                }
+                descend = true;
+            } else if hit_a || hit_b {
+                node = select(n.index + 1u, n.index, hit_a);
+                descend = true;
+            }
+        }
+        if !descend {
+            // Pop the next subtree that can still hold a nearer hit.
+            var found = false;
+            while sp > 0u {
+                sp -= 1u;
+                if bitcast<f32>(stack[sp].y) <= best.t {
+                    node = stack[sp].x;
+                    found = true;
+                    break;
+                }
+            }
+            if !found {
+                break;
+            }
+        }
+    }
+    return best;
+}
+
+fn trace_closest(ray: Ray) -> RayHit {
+    return rt_trace(ray, false);
+}
+
+// True when anything lies on the ray within [tmin, tmax) (shadow rays).
+fn trace_any(ray: Ray) -> bool {
+    return rt_trace(ray, true).instance != RT_NO_HIT;
+}
+
+// Moves a ray origin off a surface along its geometric normal by a few float steps of the position's
+// magnitude (Wächter and Binder, Ray Tracing Gems ch. 6), so shadow and bounce rays miss the surface
+// they start on at any scene scale.
+fn offset_ray_origin(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    let int_scale = 256.0;
+    let float_scale = 1.0 / 65536.0;
+    let origin = 1.0 / 32.0;
+    let of_i = vec3<i32>(int_scale * n);
+    let p_i = bitcast<vec3<f32>>(bitcast<vec3<i32>>(p) + select(of_i, -of_i, p < vec3<f32>(0.0)));
+    return select(p_i, p + float_scale * n, abs(p) < vec3<f32>(origin));
+}

@@ -1,0 +1,269 @@
+//! The ray-tracing core against a brute-force CPU reference, on lavapipe in CI: closest hits on
+//! thousands of random rays (scaled, rotated and moving instances), any-hit against closest-hit, and
+//! hard shadows in the camera path.
+
+use engine::app::{EnginePlugin, Time, run_headless};
+use engine::bevy_app::App;
+use engine::headless::{HeadlessSettings, render_scene};
+use engine::render::{GpuScene, RenderPlugin, RenderSize};
+use engine::rt::cpu::{CpuScene, GpuRay, TraceResult};
+use engine::rt::{RayTracer, RayTracingScene, WaitForBlasBuilds};
+use engine::scene::{Assets, Camera, Material, Mesh, NodeContent, PointLight, SceneDescription, Transform};
+use glam::{Quat, Vec2, Vec3};
+
+/// A small deterministic generator (xorshift) so that failures reproduce.
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> f32 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 40) as f32 / (1u64 << 24) as f32
+    }
+    fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * self.next()
+    }
+    fn direction(&mut self) -> Vec3 {
+        let z = self.range(-1.0, 1.0);
+        let phi = self.range(0.0, std::f32::consts::TAU);
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        Vec3::new(r * phi.cos(), z, r * phi.sin())
+    }
+}
+
+fn app_for(gpu: &engine::gpu::GpuContext, scene: SceneDescription) -> App {
+    let mut app = App::new();
+    app.insert_resource(Time::fixed(1.0 / 60.0)).insert_resource(WaitForBlasBuilds(true));
+    app.add_plugins((EnginePlugin, RenderPlugin { gpu: gpu.clone(), size: RenderSize { width: 8, height: 8 } }));
+    scene.spawn(app.world_mut());
+    run_headless(&mut app, 1);
+    app
+}
+
+fn trace(app: &App, gpu: &engine::gpu::GpuContext, rays: &[GpuRay], any: bool) -> Vec<TraceResult> {
+    let tracer = RayTracer::new(gpu).expect("trace shader");
+    tracer.trace(gpu, app.world().resource::<GpuScene>(), app.world().resource::<RayTracingScene>(), rays, any)
+}
+
+fn cpu_reference(app: &App) -> CpuScene {
+    let world = app.world();
+    let meshes = world.resource::<Assets<Mesh>>();
+    let list: Vec<&Mesh> = meshes.iter().map(|(_, m)| m).collect();
+    CpuScene::new(&world.resource::<GpuScene>().live_instances(), &list)
+}
+
+/// Random rays from inside (and around) the scene's bounds with directions of random length.
+fn random_rays(bounds: (Vec3, Vec3), count: usize, seed: u64) -> Vec<GpuRay> {
+    let mut rng = Rng(seed);
+    let (lo, hi) = bounds;
+    let pad = (hi - lo) * 0.25;
+    (0..count)
+        .map(|_| {
+            let o = Vec3::new(
+                rng.range(lo.x - pad.x, hi.x + pad.x),
+                rng.range(lo.y - pad.y, hi.y + pad.y),
+                rng.range(lo.z - pad.z, hi.z + pad.z),
+            );
+            // Unnormalized directions: t must still be the parameter along them.
+            let d = rng.direction() * rng.range(0.2, 5.0);
+            GpuRay { origin: o.to_array(), tmin: 0.0, direction: d.to_array(), tmax: 1e30 }
+        })
+        .collect()
+}
+
+fn close(a: f32, b: f32) -> bool {
+    (a - b).abs() <= 1e-4 * b.abs().max(1e-3)
+}
+
+/// Compares GPU and CPU closest hits; returns (rays compared, exact agreements, hits).
+fn compare(name: &str, app: &App, gpu: &engine::gpu::GpuContext, rays: &[GpuRay]) -> (usize, usize, usize) {
+    let cpu = cpu_reference(app);
+    let got = trace(app, gpu, rays, true);
+    let (mut exact, mut hits, mut edge_cases) = (0, 0, Vec::new());
+    for (i, (ray, g)) in rays.iter().zip(&got).enumerate() {
+        let want = cpu.closest_hit(ray);
+        assert_eq!(g.any_hit == 1, g.instance != u32::MAX, "{name} ray {i}: any-hit disagrees with closest-hit");
+        match want {
+            None if g.instance == u32::MAX => exact += 1,
+            Some(w) if g.instance == w.instance && g.primitive == w.primitive && close(g.t, w.t) => {
+                assert_eq!(g.flags & 1 == 1, w.front_face, "{name} ray {i}: front/back face differs");
+                exact += 1;
+                hits += 1;
+            }
+            // A tie: coincident faces (overlapping walls) at the same distance. The GPU's triangle must
+            // really lie on the ray at the reference distance.
+            Some(w)
+                if g.instance != u32::MAX && close(g.t, w.t) && cpu.hit_t(ray, g.instance, g.primitive).is_some_and(|t| close(t, w.t)) =>
+            {
+                exact += 1;
+                hits += 1;
+            }
+            _ => edge_cases.push((i, want, *g)),
+        }
+    }
+    // Rays through a shared edge or grazing a silhouette may legitimately land on a neighbour: allow a
+    // handful, but never a different distance on a ray that is not such a case.
+    let allowed = rays.len() / 500;
+    assert!(
+        edge_cases.len() <= allowed,
+        "{name}: {} of {} rays disagree with the CPU reference, e.g. {:?}",
+        edge_cases.len(),
+        rays.len(),
+        &edge_cases[..edge_cases.len().min(5)]
+    );
+    (rays.len(), exact, hits)
+}
+
+fn cuboid_scene() -> SceneDescription {
+    let mut s = SceneDescription { name: "transformed".into(), ..Default::default() };
+    let cube = s.add_mesh(engine::builtin::cuboid("cube", Vec3::splat(0.5)));
+    let plate = s.add_mesh(engine::builtin::quad("plate", Vec2::new(4.0, 4.0)));
+    let m = s.add_material(Material::diffuse("grey", Vec3::splat(0.5)));
+    let parent = s.add_node(
+        "parent",
+        Transform::from_xyz(0.5, 0.2, -0.3)
+            .with_rotation(Quat::from_euler(glam::EulerRot::XYZ, 0.3, 0.7, -0.2))
+            .with_scale(Vec3::new(2.0, 0.5, 1.5)),
+        None,
+        vec![NodeContent::Meshes(vec![(cube, m)])],
+    );
+    s.add_node(
+        "child",
+        Transform::from_xyz(0.0, 2.5, 0.0).with_scale(Vec3::splat(0.25)),
+        Some(parent),
+        vec![NodeContent::Meshes(vec![(cube, m)])],
+    );
+    s.add_node("floor", Transform::from_xyz(0.0, -1.0, 0.0), None, vec![NodeContent::Meshes(vec![(plate, m)])]);
+    for i in 0..20 {
+        let t = Transform::from_xyz((i % 5) as f32 - 2.0, (i / 5) as f32 * 0.7 - 0.5, 1.5)
+            .with_rotation(Quat::from_rotation_y(i as f32 * 0.4))
+            .with_scale(Vec3::new(0.3, 0.1 + 0.05 * i as f32, 0.2));
+        s.add_node(&format!("small{i}"), t, None, vec![NodeContent::Meshes(vec![(cube, m)])]);
+    }
+    s
+}
+
+#[test]
+fn gpu_closest_hits_match_the_cpu_reference() {
+    let Some(gpu) = workspace_tests::gpu("gpu_closest_hits_match_the_cpu_reference") else { return };
+    let mut scenes = vec![cuboid_scene()];
+    for name in ["cornell", "color_bleed", "door_room"] {
+        scenes.push(engine::builtin::builtin_scene(name).expect("built-in"));
+    }
+    for (k, scene) in scenes.into_iter().enumerate() {
+        let name = scene.name.clone();
+        let bounds = scene.bounds().expect("bounds");
+        let app = app_for(&gpu, scene);
+        let rays = random_rays(bounds, 3000, 0x9E37_79B9 + k as u64);
+        let (n, exact, hits) = compare(&name, &app, &gpu, &rays);
+        eprintln!("{name}: {exact}/{n} rays agree exactly ({hits} hits)");
+        assert!(hits > n / 10, "{name}: too few hits ({hits}) for the test to mean anything");
+    }
+}
+
+#[test]
+fn a_moved_entity_is_seen_at_its_new_place_in_the_same_frame() {
+    let Some(gpu) = workspace_tests::gpu("a_moved_entity_is_seen_at_its_new_place_in_the_same_frame") else { return };
+    let mut s = SceneDescription { name: "move_test".into(), ..Default::default() };
+    let cube = s.add_mesh(engine::builtin::cuboid("cube", Vec3::splat(0.5)));
+    let m = s.add_material(Material::diffuse("grey", Vec3::splat(0.5)));
+    s.add_node("static", Transform::from_xyz(0.0, 0.0, -10.0), None, vec![NodeContent::Meshes(vec![(cube, m)])]);
+    s.add_node("mover", Transform::IDENTITY, None, vec![NodeContent::Meshes(vec![(cube, m)])]);
+    let mut app = app_for(&gpu, s);
+    let ray_at = |x: f32| GpuRay { origin: [x, 0.0, 5.0], tmin: 0.0, direction: [0.0, 0.0, -1.0], tmax: 1e30 };
+    let before = trace(&app, &gpu, &[ray_at(0.0), ray_at(3.0)], true);
+    assert!((before[0].t - 4.5).abs() < 1e-4, "{before:?}");
+    assert!((before[1].t - 1e30).abs() > 1.0 || before[1].instance == u32::MAX);
+
+    // Move the entity (through its Transform, as game code would) and run one frame.
+    let world = app.world_mut();
+    let mut q = world.query::<(&engine::scene::Name, &mut Transform)>();
+    for (name, mut t) in q.iter_mut(world) {
+        if name.0 == "mover" {
+            t.translation = Vec3::new(3.0, 0.0, 1.0);
+        }
+    }
+    run_headless(&mut app, 1);
+    let after = trace(&app, &gpu, &[ray_at(0.0), ray_at(3.0)], true);
+    // The old place now shows the static cube far behind; the new place shows the mover, nearer.
+    assert!((after[0].t - 14.5).abs() < 1e-3, "old place still occupied: {after:?}");
+    assert!((after[1].t - 3.5).abs() < 1e-4, "mover not at its new place: {after:?}");
+    assert_eq!(after[1].instance, before[0].instance, "the moved entity keeps its instance slot");
+    let stats = app.world().resource::<RayTracingScene>().stats;
+    assert!(!stats.tlas_rebuilt && stats.tlas_refitted_leaves == 1, "a move refits the TLAS: {stats:?}");
+
+    // A static frame does no BVH work.
+    run_headless(&mut app, 1);
+    let stats = app.world().resource::<RayTracingScene>().stats;
+    assert!(!stats.tlas_rebuilt && stats.tlas_refitted_leaves == 0 && stats.tlas_nodes_uploaded == 0, "{stats:?}");
+}
+
+#[test]
+fn rays_parallel_to_axes_from_surfaces_and_past_degenerate_triangles_are_robust() {
+    let Some(gpu) = workspace_tests::gpu("rays_parallel_to_axes_from_surfaces_and_past_degenerate_triangles_are_robust") else { return };
+    let mut s = SceneDescription { name: "robust".into(), ..Default::default() };
+    let mut cube = engine::builtin::cuboid("cube", Vec3::splat(1.0));
+    // Degenerate triangles: a zero-area sliver and a collapsed one, in the middle of the box.
+    let base = cube.positions.len() as u32;
+    cube.positions.extend([Vec3::ZERO, Vec3::new(0.5, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::splat(0.2)]);
+    cube.normals.extend([Vec3::Y; 4]);
+    cube.uvs.extend([Vec2::ZERO; 4]);
+    cube.indices.extend([base, base + 1, base + 2, base + 3, base + 3, base + 3]);
+    let c = s.add_mesh(cube);
+    let m = s.add_material(Material::diffuse("grey", Vec3::splat(0.5)));
+    s.add_node("cube", Transform::IDENTITY, None, vec![NodeContent::Meshes(vec![(c, m)])]);
+    let app = app_for(&gpu, s);
+    let mut rays = Vec::new();
+    for axis in [Vec3::X, Vec3::Y, Vec3::Z, -Vec3::X, -Vec3::Y, -Vec3::Z] {
+        // From outside along an axis, and from exactly on the surface outwards (tmin 0).
+        rays.push(GpuRay { origin: (-axis * 5.0 + Vec3::splat(0.3)).to_array(), tmin: 0.0, direction: axis.to_array(), tmax: 1e30 });
+        rays.push(GpuRay { origin: (axis * 1.0).to_array(), tmin: 1e-4, direction: axis.to_array(), tmax: 1e30 });
+    }
+    let got = trace(&app, &gpu, &rays, true);
+    for (i, (r, g)) in rays.iter().zip(&got).enumerate() {
+        assert!(g.t.is_finite() && !g.barycentrics[0].is_nan(), "ray {i}: {g:?}");
+        if i % 2 == 0 {
+            let expected = -Vec3::from(r.origin).dot(Vec3::from(r.direction)) - 1.0;
+            assert!((g.t - expected).abs() < 1e-4, "axis ray {i} {r:?}: {g:?}, expected t = {expected}");
+            assert_eq!(g.flags & 1, 1, "entering the box hits a front face");
+        } else {
+            assert_eq!(g.instance, u32::MAX, "ray {i} leaving the surface must not hit it: {g:?}");
+        }
+    }
+}
+
+/// A floor of albedo 0.5 under a point light at (1, 2, 0), seen from above; optionally a small box
+/// between the floor's centre and the light.
+fn lit_floor(occluder: bool) -> SceneDescription {
+    let mut s = SceneDescription { name: "lit_floor".into(), ..Default::default() };
+    let floor = s.add_mesh(engine::builtin::quad("floor", Vec2::splat(20.0)));
+    let cube = s.add_mesh(engine::builtin::cuboid("blocker", Vec3::splat(0.1)));
+    let m = s.add_material(Material::diffuse("grey", Vec3::splat(0.5)));
+    s.add_node("floor", Transform::IDENTITY, None, vec![NodeContent::Meshes(vec![(floor, m)])]);
+    if occluder {
+        s.add_node("blocker", Transform::from_xyz(0.5, 1.0, 0.0), None, vec![NodeContent::Meshes(vec![(cube, m)])]);
+    }
+    let camera = Transform::from_xyz(0.0, 5.0, 0.0).looking_at(Vec3::ZERO, Vec3::NEG_Z);
+    s.add_node("camera", camera, None, vec![NodeContent::Camera(Camera { yfov: 0.3, ..Default::default() })]);
+    s.add_node(
+        "light",
+        Transform::from_xyz(1.0, 2.0, 0.0),
+        None,
+        vec![NodeContent::PointLight(PointLight { color: Vec3::ONE, intensity: 10.0, range: None })],
+    );
+    s
+}
+
+#[test]
+fn point_light_irradiance_is_i_cos_over_d2_and_zero_in_shadow() {
+    let Some(gpu) = workspace_tests::gpu("point_light_irradiance_is_i_cos_over_d2_and_zero_in_shadow") else { return };
+    let settings = HeadlessSettings { width: 33, height: 33, ..Default::default() };
+    let centre = |f: &engine::headless::RenderedFrame| f.hdr[((16 * 33 + 16) * 4) as usize];
+    let lit = render_scene(&gpu, lit_floor(false), &settings).expect("render");
+    // Floor centre: d² = 5, cosθ = 2/√5, radiance = albedo/π · I cosθ / d².
+    let expected = 0.5 / std::f32::consts::PI * 10.0 * (2.0 / 5f32.sqrt()) / 5.0;
+    let got = centre(&lit);
+    assert!((got - expected).abs() / expected < 0.01, "unshadowed: got {got}, expected {expected}");
+    let shadowed = render_scene(&gpu, lit_floor(true), &settings).expect("render");
+    assert_eq!(centre(&shadowed), 0.0, "the blocker must cast a hard shadow on the floor's centre");
+}
