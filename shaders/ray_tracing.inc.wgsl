@@ -30,7 +30,10 @@ struct TlasNode {
 @group(0) @binding(10) var<storage, read> tlas_nodes: array<TlasNode>;
 
 const RT_NO_HIT: u32 = 0xffffffffu;
-const RT_STACK_SIZE: u32 = 32u;
+// Far children waiting in the TLAS walk (a PLOC tree of 100k instances is ~40 deep), and node groups
+// waiting in a CWBVH walk (8-wide trees are shallow).
+const RT_TLAS_STACK_SIZE: u32 = 48u;
+const RT_BLAS_STACK_SIZE: u32 = 24u;
 
 struct Ray {
     origin: vec3<f32>,
@@ -167,7 +170,7 @@ fn rt_traverse_blas(blas: GpuBlas, origin: vec3<f32>, dir_in: vec3<f32>, tmin: f
     var best = BlasHit(false, tmax, 0u, vec2<f32>(0.0), false);
     let dir = rt_safe_direction(dir_in);
     let oct_inv4 = rt_octant_inv4(dir);
-    var stack: array<vec2<u32>, RT_STACK_SIZE>;
+    var stack: array<vec2<u32>, RT_BLAS_STACK_SIZE>;
     var sp = 0u;
     // Start with the root as the only inner child of a virtual parent.
     var current = vec2<u32>(0u, 0x80000000u);
@@ -177,7 +180,7 @@ fn rt_traverse_blas(blas: GpuBlas, origin: vec3<f32>, dir_in: vec3<f32>, tmin: f
             let hits = current.y;
             let child_bit = firstLeadingBit(hits);
             current.y &= ~(1u << child_bit);
-            if (current.y & 0xff000000u) != 0u && sp < RT_STACK_SIZE {
+            if (current.y & 0xff000000u) != 0u && sp < RT_BLAS_STACK_SIZE {
                 stack[sp] = current;
                 sp += 1u;
             }
@@ -221,7 +224,7 @@ fn rt_trace(ray: Ray, any_hit: bool) -> RayHit {
     if rt_aabb_entry(root.min, root.max, ray.origin, inv_dir, ray.tmin, ray.tmax) > ray.tmax {
         return best;
     }
-    var stack: array<vec2<u32>, RT_STACK_SIZE>;
+    var stack: array<vec2<u32>, RT_TLAS_STACK_SIZE>;
     var sp = 0u;
     var node = 0u;
     loop {
@@ -255,7 +258,7 @@ fn rt_trace(ray: Ray, any_hit: bool) -> RayHit {
             if hit_a && hit_b {
                 let a_first = ta <= tb;
                 node = select(n.index + 1u, n.index, a_first);
-                if sp < RT_STACK_SIZE {
+                if sp < RT_TLAS_STACK_SIZE {
                     stack[sp] = vec2<u32>(select(n.index, n.index + 1u, a_first), bitcast<u32>(max(ta, tb)));
                     sp += 1u;
                 }

@@ -10,7 +10,8 @@
 //! | [`door_room`]       | light leaking into a closed room whose only way in is a door          |
 //! | [`color_bleed`]     | indirect light that follows a moving spot light (probe update speed)  |
 //!
-//! Get them by name with [`builtin_scene`]; [`BUILTIN_SCENES`] lists the names.
+//! Get them by name with [`builtin_scene`]; [`BUILTIN_SCENES`] lists the names. The list also holds
+//! the large benchmark scenes `cathedral` and `forest` of [`crate::builtin_large`].
 //!
 //! Conventions: Y is up, one unit is a metre, cameras and lights look along their local -Z.
 //! Closed rooms are made of thick boxes that overlap at every edge and corner, so that no ray and
@@ -25,7 +26,7 @@ use crate::scene::{Camera, DirectionalLight, Material, Mesh, NodeContent, Orbit,
 
 /// Names of the built-in scenes, in the order they are documented; each one is accepted by
 /// [`builtin_scene`].
-pub const BUILTIN_SCENES: &[&str] = &["cornell", "ceiling_opening", "door_room", "color_bleed"];
+pub const BUILTIN_SCENES: &[&str] = &["cornell", "ceiling_opening", "door_room", "color_bleed", "cathedral", "forest"];
 
 /// Builds the built-in scene called `name` (one of [`BUILTIN_SCENES`]); `None` for any other name.
 pub fn builtin_scene(name: &str) -> Option<SceneDescription> {
@@ -34,6 +35,8 @@ pub fn builtin_scene(name: &str) -> Option<SceneDescription> {
         "ceiling_opening" => Some(ceiling_opening()),
         "door_room" => Some(door_room()),
         "color_bleed" => Some(color_bleed()),
+        "cathedral" => Some(crate::builtin_large::cathedral()),
+        "forest" => Some(crate::builtin_large::forest()),
         _ => None,
     }
 }
@@ -54,6 +57,7 @@ pub fn builtin_openings(name: &str) -> &'static [Opening] {
         "cornell" => &[CORNELL_FRONT],
         "ceiling_opening" => &[SKYLIGHT],
         "door_room" => &[DOOR],
+        "cathedral" => crate::builtin_large::cathedral_openings(),
         _ => &[],
     }
 }

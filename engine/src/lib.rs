@@ -10,6 +10,7 @@
 
 pub mod app;
 pub mod builtin;
+pub mod builtin_large;
 pub mod gpu;
 pub mod graph;
 pub mod headless;

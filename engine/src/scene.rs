@@ -434,6 +434,20 @@ impl SceneDescription {
         self.meshes.iter().map(Mesh::triangle_count).sum()
     }
 
+    /// Triangles drawn when every mesh instance is counted: the sum over all nodes of the triangle
+    /// counts of the meshes they draw (a mesh drawn by many nodes counts once per node, unlike
+    /// [`SceneDescription::triangle_count`]). References to missing meshes count nothing.
+    pub fn instanced_triangle_count(&self) -> usize {
+        self.nodes
+            .iter()
+            .flat_map(|node| &node.content)
+            .map(|content| match content {
+                NodeContent::Meshes(list) => list.iter().map(|&(mesh, _)| self.meshes.get(mesh).map_or(0, Mesh::triangle_count)).sum(),
+                _ => 0,
+            })
+            .sum()
+    }
+
     pub fn has_camera(&self) -> bool {
         self.nodes.iter().any(|n| n.content.iter().any(|c| matches!(c, NodeContent::Camera(_))))
     }

@@ -4,6 +4,8 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+mod bench;
+
 use clap::{Parser, Subcommand};
 use engine::gpu::{GpuContext, GpuOptions};
 use engine::headless::{HeadlessSettings, render_scene};
@@ -21,11 +23,33 @@ enum Command {
     /// Render a scene without a window: writes image.png (tonemapped sRGB), image.exr (linear
     /// radiance) and timings.json (GPU milliseconds per pass and frame) into --out.
     Render(RenderArgs),
+    /// Benchmarks (results as Markdown tables on standard output).
+    #[command(subcommand)]
+    Bench(BenchCommand),
     /// Open a window and show a scene (Esc quits).
     Play {
         /// A built-in scene name or a .gltf/.glb/.obj file.
         #[arg(long, default_value = "cornell")]
         scene: String,
+    },
+}
+
+#[derive(Subcommand)]
+enum BenchCommand {
+    /// Closest-hit throughput of probe-like rays (grids 16×8×16 … 32×32×32, 32 … 256 rays per probe;
+    /// GPU timestamps of the trace pass alone) and the CPU cost of TLAS updates when instances move.
+    Trace {
+        #[arg(long, default_value = "cathedral")]
+        scene: String,
+        /// Timed dispatches per cell (after 3 warm-up dispatches); the median is reported.
+        #[arg(long, default_value_t = 10)]
+        iterations: u32,
+        /// Skip the flat full-rebuild comparison (slow for very large scenes).
+        #[arg(long)]
+        no_flat_rebuild: bool,
+        /// Skip the GPU throughput table.
+        #[arg(long)]
+        cpu_only: bool,
     },
 }
 
@@ -78,10 +102,62 @@ fn render(args: RenderArgs) -> Result<(), String> {
     Ok(())
 }
 
+fn bench(command: BenchCommand) -> Result<(), String> {
+    let BenchCommand::Trace { scene: name, iterations, no_flat_rebuild, cpu_only } = command;
+    let scene = load(&name)?;
+    let bounds = scene.bounds().ok_or("the scene has no geometry")?;
+    let triangles = scene.instanced_triangle_count();
+    let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
+    let started = std::time::Instant::now();
+    let mut app = bench::prepared_app(&gpu, scene);
+    println!("# bench trace: {name} ({triangles} triangles) on {}", gpu.adapter_name());
+    println!("scene prepared (BLAS and TLAS built, uploaded) in {:.2?}", started.elapsed());
+    if !cpu_only {
+        let cells = bench::trace_throughput(&gpu, &app, bounds, iterations.max(1))?;
+        println!("\n## Closest-hit probe rays, MRays/s (median of {iterations} dispatches, trace pass GPU time)\n");
+        println!("| rays/probe | {} |", bench::GRIDS.map(|g| format!("{}×{}×{}", g[0], g[1], g[2])).join(" | "));
+        println!("|---|{}", "---:|".repeat(bench::GRIDS.len()));
+        for rays in bench::RAYS {
+            let row: Vec<String> = bench::GRIDS
+                .iter()
+                .map(|g| {
+                    cells
+                        .iter()
+                        .find(|c| c.grid == *g && c.rays_per_probe == rays)
+                        .map_or("-".into(), |c| format!("{:.0} ({:.3} ms)", c.mrays_per_second(), c.median_ms))
+                })
+                .collect();
+            println!("| {rays} | {} |", row.join(" | "));
+        }
+    }
+    println!("\n## CPU cost per frame of instance and TLAS updates and uploads (median of 9 frames)\n");
+    println!("| moving instances | CPU ms (total) | of which TLAS refit/rebuild + upload | TLAS rebuilt |");
+    println!("|---:|---:|---:|---|");
+    for count in bench::MOVING {
+        match bench::tlas_update_cost(&mut app, count, 9) {
+            Some((t, tlas, rebuilt)) => {
+                println!(
+                    "| {count} | {:.3} | {:.3} | {} |",
+                    t.as_secs_f64() * 1e3,
+                    tlas.as_secs_f64() * 1e3,
+                    if rebuilt { "yes" } else { "no (refit)" }
+                )
+            }
+            None => println!("| {count} | n/a (fewer instances) | | |"),
+        }
+    }
+    if !no_flat_rebuild {
+        let (t, n) = bench::flat_rebuild_cost(&mut app);
+        println!("\nfull rebuild of one flat CWBVH over all {n} world-space triangles: {:.1} ms", t.as_secs_f64() * 1e3);
+    }
+    Ok(())
+}
+
 fn main() -> ExitCode {
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
     let result = match Cli::parse().command {
         Command::Render(args) => render(args),
+        Command::Bench(command) => bench(command),
         Command::Play { scene } => load(&scene).and_then(|s| engine::window::run_windowed(s).map_err(|e| e.to_string())),
     };
     match result {

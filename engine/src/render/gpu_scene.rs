@@ -364,6 +364,8 @@ pub struct InstanceChanges {
     pub moved: Vec<u32>,
     /// Every slot written this frame.
     pub dirty: Vec<u32>,
+    /// CPU time spent updating and uploading instances this frame.
+    pub cpu_time: std::time::Duration,
 }
 
 fn gpu_instance(instance: &MeshInstance, transform: &GlobalTransform) -> GpuInstance {
@@ -386,24 +388,39 @@ fn gpu_instance(instance: &MeshInstance, transform: &GlobalTransform) -> GpuInst
 impl GpuScene {
     fn upload_instances(&mut self, gpu: &GpuContext, dirty: &[u32]) {
         let needed = (self.slots.data.len() * size_of::<GpuInstance>()) as u64;
-        if needed > self.instances.buffer.size() || dirty.len() * 4 > self.slots.data.len() {
+        if needed > self.instances.buffer.size() {
             self.instances.write(gpu, bytemuck::cast_slice(&self.slots.data));
             return;
         }
-        let mut sorted = dirty.to_vec();
-        sorted.sort_unstable();
-        sorted.dedup();
-        let size = size_of::<GpuInstance>() as u64;
-        let mut start = 0;
-        while start < sorted.len() {
-            let mut end = start + 1;
-            while end < sorted.len() && sorted[end] == sorted[end - 1] + 1 {
-                end += 1;
-            }
-            let (a, b) = (sorted[start] as usize, sorted[end - 1] as usize + 1);
-            gpu.queue.write_buffer(&self.instances.buffer, a as u64 * size, bytemuck::cast_slice(&self.slots.data[a..b]));
-            start = end;
+        let mut sorted: Vec<usize> = dirty.iter().map(|&d| d as usize).collect();
+        write_dirty_ranges(gpu, &self.instances.buffer, &self.slots.data, &mut sorted);
+    }
+}
+
+/// Elements this close together are uploaded in one write with the unchanged ones between them:
+/// one `write_buffer` costs far more than copying a few hundred bytes.
+const MERGE_GAP: usize = 32;
+
+/// Uploads the elements of `data` listed in `dirty` (sorted and deduplicated here) to `buffer`, in as
+/// few writes as possible: runs closer than [`MERGE_GAP`] are merged, and when the runs would cover
+/// most of the array it is written whole.
+pub fn write_dirty_ranges<T: bytemuck::Pod>(gpu: &GpuContext, buffer: &wgpu::Buffer, data: &[T], dirty: &mut Vec<usize>) {
+    dirty.sort_unstable();
+    dirty.dedup();
+    let mut runs: Vec<(usize, usize)> = Vec::new();
+    for &i in dirty.iter().filter(|&&i| i < data.len()) {
+        match runs.last_mut() {
+            Some((_, end)) if i <= *end + MERGE_GAP => *end = i + 1,
+            _ => runs.push((i, i + 1)),
         }
+    }
+    let covered: usize = runs.iter().map(|(a, b)| b - a).sum();
+    if covered * 2 > data.len() {
+        runs = vec![(0, data.len())];
+    }
+    let size = size_of::<T>() as u64;
+    for (a, b) in runs {
+        gpu.queue.write_buffer(buffer, a as u64 * size, bytemuck::cast_slice(&data[a..b]));
     }
 }
 
@@ -445,6 +462,7 @@ pub fn prepare_gpu_scene(
     scene.seen_generations = Some(generations);
 
     // Instances: persistent slots, written only when an instance is added, moved or removed.
+    let instances_started = std::time::Instant::now();
     scene.changes = InstanceChanges::default();
     for entity in removed.read() {
         if let Some(slot) = scene.slots.release(entity) {
@@ -485,6 +503,7 @@ pub fn prepare_gpu_scene(
     let dirty = std::mem::take(&mut scene.changes.dirty);
     scene.upload_instances(&gpu, &dirty);
     scene.changes.dirty = dirty;
+    scene.changes.cpu_time = instances_started.elapsed();
 
     // Lights.
     let mut lights: Vec<GpuLight> = Vec::new();

@@ -396,20 +396,10 @@ impl RayTracingScene {
         for (&i, node) in dirty.iter().zip(updated) {
             self.gpu_tlas[i] = node;
         }
-        // Upload contiguous runs of changed nodes.
-        let node_size = size_of::<TlasNode>() as u64;
-        let mut start = 0;
-        while start < dirty.len() {
-            let mut end = start + 1;
-            while end < dirty.len() && dirty[end] == dirty[end - 1] + 1 {
-                end += 1;
-            }
-            let (a, b) = (dirty[start], dirty[end - 1] + 1);
-            gpu.queue.write_buffer(&self.tlas_nodes.buffer, a as u64 * node_size, bytemuck::cast_slice(&self.gpu_tlas[a..b]));
-            start = end;
-        }
+        let uploaded = dirty.len();
+        crate::render::gpu_scene::write_dirty_ranges(gpu, &self.tlas_nodes.buffer, &self.gpu_tlas, &mut dirty);
         self.stats.tlas_refitted_leaves += moved.len();
-        self.stats.tlas_nodes_uploaded += dirty.len();
+        self.stats.tlas_nodes_uploaded += uploaded;
         true
     }
 }
