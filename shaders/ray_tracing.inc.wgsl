@@ -231,11 +231,12 @@ fn rt_trace(ray: Ray, any_hit: bool) -> RayHit {
         let n = tlas_nodes[node];
         var descend = false;
         if n.count > 0u {
-            let instance = instances[n.index];
-            let blas = blas_info[instance.mesh];
+            // Only the two fields traversal needs: the instance record is 208 bytes.
+            let blas = blas_info[instances[n.index].mesh];
             if blas.node_offset != RT_NO_HIT {
-                let origin = (instance.local_from_world * vec4<f32>(ray.origin, 1.0)).xyz;
-                let dir = (instance.local_from_world * vec4<f32>(ray.direction, 0.0)).xyz;
+                let local_from_world = instances[n.index].local_from_world;
+                let origin = (local_from_world * vec4<f32>(ray.origin, 1.0)).xyz;
+                let dir = (local_from_world * vec4<f32>(ray.direction, 0.0)).xyz;
                 let h = rt_traverse_blas(blas, origin, dir, ray.tmin, best.t, any_hit);
                 if h.hit {
                     best.t = h.t;

@@ -267,3 +267,27 @@ fn point_light_irradiance_is_i_cos_over_d2_and_zero_in_shadow() {
     let shadowed = render_scene(&gpu, lit_floor(true), &settings).expect("render");
     assert_eq!(centre(&shadowed), 0.0, "the blocker must cast a hard shadow on the floor's centre");
 }
+
+#[test]
+fn after_many_moves_and_refits_hits_still_match_the_cpu_reference() {
+    let Some(gpu) = workspace_tests::gpu("after_many_moves_and_refits_hits_still_match_the_cpu_reference") else { return };
+    let scene = cuboid_scene();
+    let bounds = scene.bounds().expect("bounds");
+    let mut app = app_for(&gpu, scene);
+    let mut rng = Rng(77);
+    let mut refits = 0;
+    for _ in 0..6 {
+        let world = app.world_mut();
+        let mut q = world.query_filtered::<&mut Transform, bevy_ecs::query::With<engine::scene::MeshInstance>>();
+        for mut t in q.iter_mut(world) {
+            if rng.next() < 0.5 {
+                t.translation += Vec3::new(rng.range(-0.3, 0.3), rng.range(-0.3, 0.3), rng.range(-0.3, 0.3));
+                t.rotation *= Quat::from_rotation_y(rng.range(-0.5, 0.5));
+            }
+        }
+        run_headless(&mut app, 1);
+        refits += app.world().resource::<RayTracingScene>().stats.tlas_refitted_leaves;
+    }
+    assert!(refits > 0, "the moves must have exercised the refit path");
+    compare("moved", &app, &gpu, &random_rays(bounds, 3000, 4242));
+}

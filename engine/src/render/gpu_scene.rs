@@ -386,42 +386,81 @@ fn gpu_instance(instance: &MeshInstance, transform: &GlobalTransform) -> GpuInst
 }
 
 impl GpuScene {
-    fn upload_instances(&mut self, gpu: &GpuContext, dirty: &[u32]) {
+    fn upload_instances(&mut self, gpu: &GpuContext, uploads: &mut Uploads, dirty: &[u32]) {
         let needed = (self.slots.data.len() * size_of::<GpuInstance>()) as u64;
         if needed > self.instances.buffer.size() {
             self.instances.write(gpu, bytemuck::cast_slice(&self.slots.data));
             return;
         }
         let mut sorted: Vec<usize> = dirty.iter().map(|&d| d as usize).collect();
-        write_dirty_ranges(gpu, &self.instances.buffer, &self.slots.data, &mut sorted);
+        uploads.write_dirty_ranges(gpu, &self.instances.buffer, &self.slots.data, &mut sorted);
     }
 }
 
-/// Elements this close together are uploaded in one write with the unchanged ones between them:
-/// one `write_buffer` costs far more than copying a few hundred bytes.
-const MERGE_GAP: usize = 32;
+/// Changed elements whose gap is at most this many bytes are uploaded in one copy, with the
+/// unchanged ones between them.
+const MERGE_GAP_BYTES: usize = 1024;
 
-/// Uploads the elements of `data` listed in `dirty` (sorted and deduplicated here) to `buffer`, in as
-/// few writes as possible: runs closer than [`MERGE_GAP`] are merged, and when the runs would cover
-/// most of the array it is written whole.
-pub fn write_dirty_ranges<T: bytemuck::Pod>(gpu: &GpuContext, buffer: &wgpu::Buffer, data: &[T], dirty: &mut Vec<usize>) {
-    dirty.sort_unstable();
-    dirty.dedup();
-    let mut runs: Vec<(usize, usize)> = Vec::new();
-    for &i in dirty.iter().filter(|&&i| i < data.len()) {
-        match runs.last_mut() {
-            Some((_, end)) if i <= *end + MERGE_GAP => *end = i + 1,
-            _ => runs.push((i, i + 1)),
+/// Small scattered buffer updates, staged through a [`wgpu::util::StagingBelt`] and recorded as
+/// copies in one encoder that the render stage submits first ([`flush_uploads`]). Cheaper than one
+/// `queue.write_buffer` (each a staging allocation) per changed range.
+#[derive(Resource)]
+pub struct Uploads {
+    belt: wgpu::util::StagingBelt,
+    encoder: Option<wgpu::CommandEncoder>,
+}
+
+impl Uploads {
+    pub fn new(gpu: &GpuContext) -> Self {
+        Self { belt: wgpu::util::StagingBelt::new(gpu.device.clone(), 1 << 20), encoder: None }
+    }
+
+    /// Copies `bytes` (a multiple of 4 long) to `buffer` at `offset` before this frame's passes run.
+    pub fn write(&mut self, gpu: &GpuContext, buffer: &wgpu::Buffer, offset: u64, bytes: &[u8]) {
+        let Some(size) = wgpu::BufferSize::new(bytes.len() as u64) else { return };
+        let encoder = self
+            .encoder
+            .get_or_insert_with(|| gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("uploads") }));
+        self.belt.write_buffer(encoder, buffer, offset, size).copy_from_slice(bytes);
+    }
+
+    /// Uploads the elements of `data` listed in `dirty` (sorted and deduplicated here) to `buffer`:
+    /// runs closer than [`MERGE_GAP_BYTES`] are merged, and when the runs cover most of the array it
+    /// is copied whole.
+    pub fn write_dirty_ranges<T: bytemuck::Pod>(&mut self, gpu: &GpuContext, buffer: &wgpu::Buffer, data: &[T], dirty: &mut Vec<usize>) {
+        dirty.sort_unstable();
+        dirty.dedup();
+        let gap = (MERGE_GAP_BYTES / size_of::<T>().max(1)).max(1);
+        let mut runs: Vec<(usize, usize)> = Vec::new();
+        for &i in dirty.iter().filter(|&&i| i < data.len()) {
+            match runs.last_mut() {
+                Some((_, end)) if i <= *end + gap => *end = i + 1,
+                _ => runs.push((i, i + 1)),
+            }
+        }
+        let covered: usize = runs.iter().map(|(a, b)| b - a).sum();
+        if covered * 2 > data.len() {
+            runs = vec![(0, data.len())];
+        }
+        let size = size_of::<T>() as u64;
+        for (a, b) in runs {
+            self.write(gpu, buffer, a as u64 * size, bytemuck::cast_slice(&data[a..b]));
         }
     }
-    let covered: usize = runs.iter().map(|(a, b)| b - a).sum();
-    if covered * 2 > data.len() {
-        runs = vec![(0, data.len())];
+
+    /// Submits the recorded copies (render stage, before any pass).
+    pub fn flush(&mut self, gpu: &GpuContext) {
+        if let Some(encoder) = self.encoder.take() {
+            self.belt.finish();
+            gpu.queue.submit([encoder.finish()]);
+            self.belt.recall();
+        }
     }
-    let size = size_of::<T>() as u64;
-    for (a, b) in runs {
-        gpu.queue.write_buffer(buffer, a as u64 * size, bytemuck::cast_slice(&data[a..b]));
-    }
+}
+
+/// Render stage, first: submits the frame's staged buffer updates.
+pub fn flush_uploads(gpu: Res<GpuContext>, mut uploads: ResMut<Uploads>) {
+    uploads.flush(&gpu);
 }
 
 fn mat4_cols(m: Mat4) -> [[f32; 4]; 4] {
@@ -436,6 +475,7 @@ type ChangedInstance = Or<(Changed<GlobalTransform>, Changed<MeshInstance>)>;
 pub fn prepare_gpu_scene(
     gpu: Res<GpuContext>,
     mut scene: ResMut<GpuScene>,
+    mut uploads: ResMut<Uploads>,
     size: Res<RenderSize>,
     sky: Res<SkyRadiance>,
     meshes: Res<Assets<Mesh>>,
@@ -501,7 +541,7 @@ pub fn prepare_gpu_scene(
         scene.draws = draws;
     }
     let dirty = std::mem::take(&mut scene.changes.dirty);
-    scene.upload_instances(&gpu, &dirty);
+    scene.upload_instances(&gpu, &mut uploads, &dirty);
     scene.changes.dirty = dirty;
     scene.changes.cpu_time = instances_started.elapsed();
 

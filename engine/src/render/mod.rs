@@ -53,8 +53,9 @@ impl Plugin for RenderPlugin {
             .init_resource::<GpuTimer>()
             .init_resource::<FrameTimings>()
             .insert_resource(crate::rt::RayTracingScene::new(&self.gpu))
+            .insert_resource(gpu_scene::Uploads::new(&self.gpu))
             .add_systems(Prepare, (prepare_render_outputs, prepare_gpu_scene, crate::rt::prepare_ray_tracing_scene).chain())
-            .add_systems(Render, render_camera_frame);
+            .add_systems(Render, (gpu_scene::flush_uploads, render_camera_frame).chain());
     }
 }
 

@@ -27,16 +27,20 @@ use bytemuck::{Pod, Zeroable};
 use glam::{Affine3A, Vec3, Vec3A};
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
+use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
 use obvhs::cwbvh::CwBvh;
 use obvhs::ploc::{PlocBuilder, PlocSearchDistance, SortPrecision};
 use obvhs::triangle::Triangle;
 
 use crate::gpu::GpuContext;
-use crate::render::gpu_scene::{GpuScene, GrowableBuffer};
+use crate::render::gpu_scene::{GpuScene, GrowableBuffer, Uploads};
 use crate::scene::{Assets, Mesh};
 
 /// Meshes with more triangles than this get their BLAS built on a worker thread.
 pub const ASYNC_BLAS_TRIANGLES: usize = 200_000;
+
+/// Share of TLAS nodes the reinsertion optimizer revisits after a build.
+pub const TLAS_REINSERTION_RATIO: f32 = 0.1;
 
 /// The TLAS is rebuilt when refitting has raised its normalized SAH cost by this factor.
 pub const TLAS_REBUILD_COST_RATIO: f64 = 1.5;
@@ -158,6 +162,10 @@ pub struct RayTracingScene {
     /// [`TLAS_REBUILD_COST_RATIO`] times its built value the TLAS is rebuilt.
     inner_area: f64,
     built_cost: f64,
+    /// Depth of each TLAS node (root 0), for bottom-up refits.
+    node_depth: Vec<u16>,
+    /// Scratch: inner nodes already queued for refit.
+    marked: Vec<bool>,
     pub stats: BvhFrameStats,
 }
 
@@ -182,6 +190,8 @@ impl RayTracingScene {
             gpu_tlas: Vec::new(),
             inner_area: 0.0,
             built_cost: 0.0,
+            node_depth: Vec::new(),
+            marked: Vec::new(),
             stats: BvhFrameStats::default(),
         };
         scene.upload_tlas_all(gpu);
@@ -323,8 +333,24 @@ impl RayTracingScene {
             self.tlas = None;
         } else {
             let indices = (0..aabbs.len() as u32).collect();
-            let mut bvh = PlocBuilder::with_capacity(aabbs.len()).build(PlocSearchDistance::Medium, &aabbs, indices, SortPrecision::U64, 1);
-            bvh.init_parents_if_uninit();
+            let mut bvh = PlocBuilder::with_capacity(aabbs.len()).build(PlocSearchDistance::High, &aabbs, indices, SortPrecision::U64, 2);
+            // Reinsertion lowers the SAH cost of the tree PLOC builds: overlapping instance bounds
+            // (a forest's trees) make a TLAS's quality matter.
+            ReinsertionOptimizer::default().run(&mut bvh, TLAS_REINSERTION_RATIO, None);
+            bvh.update_parents();
+            // Reinsertion leaves nodes in no particular order: walk down from the root.
+            self.node_depth = vec![0; bvh.nodes.len()];
+            let mut stack = vec![0usize];
+            while let Some(i) = stack.pop() {
+                let n = bvh.nodes[i];
+                if !n.is_leaf() {
+                    let d = self.node_depth[i].saturating_add(1);
+                    for child in [n.first_index as usize, n.first_index as usize + 1] {
+                        self.node_depth[child] = d;
+                        stack.push(child);
+                    }
+                }
+            }
             self.inner_area = bvh.nodes.iter().filter(|n| !n.is_leaf()).map(|n| f64::from(n.aabb().half_area())).sum();
             self.built_cost = self.inner_area / f64::from(bvh.nodes[0].aabb().half_area()).max(f64::MIN_POSITIVE);
             self.tlas = Some(bvh);
@@ -359,9 +385,13 @@ impl RayTracingScene {
 
     /// Moves the leaves of the given instances and refits their ancestors; uploads the changed nodes.
     /// Returns false when the TLAS should be rebuilt instead (an instance is not in it, or quality decayed).
-    fn refit_tlas(&mut self, gpu: &GpuContext, moved: &[(u32, u32, Affine3A)]) -> bool {
+    fn refit_tlas(&mut self, gpu: &GpuContext, uploads: &mut Uploads, moved: &[(u32, u32, Affine3A)]) -> bool {
         let Some(mut bvh) = self.tlas.take() else { return moved.is_empty() };
-        let mut dirty: Vec<usize> = Vec::with_capacity(moved.len() * 8);
+        // Move the leaves, then refit each affected inner node once, deepest first.
+        let mut dirty: Vec<usize> = Vec::with_capacity(moved.len() * 4);
+        let mut inner: Vec<usize> = Vec::new();
+        self.marked.clear();
+        self.marked.resize(bvh.nodes.len(), false);
         let mut ok = true;
         for &(slot, mesh, world) in moved {
             let (Some(&leaf), Some(aabb)) = (self.slot_leaf.get(&slot), self.instance_aabb(mesh, &world)) else {
@@ -373,11 +403,18 @@ impl RayTracingScene {
             let mut index = leaf;
             while index != 0 {
                 index = bvh.parents[index] as usize;
-                let first = bvh.nodes[index].first_index as usize;
-                let union = bvh.nodes[first].aabb().union(bvh.nodes[first + 1].aabb());
-                if *bvh.nodes[index].aabb() == union {
+                if self.marked[index] {
                     break;
                 }
+                self.marked[index] = true;
+                inner.push(index);
+            }
+        }
+        inner.sort_unstable_by_key(|&i| std::cmp::Reverse(self.node_depth[i]));
+        for &index in &inner {
+            let first = bvh.nodes[index].first_index as usize;
+            let union = bvh.nodes[first].aabb().union(bvh.nodes[first + 1].aabb());
+            if *bvh.nodes[index].aabb() != union {
                 self.inner_area += f64::from(union.half_area()) - f64::from(bvh.nodes[index].aabb().half_area());
                 bvh.nodes[index].set_aabb(union);
                 dirty.push(index);
@@ -397,7 +434,7 @@ impl RayTracingScene {
             self.gpu_tlas[i] = node;
         }
         let uploaded = dirty.len();
-        crate::render::gpu_scene::write_dirty_ranges(gpu, &self.tlas_nodes.buffer, &self.gpu_tlas, &mut dirty);
+        uploads.write_dirty_ranges(gpu, &self.tlas_nodes.buffer, &self.gpu_tlas, &mut dirty);
         self.stats.tlas_refitted_leaves += moved.len();
         self.stats.tlas_nodes_uploaded += uploaded;
         true
@@ -415,6 +452,7 @@ pub fn prepare_ray_tracing_scene(
     meshes: Res<Assets<Mesh>>,
     scene: Res<GpuScene>,
     wait: Option<Res<WaitForBlasBuilds>>,
+    mut uploads: ResMut<Uploads>,
     mut rt: ResMut<RayTracingScene>,
 ) {
     let started = Instant::now();
@@ -432,7 +470,7 @@ pub fn prepare_ray_tracing_scene(
     } else if !changes.moved.is_empty() {
         let moved: Vec<(u32, u32, Affine3A)> =
             changes.moved.iter().filter_map(|&slot| scene.instance_placement(slot).map(|(m, w)| (slot, m, w))).collect();
-        if !rt.refit_tlas(&gpu, &moved) {
+        if !rt.refit_tlas(&gpu, &mut uploads, &moved) {
             rt.rebuild_tlas(&gpu, &scene.live_instances());
         }
     }
