@@ -13,6 +13,11 @@ struct GpuBlas {
     triangle_offset: u32,
     node_count: u32,
     triangle_count: u32,
+    // Where the mesh's indices and vertices start in `indices` and `vertices`.
+    first_index: u32,
+    base_vertex: u32,
+    _pad0: u32,
+    _pad1: u32,
 }
 
 // Leaves: count > 0 and index = instance slot. Inner nodes: children at index and index + 1.
@@ -28,6 +33,7 @@ struct TlasNode {
 @group(0) @binding(8) var<storage, read> blas_triangles: array<vec4<f32>>;
 @group(0) @binding(9) var<storage, read> blas_info: array<GpuBlas>;
 @group(0) @binding(10) var<storage, read> tlas_nodes: array<TlasNode>;
+@group(0) @binding(11) var<storage, read> indices: array<u32>;
 
 const RT_NO_HIT: u32 = 0xffffffffu;
 // Far children waiting in the TLAS walk (a PLOC tree of 100k instances is ~40 deep), and node groups
@@ -307,4 +313,45 @@ fn offset_ray_origin(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     let of_i = vec3<i32>(int_scale * n);
     let p_i = bitcast<vec3<f32>>(bitcast<vec3<i32>>(p) + select(of_i, -of_i, p < vec3<f32>(0.0)));
     return select(p_i, p + float_scale * n, abs(p) < vec3<f32>(origin));
+}
+
+// What a ray sees at a hit: position, normals facing the ray, and the material there.
+struct HitSurface {
+    position: vec3<f32>,
+    // Interpolated vertex normal, on the side the ray came from.
+    normal: vec3<f32>,
+    // Triangle normal, on the side the ray came from (for offsetting new rays).
+    geometric_normal: vec3<f32>,
+    uv: vec2<f32>,
+    albedo: vec3<f32>,
+    emissive: vec3<f32>,
+}
+
+// Interpolates the hit triangle's attributes and evaluates its material (base colour and emission,
+// textures included). Call only for hits (hit.instance != RT_NO_HIT).
+fn hit_surface(ray: Ray, hit: RayHit) -> HitSurface {
+    let instance = instances[hit.instance];
+    let blas = blas_info[instance.mesh];
+    let base = blas.first_index + 3u * hit.primitive;
+    let a = vertices[indices[base] + blas.base_vertex];
+    let b = vertices[indices[base + 1u] + blas.base_vertex];
+    let c = vertices[indices[base + 2u] + blas.base_vertex];
+    let w = vec3<f32>(1.0 - hit.barycentrics.x - hit.barycentrics.y, hit.barycentrics.x, hit.barycentrics.y);
+    var out: HitSurface;
+    out.position = ray.origin + ray.direction * hit.t;
+    let facing = select(-1.0, 1.0, hit.front_face);
+    let local_n = a.normal * w.x + b.normal * w.y + c.normal * w.z;
+    let ng_local = cross(b.position - a.position, c.position - a.position);
+    let fallback = -safe_normalize(ray.direction, vec3<f32>(0.0, 0.0, 1.0));
+    out.geometric_normal = facing * safe_normalize((instance.normal_from_local * vec4<f32>(ng_local, 0.0)).xyz, fallback);
+    out.normal = safe_normalize((instance.normal_from_local * vec4<f32>(local_n, 0.0)).xyz, out.geometric_normal);
+    // Shade the side the ray sees: flip a vertex normal that points away from the ray.
+    if dot(out.normal, out.geometric_normal) < 0.0 {
+        out.normal = -out.normal;
+    }
+    out.uv = vec2<f32>(a.u, a.v) * w.x + vec2<f32>(b.u, b.v) * w.y + vec2<f32>(c.u, c.v) * w.z;
+    let m = eval_material(instance.material, out.uv);
+    out.albedo = m.albedo;
+    out.emissive = m.emissive;
+    return out;
 }

@@ -10,6 +10,9 @@ struct TraceResult {
     barycentrics: vec2<f32>,
     any_hit: u32,
     _pad: u32,
+    // Material at the hit (zero for misses).
+    albedo: vec4<f32>,
+    emissive: vec4<f32>,
 }
 
 struct TraceParams {
@@ -36,5 +39,12 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if trace_params.with_any_hit != 0u && trace_any(ray) {
         any = 1u;
     }
-    trace_results[i] = TraceResult(h.t, h.instance, h.primitive, select(0u, 1u, h.front_face), h.barycentrics, any, 0u);
+    var albedo = vec3<f32>(0.0);
+    var emissive = vec3<f32>(0.0);
+    if h.instance != RT_NO_HIT {
+        let surface = hit_surface(ray, h);
+        albedo = surface.albedo;
+        emissive = surface.emissive;
+    }
+    trace_results[i] = TraceResult(h.t, h.instance, h.primitive, select(0u, 1u, h.front_face), h.barycentrics, any, 0u, vec4<f32>(albedo, 0.0), vec4<f32>(emissive, 0.0));
 }

@@ -291,3 +291,57 @@ fn after_many_moves_and_refits_hits_still_match_the_cpu_reference() {
     assert!(refits > 0, "the moves must have exercised the refit path");
     compare("moved", &app, &gpu, &random_rays(bounds, 3000, 4242));
 }
+
+fn srgb_to_linear(c: u8) -> f32 {
+    let c = f32::from(c) / 255.0;
+    if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+}
+
+#[test]
+fn hits_report_the_material_with_texture_and_texture_transform() {
+    use engine::scene::{Handle, Image, TextureRef, UvTransform};
+    let Some(gpu) = workspace_tests::gpu("hits_report_the_material_with_texture_and_texture_transform") else { return };
+    // A 2×2 texture: red, green / blue, white (sRGB bytes), on a quad whose uv is ((x+1)/2, (z+1)/2).
+    let texels: [[u8; 4]; 4] = [[200, 30, 30, 255], [30, 200, 30, 255], [30, 30, 200, 255], [250, 250, 250, 255]];
+    let quad = Mesh {
+        name: "quad".into(),
+        positions: vec![Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 0.0, -1.0), Vec3::new(1.0, 0.0, 1.0), Vec3::new(-1.0, 0.0, 1.0)],
+        normals: vec![Vec3::Y; 4],
+        uvs: vec![Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0), Vec2::new(0.0, 1.0)],
+        indices: vec![0, 2, 1, 0, 3, 2],
+    };
+    let mut s = SceneDescription { name: "textured".into(), ..Default::default() };
+    s.images.push(Image { name: "checker".into(), width: 2, height: 2, rgba8: texels.concat() });
+    let q = s.add_mesh(quad);
+    let factor = glam::Vec4::new(1.0, 0.5, 1.0, 1.0);
+    let texture = |offset: Vec2| Some(TextureRef { image: Handle::from_index(0), transform: UvTransform { offset, ..Default::default() } });
+    let plain = s.add_material(Material {
+        base_color: factor,
+        base_color_texture: texture(Vec2::ZERO),
+        emissive: Vec3::new(2.0, 1.0, 0.5),
+        emissive_strength: 3.0,
+        ..Default::default()
+    });
+    let shifted = s.add_material(Material { base_color: factor, base_color_texture: texture(Vec2::new(0.5, 0.0)), ..Default::default() });
+    s.add_node("plain", Transform::IDENTITY, None, vec![NodeContent::Meshes(vec![(q, plain)])]);
+    s.add_node("shifted", Transform::from_xyz(10.0, 0.0, 0.0), None, vec![NodeContent::Meshes(vec![(q, shifted)])]);
+    let app = app_for(&gpu, s);
+    let down = |x: f32, z: f32| GpuRay { origin: [x, 1.0, z], tmin: 0.0, direction: [0.0, -1.0, 0.0], tmax: 1e30 };
+    for (col, row) in [(0usize, 0usize), (1, 0), (0, 1), (1, 1)] {
+        let (x, z) = (col as f32 - 0.5, row as f32 - 0.5);
+        let got = trace(&app, &gpu, &[down(x, z), down(x + 10.0, z)], false);
+        for (k, hit) in got.iter().enumerate() {
+            // The transform's offset of half the texture swaps the columns.
+            let texel = texels[row * 2 + if k == 0 { col } else { 1 - col }];
+            let expected = Vec3::new(srgb_to_linear(texel[0]), srgb_to_linear(texel[1]), srgb_to_linear(texel[2])) * factor.truncate();
+            let albedo = Vec3::from_slice(&hit.albedo[..3]);
+            assert!(
+                (albedo - expected).abs().max_element() < 0.01,
+                "quadrant ({col}, {row}) instance {k}: albedo {albedo}, expected {expected}"
+            );
+        }
+        let emissive = Vec3::from_slice(&got[0].emissive[..3]);
+        assert!((emissive - Vec3::new(6.0, 3.0, 1.5)).abs().max_element() < 1e-4, "emissive {emissive}");
+        assert_eq!(got[1].emissive[..3], [0.0; 3]);
+    }
+}

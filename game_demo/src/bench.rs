@@ -79,9 +79,7 @@ pub fn trace_throughput(gpu: &GpuContext, app: &App, bounds: (Vec3, Vec3), itera
     let program = compute_program(&gpu.device, "bench_trace.wgsl", "main", "trace").map_err(|e| e.to_string())?;
     let scene = app.world().resource::<GpuScene>();
     let rt = app.world().resource::<RayTracingScene>();
-    let mut group0 = scene.bindings();
-    group0.extend(rt.bindings());
-    let group0 = program.bind_group(&gpu.device, 0, &group0);
+    let group0 = program.bind_group(&gpu.device, 0, &rt.scene_bindings(scene));
     let max_rays = GRIDS.iter().map(|g| g[0] * g[1] * g[2]).max().unwrap_or(1) * RAYS.iter().max().unwrap_or(&1);
     let hits = gpu.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("bench_hits"),

@@ -149,6 +149,7 @@ impl GpuScene {
             ("atlas_sampler", wgpu::BindingResource::Sampler(&self.sampler)),
             ("vertices", self.vertices.buffer.as_entire_binding()),
             ("instances", self.instances.buffer.as_entire_binding()),
+            ("indices", self.indices.buffer.as_entire_binding()),
         ]
     }
 

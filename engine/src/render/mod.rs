@@ -264,8 +264,7 @@ pub fn render_camera_frame(
     let mut emissive = graph.create_texture("gbuffer_emissive", texture_desc(size, EMISSIVE_FORMAT, attachment));
     let mut hdr = graph.import_texture("hdr_radiance", &outputs.hdr);
     let mut ldr = graph.import_texture("ldr_image", &outputs.ldr);
-    let mut scene_bindings = scene.bindings();
-    scene_bindings.extend(rt.bindings());
+    let scene_bindings = rt.scene_bindings(&scene);
 
     // G-buffer: rasterize every instance.
     {

@@ -28,6 +28,10 @@ pub struct TraceResult {
     /// 1 when any-hit reported an occluder.
     pub any_hit: u32,
     pub _pad: u32,
+    /// Base colour at the hit (RGB, w unused), textures applied.
+    pub albedo: [f32; 4],
+    /// Emitted radiance at the hit (RGB, w unused).
+    pub emissive: [f32; 4],
 }
 
 /// The closest hit found by the CPU reference.

@@ -95,6 +95,11 @@ pub struct GpuBlas {
     pub triangle_offset: u32,
     pub node_count: u32,
     pub triangle_count: u32,
+    /// Where the mesh's indices and vertices start in the scene's shared buffers (attributes at hits).
+    pub first_index: u32,
+    pub base_vertex: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
 }
 
 /// A TLAS node as the GPU reads it. Mirrors WGSL `TlasNode`. Leaves have `count > 0` and `index` is
@@ -208,6 +213,13 @@ impl RayTracingScene {
         ]
     }
 
+    /// Everything `ray_tracing.inc.wgsl` binds: the GPU scene's bindings and the BVHs'.
+    pub fn scene_bindings<'a>(&'a self, scene: &'a GpuScene) -> Vec<(&'static str, wgpu::BindingResource<'a>)> {
+        let mut all = scene.bindings();
+        all.extend(self.bindings());
+        all
+    }
+
     /// The TLAS as uploaded (CPU copy).
     pub fn tlas_nodes_cpu(&self) -> &[TlasNode] {
         &self.gpu_tlas
@@ -280,24 +292,29 @@ impl RayTracingScene {
         any
     }
 
-    fn upload_blas(&mut self, gpu: &GpuContext) {
+    fn upload_blas(&mut self, gpu: &GpuContext, scene: &GpuScene) {
         let mut nodes: Vec<u8> = Vec::new();
         let mut triangles: Vec<[f32; 12]> = Vec::new();
         self.gpu_blas.clear();
-        for blas in &self.blas {
-            let info = match blas {
-                Some(b) if !b.nodes.is_empty() => {
+        for (mesh, blas) in self.blas.iter().enumerate() {
+            let range = scene.mesh_ranges.get(mesh);
+            let info = match (blas, range) {
+                (Some(b), Some(range)) if !b.nodes.is_empty() => {
                     let info = GpuBlas {
                         node_offset: (nodes.len() / 80) as u32,
                         triangle_offset: triangles.len() as u32,
                         node_count: b.nodes.len() as u32,
                         triangle_count: b.triangles.len() as u32,
+                        first_index: range.indices.start,
+                        base_vertex: range.base_vertex as u32,
+                        _pad0: 0,
+                        _pad1: 0,
                     };
                     nodes.extend_from_slice(bytemuck::cast_slice(&b.nodes));
                     triangles.extend_from_slice(&b.triangles);
                     info
                 }
-                _ => GpuBlas { node_offset: u32::MAX, triangle_offset: 0, node_count: 0, triangle_count: 0 },
+                _ => GpuBlas { node_offset: u32::MAX, ..GpuBlas::zeroed() },
             };
             self.gpu_blas.push(info);
         }
@@ -462,7 +479,7 @@ pub fn prepare_ray_tracing_scene(
     }
     let new_blas = rt.receive_blas(wait.is_some_and(|w| w.0));
     if new_blas {
-        rt.upload_blas(&gpu);
+        rt.upload_blas(&gpu, &scene);
     }
     let changes = scene.instance_changes();
     if new_blas || changes.structure_changed {
@@ -506,10 +523,8 @@ impl RayTracer {
         rays: &wgpu::Buffer,
         results: &wgpu::Buffer,
     ) -> [wgpu::BindGroup; 2] {
-        let mut group0 = scene.bindings();
-        group0.extend(rt.bindings());
         [
-            self.program.bind_group(&gpu.device, 0, &group0),
+            self.program.bind_group(&gpu.device, 0, &rt.scene_bindings(scene)),
             self.program.bind_group(
                 &gpu.device,
                 1,
