@@ -15,7 +15,7 @@ fn vs_main(@builtin(vertex_index) vertex_index: u32, @builtin(instance_index) in
     var out: VertexOut;
     let world = instance.world_from_local * vec4<f32>(v.position, 1.0);
     out.clip = view.clip_from_world * world;
-    out.normal = (instance.normal_from_local * vec4<f32>(v.normal, 0.0)).xyz;
+    out.normal = instance_normal_to_world(instance_index, v.normal);
     out.uv = vec2<f32>(v.u, v.v);
     out.material = instance.material;
     return out;

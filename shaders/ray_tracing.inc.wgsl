@@ -237,7 +237,7 @@ fn rt_trace(ray: Ray, any_hit: bool) -> RayHit {
         let n = tlas_nodes[node];
         var descend = false;
         if n.count > 0u {
-            // Only the two fields traversal needs: the instance record is 208 bytes.
+            // Only the two fields traversal needs, not the whole instance record.
             let blas = blas_info[instances[n.index].mesh];
             if blas.node_offset != RT_NO_HIT {
                 let local_from_world = instances[n.index].local_from_world;
@@ -343,8 +343,8 @@ fn hit_surface(ray: Ray, hit: RayHit) -> HitSurface {
     let local_n = a.normal * w.x + b.normal * w.y + c.normal * w.z;
     let ng_local = cross(b.position - a.position, c.position - a.position);
     let fallback = -safe_normalize(ray.direction, vec3<f32>(0.0, 0.0, 1.0));
-    out.geometric_normal = facing * safe_normalize((instance.normal_from_local * vec4<f32>(ng_local, 0.0)).xyz, fallback);
-    out.normal = safe_normalize((instance.normal_from_local * vec4<f32>(local_n, 0.0)).xyz, out.geometric_normal);
+    out.geometric_normal = facing * safe_normalize(instance_normal_to_world(hit.instance, ng_local), fallback);
+    out.normal = safe_normalize(instance_normal_to_world(hit.instance, local_n), out.geometric_normal);
     // Shade the side the ray sees: flip a vertex normal that points away from the ray.
     if dot(out.normal, out.geometric_normal) < 0.0 {
         out.normal = -out.normal;

@@ -23,9 +23,8 @@ struct GpuVertex {
 
 struct GpuInstance {
     world_from_local: mat4x4<f32>,
-    // Inverse transpose of world_from_local's linear part, for normals.
-    normal_from_local: mat4x4<f32>,
-    // Inverse of world_from_local (zero when singular): rays go into instance space with it.
+    // Inverse of world_from_local (zero when singular): rays go into instance space with it, and
+    // the transpose of its linear part takes normals to the world.
     local_from_world: mat4x4<f32>,
     material: u32,
     mesh: u32,
@@ -76,6 +75,13 @@ struct GpuLight {
 @group(0) @binding(4) var atlas_sampler: sampler;
 @group(0) @binding(5) var<storage, read> vertices: array<GpuVertex>;
 @group(0) @binding(6) var<storage, read> instances: array<GpuInstance>;
+
+// A local-space normal direction in world space (not normalized): the inverse transpose of the
+// instance's linear part.
+fn instance_normal_to_world(instance: u32, n: vec3<f32>) -> vec3<f32> {
+    let m = instances[instance].local_from_world;
+    return transpose(mat3x3<f32>(m[0].xyz, m[1].xyz, m[2].xyz)) * n;
+}
 
 fn sample_slot(slot: TextureSlot, uv: vec2<f32>) -> vec4<f32> {
     if slot.rect.z <= 0.0 {

@@ -3,11 +3,11 @@
 //! Meshes, images and materials are uploaded when their asset store changes; instances, lights and
 //! the view are written every frame (a few kilobytes for the scenes of this issue).
 
-use std::collections::HashMap;
 use std::ops::Range;
 
+use bevy_ecs::entity::EntityHashMap;
 use bevy_ecs::prelude::*;
-use glam::{Affine3A, Mat3, Mat4, Vec3};
+use glam::{Affine3A, Mat4, Vec3};
 
 use super::gpu_types::*;
 use crate::gpu::GpuContext;
@@ -326,7 +326,7 @@ fn fill_atlas(images: &[&Image], sizes: &[(u32, u32)], layout: ShelfLayout) -> P
 /// as long as it is an instance; freed slots are reused.
 #[derive(Default)]
 struct InstanceSlots {
-    by_entity: HashMap<Entity, u32>,
+    by_entity: EntityHashMap<u32>,
     free: Vec<u32>,
     data: Vec<GpuInstance>,
     placement: Vec<Option<(u32, Affine3A)>>,
@@ -371,13 +371,11 @@ pub struct InstanceChanges {
 
 fn gpu_instance(instance: &MeshInstance, transform: &GlobalTransform) -> GpuInstance {
     let world = Mat4::from(transform.0);
-    let linear = Mat3::from(transform.0.matrix3);
-    let invertible = linear.determinant().abs() > 1e-30;
-    let normal = if invertible { linear.inverse().transpose() } else { linear };
-    let local_from_world = if invertible { world.inverse() } else { Mat4::ZERO };
+    let invertible = transform.0.matrix3.determinant().abs() > 1e-30;
+    // An affine inverse: cheaper than a general 4×4 one.
+    let local_from_world = if invertible { Mat4::from(transform.0.inverse()) } else { Mat4::ZERO };
     GpuInstance {
         world_from_local: mat4_cols(world),
-        normal_from_local: mat4_cols(Mat4::from_mat3(normal)),
         local_from_world: mat4_cols(local_from_world),
         material: instance.material.index(),
         mesh: instance.mesh.index(),

@@ -31,7 +31,6 @@ pub struct GpuVertex {
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct GpuInstance {
     pub world_from_local: [[f32; 4]; 4],
-    pub normal_from_local: [[f32; 4]; 4],
     pub local_from_world: [[f32; 4]; 4],
     pub material: u32,
     pub mesh: u32,

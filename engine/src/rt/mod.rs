@@ -16,7 +16,6 @@
 
 pub mod cpu;
 
-use std::collections::HashMap;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, Sender, channel};
 use std::sync::{Arc, Mutex};
@@ -159,8 +158,8 @@ pub struct RayTracingScene {
     tlas: Option<Bvh2>,
     /// Instance slot of each TLAS primitive.
     tlas_slots: Vec<u32>,
-    /// TLAS node → the node index in `gpu_tlas` (same order), and slot → leaf node.
-    slot_leaf: HashMap<u32, usize>,
+    /// The TLAS leaf of each instance slot (`u32::MAX`: not in the TLAS).
+    slot_leaf: Vec<u32>,
     gpu_tlas: Vec<TlasNode>,
     /// Sum of the half areas of the TLAS's inner nodes, now and right after its last build, each
     /// over the root's: the normalized SAH cost. Refitting lets it decay; past
@@ -191,7 +190,7 @@ impl RayTracingScene {
             progress: BlasBuildProgress::default(),
             tlas: None,
             tlas_slots: Vec::new(),
-            slot_leaf: HashMap::new(),
+            slot_leaf: Vec::new(),
             gpu_tlas: Vec::new(),
             inner_area: 0.0,
             built_cost: 0.0,
@@ -392,7 +391,11 @@ impl RayTracingScene {
         if let Some(bvh) = &self.tlas {
             for (i, n) in bvh.nodes.iter().enumerate() {
                 if n.is_leaf() {
-                    self.slot_leaf.insert(self.tlas_slots[bvh.primitive_indices[n.first_index as usize] as usize], i);
+                    let slot = self.tlas_slots[bvh.primitive_indices[n.first_index as usize] as usize] as usize;
+                    if self.slot_leaf.len() <= slot {
+                        self.slot_leaf.resize(slot + 1, u32::MAX);
+                    }
+                    self.slot_leaf[slot] = i as u32;
                 }
             }
         }
@@ -411,7 +414,8 @@ impl RayTracingScene {
         self.marked.resize(bvh.nodes.len(), false);
         let mut ok = true;
         for &(slot, mesh, world) in moved {
-            let (Some(&leaf), Some(aabb)) = (self.slot_leaf.get(&slot), self.instance_aabb(mesh, &world)) else {
+            let leaf = self.slot_leaf.get(slot as usize).copied().unwrap_or(u32::MAX) as usize;
+            let (true, Some(aabb)) = (leaf != u32::MAX as usize, self.instance_aabb(mesh, &world)) else {
                 ok = false;
                 break;
             };
