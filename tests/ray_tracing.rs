@@ -345,3 +345,50 @@ fn hits_report_the_material_with_texture_and_texture_transform() {
         assert_eq!(got[1].emissive[..3], [0.0; 3]);
     }
 }
+
+#[test]
+fn large_blas_builds_run_off_the_frame_loop_and_report_progress() {
+    let Some(gpu) = workspace_tests::gpu("large_blas_builds_run_off_the_frame_loop_and_report_progress") else { return };
+    // A grid mesh just over the asynchronous-build threshold.
+    let n = ((engine::rt::ASYNC_BLAS_TRIANGLES / 2) as f64).sqrt().ceil() as u32 + 1;
+    let mut grid = Mesh { name: "big_grid".into(), ..Default::default() };
+    for j in 0..=n {
+        for i in 0..=n {
+            grid.positions.push(Vec3::new(i as f32 / n as f32 * 2.0 - 1.0, 0.0, j as f32 / n as f32 * 2.0 - 1.0));
+            grid.normals.push(Vec3::Y);
+            grid.uvs.push(Vec2::ZERO);
+        }
+    }
+    for j in 0..n {
+        for i in 0..n {
+            let a = j * (n + 1) + i;
+            grid.indices.extend([a, a + n + 1, a + 1, a + 1, a + n + 1, a + n + 2]);
+        }
+    }
+    assert!(grid.triangle_count() > engine::rt::ASYNC_BLAS_TRIANGLES);
+    let mut s = SceneDescription { name: "async".into(), ..Default::default() };
+    let g = s.add_mesh(grid);
+    let m = s.add_material(Material::diffuse("grey", Vec3::splat(0.5)));
+    s.add_node("grid", Transform::IDENTITY, None, vec![NodeContent::Meshes(vec![(g, m)])]);
+
+    let mut app = App::new();
+    app.insert_resource(Time::fixed(1.0 / 60.0)).insert_resource(WaitForBlasBuilds(false));
+    app.add_plugins((EnginePlugin, RenderPlugin { gpu: gpu.clone(), size: RenderSize { width: 8, height: 8 } }));
+    s.spawn(app.world_mut());
+    let started = std::time::Instant::now();
+    run_headless(&mut app, 1);
+    let first_frame = started.elapsed();
+    let down = [GpuRay { origin: [0.1, 1.0, 0.1], tmin: 0.0, direction: [0.0, -1.0, 0.0], tmax: 1e30 }];
+    let progress = app.world().resource::<RayTracingScene>().progress.clone();
+    assert!(!progress.is_done(), "the first frame waited for the build ({first_frame:?})");
+    assert_eq!(trace(&app, &gpu, &down, false)[0].instance, u32::MAX, "an instance without its BLAS is not traced");
+    while !progress.is_done() {
+        assert!(started.elapsed().as_secs() < 120, "the BLAS never arrived (progress {:.2})", progress.fraction());
+        std::thread::sleep(std::time::Duration::from_millis(5));
+        run_headless(&mut app, 1);
+    }
+    // The frame after the build finishes picks it up.
+    run_headless(&mut app, 1);
+    assert_eq!(progress.fraction(), 1.0);
+    assert!((trace(&app, &gpu, &down, false)[0].t - 1.0).abs() < 1e-4);
+}

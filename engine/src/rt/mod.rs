@@ -152,6 +152,8 @@ pub struct RayTracingScene {
     blas: Vec<Option<Arc<Blas>>>,
     gpu_blas: Vec<GpuBlas>,
     requested_meshes: usize,
+    /// BLAS builds requested and not yet received.
+    outstanding: usize,
     results: Mutex<Receiver<(usize, Arc<Blas>)>>,
     sender: Sender<(usize, Arc<Blas>)>,
     pub progress: BlasBuildProgress,
@@ -185,6 +187,7 @@ impl RayTracingScene {
             blas: Vec::new(),
             gpu_blas: Vec::new(),
             requested_meshes: 0,
+            outstanding: 0,
             results: Mutex::new(results),
             sender,
             progress: BlasBuildProgress::default(),
@@ -238,13 +241,14 @@ impl RayTracingScene {
             self.blas.resize(self.blas.len().max(index + 1), None);
             self.progress.total_triangles.fetch_add(mesh.triangle_count(), Ordering::Relaxed);
             self.progress.pending_meshes.fetch_add(1, Ordering::Relaxed);
+            self.outstanding += 1;
             if mesh.triangle_count() > ASYNC_BLAS_TRIANGLES {
                 background.push((index, mesh.clone()));
             } else {
                 let blas = Arc::new(Blas::build(mesh));
+                let _ = self.sender.send((index, blas));
                 self.progress.built_triangles.fetch_add(mesh.triangle_count(), Ordering::Relaxed);
                 self.progress.pending_meshes.fetch_sub(1, Ordering::Relaxed);
-                let _ = self.sender.send((index, blas));
             }
         }
         self.requested_meshes = meshes.len();
@@ -255,12 +259,13 @@ impl RayTracingScene {
                 for (index, mesh) in background {
                     let started = Instant::now();
                     let blas = Arc::new(Blas::build(&mesh));
-                    progress.built_triangles.fetch_add(mesh.triangle_count(), Ordering::Relaxed);
-                    progress.pending_meshes.fetch_sub(1, Ordering::Relaxed);
                     log::info!("BLAS of '{}' ({} triangles) built in {:.2?}", mesh.name, mesh.triangle_count(), started.elapsed());
+                    // Send first: once progress says done, the next frame finds every result.
                     if sender.send((index, blas)).is_err() {
                         return;
                     }
+                    progress.built_triangles.fetch_add(mesh.triangle_count(), Ordering::Relaxed);
+                    progress.pending_meshes.fetch_sub(1, Ordering::Relaxed);
                 }
             });
         }
@@ -274,8 +279,8 @@ impl RayTracingScene {
         {
             let results = self.results.lock().unwrap_or_else(|e| e.into_inner());
             loop {
-                let next = if wait && (!self.progress.is_done() || arrived.is_empty()) {
-                    results.recv_timeout(if self.progress.is_done() { Duration::ZERO } else { Duration::from_secs(600) }).ok()
+                let next = if wait && self.outstanding > arrived.len() {
+                    results.recv_timeout(Duration::from_secs(600)).ok()
                 } else {
                     results.try_recv().ok()
                 };
@@ -283,6 +288,7 @@ impl RayTracingScene {
                 arrived.push(item);
             }
         }
+        self.outstanding = self.outstanding.saturating_sub(arrived.len());
         for next in arrived {
             let (index, blas) = next;
             self.blas[index] = Some(blas);
