@@ -10,6 +10,7 @@ use bevy_ecs::world::World;
 use engine::builtin::{BUILTIN_SCENES, Opening, box_with_hole, builtin_openings, builtin_scene, cuboid, merge, quad};
 use engine::scene::{Camera, DirectionalLight, MeshInstance, Name, NodeContent, Orbit, PointLight, SceneDescription, SceneRoot, SpotLight};
 use glam::{Affine3A, Quat, Vec2, Vec3};
+use workspace_tests::cpu_rays::{fibonacci_directions, intersect};
 
 /// The small test scenes checked here; `cathedral` and `forest` (benchmark scale) are covered by
 /// `tests/large_scenes.rs`.
@@ -17,11 +18,6 @@ const SMALL_SCENES: [&str; 4] = ["cornell", "ceiling_opening", "door_room", "col
 
 /// Rays cast from each interior point: Fibonacci directions cover the sphere evenly.
 const RAY_COUNT: usize = 2000;
-/// Hits closer than this to the ray origin are ignored (the origin may sit on a surface).
-const RAY_EPSILON: f32 = 1e-4;
-/// Barycentric slack: a ray through a shared edge counts as a hit on either triangle, so a ray
-/// can only escape through a real gap, never through a seam between two triangles.
-const BARYCENTRIC_SLACK: f32 = 1e-5;
 /// How far an escaping ray's exit point may lie outside its opening (metres).
 const OPENING_TOLERANCE: f32 = 1e-3;
 /// Test points stand this far above the floor they are marked on, so that rays start in the air.
@@ -113,52 +109,18 @@ fn all_triangles(desc: &SceneDescription) -> Vec<Triangle> {
     world_triangles(desc, |_| true)
 }
 
-/// Möller–Trumbore, two-sided: the distance along `dir` (unit) to the triangle, if hit.
-fn intersect(origin: Vec3, dir: Vec3, tri: &Triangle) -> Option<f32> {
-    let e1 = tri.b - tri.a;
-    let e2 = tri.c - tri.a;
-    let p = dir.cross(e2);
-    let det = e1.dot(p);
-    if det.abs() < 1e-12 {
-        return None;
-    }
-    let inv = 1.0 / det;
-    let s = origin - tri.a;
-    let u = s.dot(p) * inv;
-    if !(-BARYCENTRIC_SLACK..=1.0 + BARYCENTRIC_SLACK).contains(&u) {
-        return None;
-    }
-    let q = s.cross(e1);
-    let v = dir.dot(q) * inv;
-    if v < -BARYCENTRIC_SLACK || u + v > 1.0 + BARYCENTRIC_SLACK {
-        return None;
-    }
-    let t = e2.dot(q) * inv;
-    (t > RAY_EPSILON).then_some(t)
-}
-
 /// The nearest hit along the ray: (distance, triangle index).
 fn first_hit(origin: Vec3, dir: Vec3, tris: &[Triangle]) -> Option<(f32, usize)> {
-    tris.iter().enumerate().filter_map(|(i, tri)| intersect(origin, dir, tri).map(|t| (t, i))).min_by(|a, b| a.0.total_cmp(&b.0))
+    tris.iter()
+        .enumerate()
+        .filter_map(|(i, tri)| intersect(origin, dir, [tri.a, tri.b, tri.c]).map(|t| (t, i)))
+        .min_by(|a, b| a.0.total_cmp(&b.0))
 }
 
 /// Nothing blocks the straight line from `from` to `to` (allowing `slack` metres at the far end).
 fn unobstructed(from: Vec3, to: Vec3, tris: &[Triangle], slack: f32) -> bool {
     let distance = from.distance(to);
     first_hit(from, (to - from) / distance, tris).is_none_or(|(t, _)| t >= distance - slack)
-}
-
-/// Unit vectors spread evenly over the sphere.
-fn fibonacci_directions(count: usize) -> Vec<Vec3> {
-    let golden_angle = PI * (3.0 - 5f32.sqrt());
-    (0..count)
-        .map(|i| {
-            let y = 1.0 - 2.0 * (i as f32 + 0.5) / count as f32;
-            let r = (1.0 - y * y).max(0.0).sqrt();
-            let phi = golden_angle * i as f32;
-            Vec3::new(r * phi.cos(), y, r * phi.sin())
-        })
-        .collect()
 }
 
 /// Where a ray leaves through `opening`'s outer face (the face along the opening's thinnest axis

@@ -7,7 +7,6 @@
 //! that the cathedral is closed except through its windows and that the sun shines in.
 
 use std::collections::HashMap;
-use std::f32::consts::PI;
 use std::sync::LazyLock;
 use std::time::Instant;
 
@@ -15,6 +14,7 @@ use engine::builtin::{BUILTIN_SCENES, Opening, builtin_openings, builtin_scene};
 use engine::builtin_large::{CATHEDRAL_NAVE_MAX, CATHEDRAL_NAVE_MIN, FOREST_SIZE, cathedral_openings, forest_terrain_height};
 use engine::scene::{Mesh, NodeContent, SceneDescription};
 use glam::{Affine3A, Vec3};
+use workspace_tests::cpu_rays::{fibonacci_directions, intersect};
 
 /// Triangle budgets and their tolerance.
 const CATHEDRAL_TRIANGLES: f64 = 73_000.0;
@@ -31,10 +31,6 @@ const TERRAIN_TOLERANCE: f32 = 1e-3;
 /// Allowed distance (metres) between the terrain function and the terrain mesh's linear
 /// interpolation of it, at the centre of each grid cell.
 const TERRAIN_MESH_TOLERANCE: f32 = 0.05;
-/// Hits closer than this to a ray's origin are ignored.
-const RAY_EPSILON: f32 = 1e-4;
-/// Barycentric slack: a ray through a shared edge counts as a hit on either triangle.
-const BARYCENTRIC_SLACK: f32 = 1e-5;
 /// How far outside a window's box an escaping ray may pass (metres).
 const OPENING_TOLERANCE: f32 = 1e-3;
 /// Rays cast from each interior point of the cathedral (Fibonacci directions).
@@ -153,19 +149,6 @@ fn signed_volume(mesh: &Mesh) -> f32 {
         .sum()
 }
 
-/// Unit vectors spread evenly over the sphere.
-fn fibonacci_directions(count: usize) -> Vec<Vec3> {
-    let golden_angle = PI * (3.0 - 5f32.sqrt());
-    (0..count)
-        .map(|i| {
-            let y = 1.0 - 2.0 * (i as f32 + 0.5) / count as f32;
-            let r = (1.0 - y * y).max(0.0).sqrt();
-            let phi = golden_angle * i as f32;
-            Vec3::new(r * phi.cos(), y, r * phi.sin())
-        })
-        .collect()
-}
-
 // ---------------------------------------------------------------------------------------------
 // Ray caster
 // ---------------------------------------------------------------------------------------------
@@ -222,7 +205,7 @@ impl RayCaster {
             }
             let start = k * CLUSTER_SIZE;
             for (i, tri) in self.triangles[start..(start + CLUSTER_SIZE).min(self.triangles.len())].iter().enumerate() {
-                if let Some(t) = intersect(origin, dir, tri)
+                if let Some(t) = intersect(origin, dir, [tri.a, tri.b, tri.c])
                     && best.is_none_or(|b| t < b.0)
                 {
                     best = Some((t, start + i));
@@ -234,30 +217,6 @@ impl RayCaster {
             Hit { t, normal: (tri.b - tri.a).cross(tri.c - tri.a).normalize_or_zero() }
         })
     }
-}
-
-/// Möller–Trumbore, two-sided: the distance along `dir` to the triangle, if hit.
-fn intersect(origin: Vec3, dir: Vec3, tri: &Triangle) -> Option<f32> {
-    let e1 = tri.b - tri.a;
-    let e2 = tri.c - tri.a;
-    let p = dir.cross(e2);
-    let det = e1.dot(p);
-    if det.abs() < 1e-12 {
-        return None;
-    }
-    let inv = 1.0 / det;
-    let s = origin - tri.a;
-    let u = s.dot(p) * inv;
-    if !(-BARYCENTRIC_SLACK..=1.0 + BARYCENTRIC_SLACK).contains(&u) {
-        return None;
-    }
-    let q = s.cross(e1);
-    let v = dir.dot(q) * inv;
-    if v < -BARYCENTRIC_SLACK || u + v > 1.0 + BARYCENTRIC_SLACK {
-        return None;
-    }
-    let t = e2.dot(q) * inv;
-    (t > RAY_EPSILON).then_some(t)
 }
 
 /// Slab test: the ray meets the box `lo`..`hi` before distance `limit`.

@@ -59,3 +59,51 @@ pub fn assert_golden(name: &str, width: u32, height: u32, rgba: &[u8], max_mean_
     }
     mean
 }
+
+/// Geometry helpers shared by the CPU-side ray tests.
+pub mod cpu_rays {
+    use glam::Vec3;
+
+    /// Hits within this distance of the ray origin are ignored (the origin may sit on a surface).
+    pub const RAY_EPSILON: f32 = 1e-4;
+    /// Barycentric tolerance, so rays through shared edges do not slip between two triangles.
+    pub const BARYCENTRIC_SLACK: f32 = 1e-5;
+
+    /// Möller–Trumbore, two-sided: the distance along `dir` to triangle `abc`, if it is hit beyond
+    /// [`RAY_EPSILON`].
+    pub fn intersect(origin: Vec3, dir: Vec3, [a, b, c]: [Vec3; 3]) -> Option<f32> {
+        let e1 = b - a;
+        let e2 = c - a;
+        let p = dir.cross(e2);
+        let det = e1.dot(p);
+        if det.abs() < 1e-12 {
+            return None;
+        }
+        let inv = 1.0 / det;
+        let s = origin - a;
+        let u = s.dot(p) * inv;
+        if !(-BARYCENTRIC_SLACK..=1.0 + BARYCENTRIC_SLACK).contains(&u) {
+            return None;
+        }
+        let q = s.cross(e1);
+        let v = dir.dot(q) * inv;
+        if v < -BARYCENTRIC_SLACK || u + v > 1.0 + BARYCENTRIC_SLACK {
+            return None;
+        }
+        let t = e2.dot(q) * inv;
+        (t > RAY_EPSILON).then_some(t)
+    }
+
+    /// `count` unit directions covering the sphere evenly (spherical Fibonacci).
+    pub fn fibonacci_directions(count: usize) -> Vec<Vec3> {
+        let golden_angle = std::f32::consts::PI * (3.0 - 5f32.sqrt());
+        (0..count)
+            .map(|i| {
+                let y = 1.0 - 2.0 * (i as f32 + 0.5) / count as f32;
+                let r = (1.0 - y * y).max(0.0).sqrt();
+                let phi = golden_angle * i as f32;
+                Vec3::new(r * phi.cos(), y, r * phi.sin())
+            })
+            .collect()
+    }
+}
