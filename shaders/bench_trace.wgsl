@@ -16,6 +16,8 @@ struct BenchParams {
 @group(1) @binding(0) var<uniform> bench: BenchParams;
 // One value a ray (the hit distance), so the traversal cannot be optimized away.
 @group(1) @binding(1) var<storage, read_write> bench_hits: array<f32>;
+// Traversal work summed over all rays, when the pipeline counts it (RT_COUNT_WORK).
+@group(1) @binding(2) var<storage, read_write> bench_work: array<atomic<u32>, 4>;
 
 const GOLDEN_ANGLE: f32 = 2.39996322972865;
 
@@ -42,4 +44,10 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let dir = (bench.rotation * vec4<f32>(spherical_fibonacci(ray_index, bench.rays_per_probe), 0.0)).xyz;
     let hit = trace_closest(Ray(origin, 0.0, dir, bench.max_distance));
     bench_hits[i] = hit.t;
+    if RT_COUNT_WORK {
+        atomicAdd(&bench_work[0], rt_work.x);
+        atomicAdd(&bench_work[1], rt_work.y);
+        atomicAdd(&bench_work[2], rt_work.z);
+        atomicAdd(&bench_work[3], rt_work.w);
+    }
 }

@@ -36,6 +36,11 @@ struct TlasNode {
 @group(0) @binding(11) var<storage, read> indices: array<u32>;
 
 const RT_NO_HIT: u32 = 0xffffffffu;
+
+// Diagnostics: when a pipeline sets RT_COUNT_WORK, traversal counts its work in rt_work
+// (x: TLAS nodes, y: instances entered, z: BLAS nodes, w: triangles tested). Off, it costs nothing.
+override RT_COUNT_WORK: bool = false;
+var<private> rt_work: vec4<u32>;
 // Far children waiting in the TLAS walk (a PLOC tree of 100k instances is ~40 deep), and node groups
 // waiting in a CWBVH walk (8-wide trees are shallow).
 const RT_TLAS_STACK_SIZE: u32 = 48u;
@@ -193,6 +198,9 @@ fn rt_traverse_blas(blas: GpuBlas, origin: vec3<f32>, dir_in: vec3<f32>, tmin: f
             let slot = (child_bit - 24u) ^ (oct_inv4 & 0xffu);
             let relative = countOneBits(hits & ~(0xffffffffu << slot));
             let node = blas.node_offset + current.x + relative;
+            if RT_COUNT_WORK {
+                rt_work.z += 1u;
+            }
             let hit_mask = rt_cwbvh_node_hits(node, origin, dir, oct_inv4, tmin, best.t);
             let n0w = blas_nodes[node * 5u].w;
             let n1 = blas_nodes[node * 5u + 1u];
@@ -203,6 +211,9 @@ fn rt_traverse_blas(blas: GpuBlas, origin: vec3<f32>, dir_in: vec3<f32>, tmin: f
             let local = firstLeadingBit(triangles.y);
             triangles.y &= ~(1u << local);
             let index = blas.triangle_offset + triangles.x + local;
+            if RT_COUNT_WORK {
+                rt_work.w += 1u;
+            }
             let h = rt_intersect_triangle(index, origin, dir_in, tmin, best.t);
             if h.hit {
                 best = BlasHit(true, h.t, index, h.barycentrics, h.front_face);
@@ -236,10 +247,16 @@ fn rt_trace(ray: Ray, any_hit: bool) -> RayHit {
     loop {
         let n = tlas_nodes[node];
         var descend = false;
+        if RT_COUNT_WORK {
+            rt_work.x += 1u;
+        }
         if n.count > 0u {
             // Only the two fields traversal needs, not the whole instance record.
             let blas = blas_info[instances[n.index].mesh];
             if blas.node_offset != RT_NO_HIT {
+                if RT_COUNT_WORK {
+                    rt_work.y += 1u;
+                }
                 let local_from_world = instances[n.index].local_from_world;
                 let origin = (local_from_world * vec4<f32>(ray.origin, 1.0)).xyz;
                 let dir = (local_from_world * vec4<f32>(ray.direction, 0.0)).xyz;

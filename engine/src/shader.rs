@@ -185,6 +185,17 @@ impl<P: AutoLayout> Program<P> {
 
 /// Parses `file` and creates a compute pipeline for `entry` labelled `label`.
 pub fn compute_program(device: &wgpu::Device, file: &str, entry: &str, label: &str) -> Result<Program<wgpu::ComputePipeline>, ShaderError> {
+    compute_program_with_constants(device, file, entry, label, &[])
+}
+
+/// [`compute_program`] with values for the shader's `override` constants.
+pub fn compute_program_with_constants(
+    device: &wgpu::Device,
+    file: &str,
+    entry: &str,
+    label: &str,
+    constants: &[(&str, f64)],
+) -> Result<Program<wgpu::ComputePipeline>, ShaderError> {
     let parsed = parse(file)?;
     let module = parsed.create_module(device);
     let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
@@ -192,7 +203,7 @@ pub fn compute_program(device: &wgpu::Device, file: &str, entry: &str, label: &s
         layout: None,
         module: &module,
         entry_point: Some(entry),
-        compilation_options: Default::default(),
+        compilation_options: wgpu::PipelineCompilationOptions { constants, ..Default::default() },
         cache: None,
     });
     Ok(Program { label: label.into(), pipeline, bindings: parsed.used_bindings(&[entry]) })

@@ -10,7 +10,7 @@ use engine::gpu::GpuContext;
 use engine::render::{GpuScene, RenderPlugin, RenderSize};
 use engine::rt::{RayTracingScene, WaitForBlasBuilds, ray_workgroups};
 use engine::scene::{Assets, Mesh, MeshInstance, SceneDescription, Transform};
-use engine::shader::compute_program;
+use engine::shader::compute_program_with_constants;
 use engine::wgpu;
 use glam::{Mat4, Quat, Vec3};
 
@@ -71,101 +71,152 @@ pub fn prepared_app(gpu: &GpuContext, scene: SceneDescription) -> App {
     app
 }
 
+/// The bench kernel with its buffers; `count_work` builds the diagnostic variant that counts
+/// traversal steps (RT_COUNT_WORK).
+struct TraceKernel {
+    program: engine::shader::Program<wgpu::ComputePipeline>,
+    groups: [wgpu::BindGroup; 2],
+    params: wgpu::Buffer,
+    work: wgpu::Buffer,
+    work_readback: wgpu::Buffer,
+    queries: wgpu::QuerySet,
+    resolve: wgpu::Buffer,
+    readback: wgpu::Buffer,
+}
+
+impl TraceKernel {
+    fn new(gpu: &GpuContext, app: &App, count_work: bool) -> Result<Self, String> {
+        let constants: &[(&str, f64)] = if count_work { &[("RT_COUNT_WORK", 1.0)] } else { &[] };
+        let program =
+            compute_program_with_constants(&gpu.device, "bench_trace.wgsl", "main", "trace", constants).map_err(|e| e.to_string())?;
+        let scene = app.world().resource::<GpuScene>();
+        let rt = app.world().resource::<RayTracingScene>();
+        let max_rays = GRIDS.iter().map(|g| g[0] * g[1] * g[2]).max().unwrap_or(1) * RAYS.iter().max().unwrap_or(&1);
+        let buffer = |label, size, usage| {
+            gpu.device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size, usage, mapped_at_creation: false })
+        };
+        use wgpu::BufferUsages as U;
+        let hits = buffer("bench_hits", u64::from(max_rays) * 4, U::STORAGE);
+        let params = buffer("bench_params", size_of::<BenchParams>() as u64, U::UNIFORM | U::COPY_DST);
+        let work = buffer("bench_work", 16, U::STORAGE | U::COPY_SRC | U::COPY_DST);
+        let groups = [
+            program.bind_group(&gpu.device, 0, &rt.scene_bindings(scene)),
+            program.bind_group(
+                &gpu.device,
+                1,
+                &[
+                    ("bench", params.as_entire_binding()),
+                    ("bench_hits", hits.as_entire_binding()),
+                    ("bench_work", work.as_entire_binding()),
+                ],
+            ),
+        ];
+        Ok(Self {
+            program,
+            groups,
+            params,
+            work,
+            work_readback: buffer("bench_work_readback", 16, U::MAP_READ | U::COPY_DST),
+            queries: gpu.device.create_query_set(&wgpu::QuerySetDescriptor {
+                label: Some("bench_timestamps"),
+                ty: wgpu::QueryType::Timestamp,
+                count: 2,
+            }),
+            resolve: buffer("bench_resolve", 16, U::QUERY_RESOLVE | U::COPY_SRC),
+            readback: buffer("bench_readback", 16, U::MAP_READ | U::COPY_DST),
+        })
+    }
+
+    /// One dispatch; returns its GPU milliseconds.
+    fn run(&self, gpu: &GpuContext, p: &BenchParams) -> Result<f64, String> {
+        gpu.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(p));
+        gpu.queue.write_buffer(&self.work, 0, &[0; 16]);
+        let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("bench_trace") });
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("trace"),
+                timestamp_writes: Some(wgpu::ComputePassTimestampWrites {
+                    query_set: &self.queries,
+                    beginning_of_pass_write_index: Some(0),
+                    end_of_pass_write_index: Some(1),
+                }),
+            });
+            pass.set_pipeline(&self.program.pipeline);
+            pass.set_bind_group(0, &self.groups[0], &[]);
+            pass.set_bind_group(1, &self.groups[1], &[]);
+            let (x, y) = ray_workgroups(p.ray_count);
+            pass.dispatch_workgroups(x, y, 1);
+        }
+        encoder.resolve_query_set(&self.queries, 0..2, &self.resolve, 0);
+        encoder.copy_buffer_to_buffer(&self.resolve, 0, &self.readback, 0, 16);
+        encoder.copy_buffer_to_buffer(&self.work, 0, &self.work_readback, 0, 16);
+        gpu.queue.submit([encoder.finish()]);
+        self.readback.slice(..).map_async(wgpu::MapMode::Read, |_| {});
+        gpu.wait_idle();
+        let ticks: Vec<u64> = bytemuck::pod_collect_to_vec(&self.readback.slice(..).get_mapped_range().map_err(|e| e.to_string())?);
+        self.readback.unmap();
+        Ok(ticks[1].saturating_sub(ticks[0]) as f64 * f64::from(gpu.timestamp_period) * 1e-6)
+    }
+
+    /// Work counted by the last dispatch (diagnostic variant only).
+    fn work(&self, gpu: &GpuContext) -> Result<[u32; 4], String> {
+        self.work_readback.slice(..).map_async(wgpu::MapMode::Read, |_| {});
+        gpu.wait_idle();
+        let w: Vec<u32> = bytemuck::pod_collect_to_vec(&self.work_readback.slice(..).get_mapped_range().map_err(|e| e.to_string())?);
+        self.work_readback.unmap();
+        Ok([w[0], w[1], w[2], w[3]])
+    }
+}
+
+fn params_for(rng: &mut Rng, bounds: (Vec3, Vec3), grid: [u32; 3], rays_per_probe: u32) -> BenchParams {
+    let (lo, hi) = bounds;
+    let extent = (hi - lo).max(Vec3::splat(1e-3));
+    let spacing = extent / Vec3::new(grid[0] as f32, grid[1] as f32, grid[2] as f32);
+    BenchParams {
+        rotation: Mat4::from_quat(rng.rotation()).to_cols_array_2d(),
+        grid_origin: (lo + spacing * 0.5).to_array(),
+        rays_per_probe,
+        grid_spacing: spacing.to_array(),
+        ray_count: grid[0] * grid[1] * grid[2] * rays_per_probe,
+        grid_counts: grid,
+        max_distance: 1e30,
+    }
+}
+
 /// Times the trace pass for every grid × rays cell: `iterations` timed dispatches after warm-up, median.
 pub fn trace_throughput(gpu: &GpuContext, app: &App, bounds: (Vec3, Vec3), iterations: u32) -> Result<Vec<TraceCell>, String> {
     if !gpu.timestamps {
         return Err(format!("{} has no timestamp queries: GPU times cannot be measured", gpu.adapter_name()));
     }
-    let program = compute_program(&gpu.device, "bench_trace.wgsl", "main", "trace").map_err(|e| e.to_string())?;
-    let scene = app.world().resource::<GpuScene>();
-    let rt = app.world().resource::<RayTracingScene>();
-    let group0 = program.bind_group(&gpu.device, 0, &rt.scene_bindings(scene));
-    let max_rays = GRIDS.iter().map(|g| g[0] * g[1] * g[2]).max().unwrap_or(1) * RAYS.iter().max().unwrap_or(&1);
-    let hits = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("bench_hits"),
-        size: u64::from(max_rays) * 4,
-        usage: wgpu::BufferUsages::STORAGE,
-        mapped_at_creation: false,
-    });
-    let params = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("bench_params"),
-        size: size_of::<BenchParams>() as u64,
-        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    let group1 = program.bind_group(&gpu.device, 1, &[("bench", params.as_entire_binding()), ("bench_hits", hits.as_entire_binding())]);
-    let queries = gpu.device.create_query_set(&wgpu::QuerySetDescriptor {
-        label: Some("bench_timestamps"),
-        ty: wgpu::QueryType::Timestamp,
-        count: 2,
-    });
-    let resolve = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("bench_resolve"),
-        size: 16,
-        usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
-        mapped_at_creation: false,
-    });
-    let readback = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("bench_readback"),
-        size: 16,
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    let (lo, hi) = bounds;
-    let extent = (hi - lo).max(Vec3::splat(1e-3));
+    let kernel = TraceKernel::new(gpu, app, false)?;
     let mut rng = Rng(0x5EED_1234_ABCD);
     let mut cells = Vec::new();
     for grid in GRIDS {
-        let counts = Vec3::new(grid[0] as f32, grid[1] as f32, grid[2] as f32);
-        let spacing = extent / counts;
         for rays_per_probe in RAYS {
-            let ray_count = grid[0] * grid[1] * grid[2] * rays_per_probe;
             let mut times = Vec::new();
             for iteration in 0..iterations + 3 {
-                let p = BenchParams {
-                    rotation: Mat4::from_quat(rng.rotation()).to_cols_array_2d(),
-                    grid_origin: (lo + spacing * 0.5).to_array(),
-                    rays_per_probe,
-                    grid_spacing: spacing.to_array(),
-                    ray_count,
-                    grid_counts: grid,
-                    max_distance: 1e30,
-                };
-                gpu.queue.write_buffer(&params, 0, bytemuck::bytes_of(&p));
-                let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("bench_trace") });
-                {
-                    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                        label: Some("trace"),
-                        timestamp_writes: Some(wgpu::ComputePassTimestampWrites {
-                            query_set: &queries,
-                            beginning_of_pass_write_index: Some(0),
-                            end_of_pass_write_index: Some(1),
-                        }),
-                    });
-                    pass.set_pipeline(&program.pipeline);
-                    pass.set_bind_group(0, &group0, &[]);
-                    pass.set_bind_group(1, &group1, &[]);
-                    let (x, y) = ray_workgroups(ray_count);
-                    pass.dispatch_workgroups(x, y, 1);
-                }
-                encoder.resolve_query_set(&queries, 0..2, &resolve, 0);
-                encoder.copy_buffer_to_buffer(&resolve, 0, &readback, 0, 16);
-                gpu.queue.submit([encoder.finish()]);
-                readback.slice(..).map_async(wgpu::MapMode::Read, |_| {});
-                gpu.wait_idle();
-                let ticks: Vec<u64> = bytemuck::pod_collect_to_vec(&readback.slice(..).get_mapped_range().map_err(|e| e.to_string())?);
-                readback.unmap();
+                let ms = kernel.run(gpu, &params_for(&mut rng, bounds, grid, rays_per_probe))?;
                 // The first dispatches warm caches and clocks.
                 if iteration >= 3 {
-                    times.push(ticks[1].saturating_sub(ticks[0]) as f64 * f64::from(gpu.timestamp_period) * 1e-6);
+                    times.push(ms);
                 }
             }
             times.sort_by(f64::total_cmp);
             let median_ms = times[times.len() / 2];
-            cells.push(TraceCell { grid, rays_per_probe, rays: u64::from(ray_count), median_ms });
+            cells.push(TraceCell { grid, rays_per_probe, rays: u64::from(grid[0] * grid[1] * grid[2] * rays_per_probe), median_ms });
         }
     }
     Ok(cells)
+}
+
+/// Average traversal work per ray for one grid × rays cell: TLAS nodes, instances entered, BLAS
+/// nodes, triangles tested.
+pub fn traversal_work(gpu: &GpuContext, app: &App, bounds: (Vec3, Vec3), grid: [u32; 3], rays_per_probe: u32) -> Result<[f64; 4], String> {
+    let kernel = TraceKernel::new(gpu, app, true)?;
+    let p = params_for(&mut Rng(0xD1A6), bounds, grid, rays_per_probe);
+    kernel.run(gpu, &p)?;
+    let w = kernel.work(gpu)?;
+    Ok(w.map(|v| f64::from(v) / f64::from(p.ray_count)))
 }
 
 /// CPU time of one frame's TLAS update (instance slots, refit or rebuild, uploads) when `count`

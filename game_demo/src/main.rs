@@ -130,6 +130,14 @@ fn bench(command: BenchCommand) -> Result<(), String> {
             println!("| {rays} | {} |", row.join(" | "));
         }
     }
+    if !cpu_only {
+        let (grid, rays) = ([32, 8, 32], 128);
+        let w = bench::traversal_work(&gpu, &app, bounds, grid, rays)?;
+        println!(
+            "\nTraversal work per ray at {}×{}×{} × {rays} rays: {:.1} TLAS nodes, {:.2} instances entered, {:.1} BLAS nodes, {:.1} triangles tested",
+            grid[0], grid[1], grid[2], w[0], w[1], w[2], w[3]
+        );
+    }
     println!("\n## CPU cost per frame of instance and TLAS updates and uploads (median of 9 frames)\n");
     println!("| moving instances | CPU ms (total) | of which TLAS refit/rebuild + upload | TLAS rebuilt |");
     println!("|---:|---:|---:|---|");
