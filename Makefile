@@ -30,7 +30,7 @@ lint:
 # Installs Mesa's Vulkan drivers (lavapipe, a software rasterizer) and the Vulkan loader with apt,
 # only when no Vulkan driver manifest or loader is present.
 vulkan-driver:
-	@if ls /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json >/dev/null 2>&1 && ldconfig -p | grep -q 'libvulkan.so.1 '; then \
+	@if { ls /usr/share/vulkan/icd.d/*.json || ls /etc/vulkan/icd.d/*.json; } >/dev/null 2>&1 && ldconfig -p | grep -q 'libvulkan.so.1 '; then \
 		: ; \
 	else \
 		echo "no Vulkan driver found: installing mesa-vulkan-drivers and libvulkan1"; \
