@@ -72,11 +72,12 @@ fn advance_time(mut time: ResMut<Time>, mut started: Local<bool>) {
         time.delta_seconds = 0.0;
         return;
     }
-    time.advance_after_start();
+    time.advance();
 }
 
 impl Time {
-    fn advance_after_start(&mut self) {
+    /// Moves to the next frame: by the fixed step, or by the wall time since the last frame.
+    fn advance(&mut self) {
         let delta = match &mut self.clock {
             Clock::Fixed(step) => *step,
             Clock::Real(last) => {

@@ -511,6 +511,7 @@ impl SceneDescription {
         let mut entities: Vec<Entity> = Vec::with_capacity(self.nodes.len());
         for node in self.nodes {
             let parent = node.parent.map_or(root, |p| entities[p]);
+            let node_name = node.name.clone();
             let mut e = world.spawn((Name(node.name), node.transform, ChildOf(parent)));
             if let Some(orbit) = node.orbit {
                 e.insert(orbit);
@@ -531,11 +532,13 @@ impl SceneDescription {
                         e.insert(l);
                     }
                     NodeContent::Meshes(list) => {
+                        // One child entity per primitive, named after the node.
                         let id = e.id();
-                        for (mesh, material) in list {
+                        for (primitive, (mesh, material)) in list.into_iter().enumerate() {
                             let instance = MeshInstance { mesh: mesh_handles[mesh], material: material_handles[material] };
+                            let name = Name(format!("{}#{primitive}", node_name));
                             e.world_scope(|w| {
-                                w.spawn((Name(String::new()), Transform::IDENTITY, instance, ChildOf(id)));
+                                w.spawn((name, Transform::IDENTITY, instance, ChildOf(id)));
                             });
                         }
                     }
