@@ -15,6 +15,7 @@ pub mod gpu;
 pub mod graph;
 pub mod headless;
 pub mod import;
+pub mod metrics;
 pub mod render;
 pub mod rt;
 pub mod scene;
