@@ -16,11 +16,12 @@ use std::sync::Arc;
 
 use bevy_app::{App, Plugin};
 use bevy_ecs::prelude::*;
+use bevy_ecs::system::SystemParam;
 use serde::Serialize;
 
 use crate::app::{Prepare, Render, Time};
 use crate::gpu::GpuContext;
-use crate::graph::{FrameReport, GpuTimer, RenderGraph, TextureDesc, TransientPool};
+use crate::graph::{FrameReport, GpuTimer, Handle, RenderGraph, Texture as GraphTexture, TextureDesc, TransientPool};
 use crate::shader::{Program, RenderTargets, compute_program, render_program};
 pub use gpu_scene::{GpuScene, RenderSize, SkyRadiance, prepare_gpu_scene};
 
@@ -55,7 +56,8 @@ impl Plugin for RenderPlugin {
             .insert_resource(crate::rt::RayTracingScene::new(&self.gpu))
             .insert_resource(gpu_scene::Uploads::new(&self.gpu))
             .add_systems(Prepare, (prepare_render_outputs, prepare_gpu_scene, crate::rt::prepare_ray_tracing_scene).chain())
-            .add_systems(Render, (gpu_scene::flush_uploads, render_camera_frame).chain());
+            .init_resource::<FrameScript>()
+            .add_systems(Render, (gpu_scene::flush_uploads, render_camera_frame.run_if(frame_script_is("direct"))).chain());
     }
 }
 
@@ -240,33 +242,82 @@ fn workgroups(size: RenderSize) -> (u32, u32) {
     (size.width.div_ceil(8), size.height.div_ceil(8))
 }
 
-/// Render stage: the camera path's frame script.
-#[allow(clippy::too_many_arguments)]
-pub fn render_camera_frame(
-    gpu: Res<GpuContext>,
-    scene: Res<GpuScene>,
-    rt: Res<crate::rt::RayTracingScene>,
-    pipelines: Res<CameraPipelines>,
-    outputs: Res<RenderOutputs>,
-    time: Res<Time>,
-    mut pool: ResMut<TransientPool>,
-    mut timer: ResMut<GpuTimer>,
-    mut timings: ResMut<FrameTimings>,
-    surface: Option<Res<SurfaceTarget>>,
-) {
-    use wgpu::TextureUsages as U;
-    let size = outputs.size;
-    let mut graph = RenderGraph::new();
-    let attachment = U::RENDER_ATTACHMENT | U::TEXTURE_BINDING;
-    let mut depth = graph.create_texture("gbuffer_depth", texture_desc(size, DEPTH_FORMAT, attachment));
-    let mut normal = graph.create_texture("gbuffer_normal", texture_desc(size, NORMAL_FORMAT, attachment));
-    let mut albedo = graph.create_texture("gbuffer_albedo", texture_desc(size, ALBEDO_FORMAT, attachment));
-    let mut emissive = graph.create_texture("gbuffer_emissive", texture_desc(size, EMISSIVE_FORMAT, attachment));
-    let mut hdr = graph.import_texture("hdr_radiance", &outputs.hdr);
-    let mut ldr = graph.import_texture("ldr_image", &outputs.ldr);
-    let scene_bindings = rt.scene_bindings(&scene);
+/// Which frame script renders the camera: the engine's `"direct"` (direct light only) or one a
+/// plugin registers (`"pathtrace"`, `"ddgi"`, …). Each script's system runs only when it is active.
+#[derive(Resource, Clone, Debug, PartialEq, Eq)]
+pub struct FrameScript(pub &'static str);
 
-    // G-buffer: rasterize every instance.
+impl Default for FrameScript {
+    fn default() -> Self {
+        Self("direct")
+    }
+}
+
+/// A run condition: the frame script named `name` is active.
+pub fn frame_script_is(name: &'static str) -> impl Fn(Res<FrameScript>) -> bool + Clone {
+    move |script: Res<FrameScript>| script.0 == name
+}
+
+/// The G-buffer of a frame.
+pub struct GBuffer {
+    pub depth: Handle<GraphTexture>,
+    pub normal: Handle<GraphTexture>,
+    pub albedo: Handle<GraphTexture>,
+    pub emissive: Handle<GraphTexture>,
+}
+
+/// One camera frame being scripted: its graph and its two outputs.
+pub struct FrameGraph {
+    pub graph: RenderGraph,
+    /// Linear radiance: the passes that light the image write it.
+    pub hdr: Handle<GraphTexture>,
+    pub ldr: Handle<GraphTexture>,
+}
+
+/// Everything a camera frame script needs; frame scripts are systems that take this and compose
+/// the passes top to bottom: `begin`, `add_*` passes, `finish` (tonemap, present, execute).
+#[derive(SystemParam)]
+pub struct CameraFrame<'w> {
+    pub gpu: Res<'w, GpuContext>,
+    pub scene: Res<'w, GpuScene>,
+    pub rt: Res<'w, crate::rt::RayTracingScene>,
+    pub pipelines: Res<'w, CameraPipelines>,
+    pub outputs: Res<'w, RenderOutputs>,
+    pub time: Res<'w, Time>,
+    pool: ResMut<'w, TransientPool>,
+    timer: ResMut<'w, GpuTimer>,
+    timings: ResMut<'w, FrameTimings>,
+    surface: Option<Res<'w, SurfaceTarget>>,
+}
+
+impl CameraFrame<'_> {
+    pub fn size(&self) -> RenderSize {
+        self.outputs.size
+    }
+
+    /// Bind group 0 of every scene-reading shader.
+    pub fn scene_bindings(&self) -> Vec<(&'static str, wgpu::BindingResource<'_>)> {
+        self.rt.scene_bindings(&self.scene)
+    }
+
+    /// A new graph with the frame's outputs imported.
+    pub fn begin(&self) -> FrameGraph {
+        let mut graph = RenderGraph::new();
+        let hdr = graph.import_texture("hdr_radiance", &self.outputs.hdr);
+        let ldr = graph.import_texture("ldr_image", &self.outputs.ldr);
+        FrameGraph { graph, hdr, ldr }
+    }
+
+    /// Rasterizes every instance into a new G-buffer.
+    pub fn add_gbuffer(&self, graph: &mut RenderGraph) -> GBuffer {
+        use wgpu::TextureUsages as U;
+        let (gpu, scene, pipelines, size) = (&self.gpu, &self.scene, &self.pipelines, self.size());
+        let attachment = U::RENDER_ATTACHMENT | U::TEXTURE_BINDING;
+        let mut depth = graph.create_texture("gbuffer_depth", texture_desc(size, DEPTH_FORMAT, attachment));
+        let mut normal = graph.create_texture("gbuffer_normal", texture_desc(size, NORMAL_FORMAT, attachment));
+        let mut albedo = graph.create_texture("gbuffer_albedo", texture_desc(size, ALBEDO_FORMAT, attachment));
+        let mut emissive = graph.create_texture("gbuffer_emissive", texture_desc(size, EMISSIVE_FORMAT, attachment));
+        let scene_bindings = self.scene_bindings();
     {
         let mut pass = graph.add_pass("gbuffer");
         let targets = [pass.write(&mut normal), pass.write(&mut albedo), pass.write(&mut emissive)];
@@ -305,11 +356,18 @@ pub fn render_camera_frame(
         });
     }
 
-    // Direct lighting of the G-buffer.
+        GBuffer { depth, normal, albedo, emissive }
+    }
+
+    /// Direct light (emission + every light with a shadow ray) of the G-buffer into `hdr`.
+    pub fn add_direct_lighting(&self, graph: &mut RenderGraph, gbuffer: &GBuffer, hdr: &mut Handle<GraphTexture>) {
+        let (gpu, pipelines, size) = (&self.gpu, &self.pipelines, self.size());
+        let GBuffer { depth, normal, albedo, emissive } = gbuffer;
+        let scene_bindings = self.scene_bindings();
     {
         let mut pass = graph.add_pass("direct_lighting");
-        let inputs = [pass.read(&depth), pass.read(&normal), pass.read(&albedo), pass.read(&emissive)];
-        let out = pass.write(&mut hdr);
+        let inputs = [pass.read(depth), pass.read(normal), pass.read(albedo), pass.read(emissive)];
+        let out = pass.write(hdr);
         let program = pipelines.direct_lighting.clone();
         let group0 = program.bind_group(&gpu.device, 0, &scene_bindings);
         pass.render(move |ctx| {
@@ -329,7 +387,14 @@ pub fn render_camera_frame(
         });
     }
 
-    // Tonemapping.
+    }
+
+    /// Tonemaps `hdr` into the LDR output, presents it to the window if there is one, executes the
+    /// graph and records its timings.
+    pub fn finish(&mut self, frame: FrameGraph) {
+        let FrameGraph { mut graph, hdr, mut ldr } = frame;
+        let (gpu, pipelines, size) = (self.gpu.clone(), &self.pipelines, self.size());
+        let scene_bindings = self.scene_bindings();
     {
         let mut pass = graph.add_pass("tonemap");
         let input = pass.read(&hdr);
@@ -348,12 +413,11 @@ pub fn render_camera_frame(
             dispatch(ctx.encoder, ctx.label, &program.pipeline, &[&group0, &group1], workgroups(size));
         });
     }
-    graph.export(&hdr);
-    graph.export(&ldr);
-
-    // Present to the window, if there is one.
-    let surface_texture = surface.as_ref().and_then(|s| acquire_surface(&gpu, s));
-    if let (Some(target), Some(frame)) = (&surface, &surface_texture) {
+        graph.export(&hdr);
+        graph.export(&ldr);
+        let surface = self.surface.as_ref();
+    let surface_texture = surface.and_then(|s| acquire_surface(&gpu, s));
+    if let (Some(target), Some(frame)) = (surface, &surface_texture) {
         let mut swap = graph.import_texture("surface", &frame.texture);
         let mut pass = graph.add_pass("present_blit");
         let input = pass.read(&ldr);
@@ -381,11 +445,21 @@ pub fn render_camera_frame(
         graph.export(&swap);
     }
 
-    let report = graph.execute(&gpu, &mut pool, Some(&mut timer));
-    if let Some(frame) = surface_texture {
-        gpu.queue.present(frame);
+        let report = graph.execute(&gpu, &mut self.pool, Some(&mut self.timer));
+        if let Some(frame) = surface_texture {
+            gpu.queue.present(frame);
+        }
+        let frame_index = self.time.frame;
+        self.timings.push(&gpu, frame_index, report);
     }
-    timings.push(&gpu, time.frame, report);
+}
+
+/// Render stage: the engine's frame script, `"direct"` — G-buffer, direct light, tonemap.
+pub fn render_camera_frame(mut frame: CameraFrame) {
+    let mut script = frame.begin();
+    let gbuffer = frame.add_gbuffer(&mut script.graph);
+    frame.add_direct_lighting(&mut script.graph, &gbuffer, &mut script.hdr);
+    frame.finish(script);
 }
 
 fn acquire_surface(gpu: &GpuContext, target: &SurfaceTarget) -> Option<wgpu::SurfaceTexture> {
