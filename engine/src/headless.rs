@@ -66,7 +66,18 @@ pub fn add_default_camera(scene: &mut SceneDescription) {
 }
 
 /// Renders `scene` for `settings.frames` frames with a fixed time step and returns the last frame.
-pub fn render_scene(gpu: &GpuContext, mut scene: SceneDescription, settings: &HeadlessSettings) -> Result<RenderedFrame, RenderError> {
+pub fn render_scene(gpu: &GpuContext, scene: SceneDescription, settings: &HeadlessSettings) -> Result<RenderedFrame, RenderError> {
+    render_scene_with(gpu, scene, settings, |_| {})
+}
+
+/// [`render_scene`] with a chance to add plugins and settings to the app before it runs (another
+/// frame script, for instance).
+pub fn render_scene_with(
+    gpu: &GpuContext,
+    mut scene: SceneDescription,
+    settings: &HeadlessSettings,
+    configure: impl FnOnce(&mut App),
+) -> Result<RenderedFrame, RenderError> {
     let max = gpu.device.limits().max_texture_dimension_2d;
     if settings.width == 0 || settings.height == 0 || settings.width > max || settings.height > max {
         return Err(RenderError::BadSize { width: settings.width, height: settings.height, max });
@@ -81,6 +92,7 @@ pub fn render_scene(gpu: &GpuContext, mut scene: SceneDescription, settings: &He
     app.add_plugins((EnginePlugin, RenderPlugin { gpu: gpu.clone(), size: RenderSize { width: settings.width, height: settings.height } }));
     app.world_mut().resource_mut::<FrameTimings>().wait_each_frame = true;
     app.insert_resource(crate::rt::WaitForBlasBuilds(true));
+    configure(&mut app);
     scene.spawn(app.world_mut());
     app.insert_resource(Time::fixed(settings.step));
     run_headless(&mut app, settings.frames);

@@ -14,6 +14,7 @@ pub const SHADER_FILES: &[(&str, &str)] = &[
     ("ray_tracing.inc.wgsl", include_str!("../../shaders/ray_tracing.inc.wgsl")),
     ("trace_rays.wgsl", include_str!("../../shaders/trace_rays.wgsl")),
     ("bench_trace.wgsl", include_str!("../../shaders/bench_trace.wgsl")),
+    ("pathtrace.wgsl", include_str!("../../shaders/pathtrace.wgsl")),
     ("gbuffer.wgsl", include_str!("../../shaders/gbuffer.wgsl")),
     ("direct_lighting.wgsl", include_str!("../../shaders/direct_lighting.wgsl")),
     ("tonemap.wgsl", include_str!("../../shaders/tonemap.wgsl")),

@@ -62,9 +62,19 @@ struct RenderArgs {
     width: u32,
     #[arg(long, default_value_t = 480)]
     height: u32,
-    /// Frames to run with a fixed 1/60 s step; the image is the last frame.
+    /// Frames to run with a fixed 1/60 s step; the image is the last frame. With `--mode pathtrace`
+    /// the frames needed for `--spp` are added.
     #[arg(long, default_value_t = 1)]
     frames: u32,
+    /// What renders the image: `direct` (direct light with shadows) or `pathtrace` (the reference).
+    #[arg(long, default_value = "direct", value_parser = ["direct", "pathtrace"])]
+    mode: String,
+    /// Paths per pixel for `--mode pathtrace`.
+    #[arg(long, default_value_t = 64)]
+    spp: u32,
+    /// Bounce cap for `--mode pathtrace` (0: unbounded, ended by Russian roulette).
+    #[arg(long, default_value_t = 0)]
+    max_bounces: u32,
     /// Output folder.
     #[arg(long, default_value = "out/render")]
     out: PathBuf,
@@ -92,10 +102,27 @@ fn render(args: RenderArgs) -> Result<(), String> {
     }
     let scene = load(&args.scene)?;
     let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
-    let settings = HeadlessSettings { width: args.width, height: args.height, frames: args.frames, ..Default::default() };
-    let frame = render_scene(&gpu, scene, &settings).map_err(|e| e.to_string())?;
+    let mut settings = HeadlessSettings { width: args.width, height: args.height, frames: args.frames, ..Default::default() };
+    let frame = if args.mode == "pathtrace" {
+        let per_frame = args.spp.clamp(1, 16);
+        // The last frame of the run holds all the samples: earlier frames are only for animation.
+        settings.frames = args.frames.max(1) + args.spp.max(1).div_ceil(per_frame) - 1;
+        let path = pathtrace::PathTraceSettings { samples_per_frame: per_frame, max_bounces: args.max_bounces, ..Default::default() };
+        engine::headless::render_scene_with(&gpu, scene, &settings, |app| {
+            app.insert_resource(path)
+                .insert_resource(engine::render::FrameScript(pathtrace::FRAME_SCRIPT))
+                .add_plugins(pathtrace::PathTracePlugin);
+        })
+    } else {
+        render_scene(&gpu, scene, &settings)
+    }
+    .map_err(|e| e.to_string())?;
     frame.write(&args.out).map_err(|e| e.to_string())?;
-    println!("rendered '{}' on {} ({}×{}, {} frames)", args.scene, frame.adapter, args.width, args.height, args.frames);
+    let spp = if args.mode == "pathtrace" { format!(", {} paths per pixel", args.spp) } else { String::new() };
+    println!(
+        "rendered '{}' ({}) on {} ({}×{}, {} frames{spp})",
+        args.scene, args.mode, frame.adapter, args.width, args.height, settings.frames
+    );
     println!("  {}", args.out.join("image.png").display());
     println!("  {}", args.out.join("image.exr").display());
     println!("  {}", args.out.join("timings.json").display());

@@ -93,6 +93,8 @@ pub struct GpuScene {
     slots: InstanceSlots,
     changes: InstanceChanges,
     pub light_count: u32,
+    /// This frame's lights as uploaded (lets accumulating renderers notice a change).
+    pub light_data: Vec<GpuLight>,
     /// Which light kinds the scene has, so passes can leave out what it does not need.
     pub has_spot_lights: bool,
     pub view_uniform: ViewUniform,
@@ -131,6 +133,7 @@ impl GpuScene {
             slots: InstanceSlots::default(),
             changes: InstanceChanges::default(),
             light_count: 0,
+            light_data: Vec::new(),
             has_spot_lights: false,
             view_uniform: ViewUniform::zeroed(),
             atlas_rects: Vec::new(),
@@ -576,6 +579,7 @@ pub fn prepare_gpu_scene(
     }
     scene.light_count = lights.len() as u32;
     scene.lights.write(&gpu, bytemuck::cast_slice(&lights));
+    scene.light_data = lights;
 
     // View.
     let (camera, camera_transform) = cameras.iter().next().map_or((Camera::default(), GlobalTransform::default()), |(c, t)| (*c, *t));

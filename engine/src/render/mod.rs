@@ -318,43 +318,43 @@ impl CameraFrame<'_> {
         let mut albedo = graph.create_texture("gbuffer_albedo", texture_desc(size, ALBEDO_FORMAT, attachment));
         let mut emissive = graph.create_texture("gbuffer_emissive", texture_desc(size, EMISSIVE_FORMAT, attachment));
         let scene_bindings = self.scene_bindings();
-    {
-        let mut pass = graph.add_pass("gbuffer");
-        let targets = [pass.write(&mut normal), pass.write(&mut albedo), pass.write(&mut emissive)];
-        let depth_target = pass.write(&mut depth);
-        let program = pipelines.gbuffer.clone();
-        let group0 = program.bind_group(&gpu.device, 0, &scene_bindings);
-        let index_buffer = scene.indices.buffer.clone();
-        let draws = scene.draws.clone();
-        pass.render(move |ctx| {
-            let colors = targets.map(|t| {
-                Some(wgpu::RenderPassColorAttachment {
-                    view: ctx.view(t),
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT), store: wgpu::StoreOp::Store },
-                })
+        {
+            let mut pass = graph.add_pass("gbuffer");
+            let targets = [pass.write(&mut normal), pass.write(&mut albedo), pass.write(&mut emissive)];
+            let depth_target = pass.write(&mut depth);
+            let program = pipelines.gbuffer.clone();
+            let group0 = program.bind_group(&gpu.device, 0, &scene_bindings);
+            let index_buffer = scene.indices.buffer.clone();
+            let draws = scene.draws.clone();
+            pass.render(move |ctx| {
+                let colors = targets.map(|t| {
+                    Some(wgpu::RenderPassColorAttachment {
+                        view: ctx.view(t),
+                        depth_slice: None,
+                        resolve_target: None,
+                        ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT), store: wgpu::StoreOp::Store },
+                    })
+                });
+                let mut rp = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some(ctx.label),
+                    color_attachments: &colors,
+                    depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                        view: ctx.view(depth_target),
+                        depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Store }),
+                        stencil_ops: None,
+                    }),
+                    timestamp_writes: None,
+                    occlusion_query_set: None,
+                    multiview_mask: None,
+                });
+                rp.set_pipeline(&program.pipeline);
+                rp.set_bind_group(0, &group0, &[]);
+                rp.set_index_buffer(index_buffer.slice(..), wgpu::IndexFormat::Uint32);
+                for d in &draws {
+                    rp.draw_indexed(d.indices.clone(), d.base_vertex, d.instance..d.instance + 1);
+                }
             });
-            let mut rp = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some(ctx.label),
-                color_attachments: &colors,
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: ctx.view(depth_target),
-                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(0.0), store: wgpu::StoreOp::Store }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            rp.set_pipeline(&program.pipeline);
-            rp.set_bind_group(0, &group0, &[]);
-            rp.set_index_buffer(index_buffer.slice(..), wgpu::IndexFormat::Uint32);
-            for d in &draws {
-                rp.draw_indexed(d.indices.clone(), d.base_vertex, d.instance..d.instance + 1);
-            }
-        });
-    }
+        }
 
         GBuffer { depth, normal, albedo, emissive }
     }
@@ -364,29 +364,28 @@ impl CameraFrame<'_> {
         let (gpu, pipelines, size) = (&self.gpu, &self.pipelines, self.size());
         let GBuffer { depth, normal, albedo, emissive } = gbuffer;
         let scene_bindings = self.scene_bindings();
-    {
-        let mut pass = graph.add_pass("direct_lighting");
-        let inputs = [pass.read(depth), pass.read(normal), pass.read(albedo), pass.read(emissive)];
-        let out = pass.write(hdr);
-        let program = pipelines.direct_lighting.clone();
-        let group0 = program.bind_group(&gpu.device, 0, &scene_bindings);
-        pass.render(move |ctx| {
-            let [d, n, a, e] = inputs.map(|i| wgpu::BindingResource::TextureView(ctx.view(i)));
-            let group1 = program.bind_group(
-                &ctx.gpu.device,
-                1,
-                &[
-                    ("gbuffer_depth", d),
-                    ("gbuffer_normal", n),
-                    ("gbuffer_albedo", a),
-                    ("gbuffer_emissive", e),
-                    ("radiance_out", wgpu::BindingResource::TextureView(ctx.view(out))),
-                ],
-            );
-            dispatch(ctx.encoder, ctx.label, &program.pipeline, &[&group0, &group1], workgroups(size));
-        });
-    }
-
+        {
+            let mut pass = graph.add_pass("direct_lighting");
+            let inputs = [pass.read(depth), pass.read(normal), pass.read(albedo), pass.read(emissive)];
+            let out = pass.write(hdr);
+            let program = pipelines.direct_lighting.clone();
+            let group0 = program.bind_group(&gpu.device, 0, &scene_bindings);
+            pass.render(move |ctx| {
+                let [d, n, a, e] = inputs.map(|i| wgpu::BindingResource::TextureView(ctx.view(i)));
+                let group1 = program.bind_group(
+                    &ctx.gpu.device,
+                    1,
+                    &[
+                        ("gbuffer_depth", d),
+                        ("gbuffer_normal", n),
+                        ("gbuffer_albedo", a),
+                        ("gbuffer_emissive", e),
+                        ("radiance_out", wgpu::BindingResource::TextureView(ctx.view(out))),
+                    ],
+                );
+                dispatch(ctx.encoder, ctx.label, &program.pipeline, &[&group0, &group1], workgroups(size));
+            });
+        }
     }
 
     /// Tonemaps `hdr` into the LDR output, presents it to the window if there is one, executes the
@@ -395,55 +394,56 @@ impl CameraFrame<'_> {
         let FrameGraph { mut graph, hdr, mut ldr } = frame;
         let (gpu, pipelines, size) = (self.gpu.clone(), &self.pipelines, self.size());
         let scene_bindings = self.scene_bindings();
-    {
-        let mut pass = graph.add_pass("tonemap");
-        let input = pass.read(&hdr);
-        let out = pass.write(&mut ldr);
-        let program = pipelines.tonemap.clone();
-        let group0 = program.bind_group(&gpu.device, 0, &scene_bindings);
-        pass.render(move |ctx| {
-            let group1 = program.bind_group(
-                &ctx.gpu.device,
-                1,
-                &[
-                    ("hdr_in", wgpu::BindingResource::TextureView(ctx.view(input))),
-                    ("ldr_out", wgpu::BindingResource::TextureView(ctx.view(out))),
-                ],
-            );
-            dispatch(ctx.encoder, ctx.label, &program.pipeline, &[&group0, &group1], workgroups(size));
-        });
-    }
+        {
+            let mut pass = graph.add_pass("tonemap");
+            let input = pass.read(&hdr);
+            let out = pass.write(&mut ldr);
+            let program = pipelines.tonemap.clone();
+            let group0 = program.bind_group(&gpu.device, 0, &scene_bindings);
+            pass.render(move |ctx| {
+                let group1 = program.bind_group(
+                    &ctx.gpu.device,
+                    1,
+                    &[
+                        ("hdr_in", wgpu::BindingResource::TextureView(ctx.view(input))),
+                        ("ldr_out", wgpu::BindingResource::TextureView(ctx.view(out))),
+                    ],
+                );
+                dispatch(ctx.encoder, ctx.label, &program.pipeline, &[&group0, &group1], workgroups(size));
+            });
+        }
         graph.export(&hdr);
         graph.export(&ldr);
         let surface = self.surface.as_ref();
-    let surface_texture = surface.and_then(|s| acquire_surface(&gpu, s));
-    if let (Some(target), Some(frame)) = (surface, &surface_texture) {
-        let mut swap = graph.import_texture("surface", &frame.texture);
-        let mut pass = graph.add_pass("present_blit");
-        let input = pass.read(&ldr);
-        let out = pass.write(&mut swap);
-        let program = target.blit.clone();
-        pass.render(move |ctx| {
-            let group0 = program.bind_group(&ctx.gpu.device, 0, &[("blit_source", wgpu::BindingResource::TextureView(ctx.view(input)))]);
-            let mut rp = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some(ctx.label),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: ctx.view(out),
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store },
-                })],
-                depth_stencil_attachment: None,
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
+        let surface_texture = surface.and_then(|s| acquire_surface(&gpu, s));
+        if let (Some(target), Some(frame)) = (surface, &surface_texture) {
+            let mut swap = graph.import_texture("surface", &frame.texture);
+            let mut pass = graph.add_pass("present_blit");
+            let input = pass.read(&ldr);
+            let out = pass.write(&mut swap);
+            let program = target.blit.clone();
+            pass.render(move |ctx| {
+                let group0 =
+                    program.bind_group(&ctx.gpu.device, 0, &[("blit_source", wgpu::BindingResource::TextureView(ctx.view(input)))]);
+                let mut rp = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                    label: Some(ctx.label),
+                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                        view: ctx.view(out),
+                        depth_slice: None,
+                        resolve_target: None,
+                        ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store },
+                    })],
+                    depth_stencil_attachment: None,
+                    timestamp_writes: None,
+                    occlusion_query_set: None,
+                    multiview_mask: None,
+                });
+                rp.set_pipeline(&program.pipeline);
+                rp.set_bind_group(0, &group0, &[]);
+                rp.draw(0..3, 0..1);
             });
-            rp.set_pipeline(&program.pipeline);
-            rp.set_bind_group(0, &group0, &[]);
-            rp.draw(0..3, 0..1);
-        });
-        graph.export(&swap);
-    }
+            graph.export(&swap);
+        }
 
         let report = graph.execute(&gpu, &mut self.pool, Some(&mut self.timer));
         if let Some(frame) = surface_texture {

@@ -1,0 +1,168 @@
+//! A progressive GPU path tracer: the project's ground truth for judging DDGI.
+//!
+//! Each frame adds [`PathTraceSettings::samples_per_frame`] paths per pixel to a float
+//! accumulation buffer; the image is their mean, so it converges as frames go by, and starts over
+//! when the camera, an instance or a light changes. Paths use the engine's ray-tracing core
+//! (`shaders/ray_tracing.inc.wgsl`): Lambertian surfaces with base-colour textures, emissive
+//! surfaces found by the paths, punctual lights by next-event estimation with shadow rays,
+//! cosine-weighted bounces, Russian roulette after three bounces (unbiased, so the bounce count is
+//! unbounded unless [`PathTraceSettings::max_bounces`] caps it), seeds derived from pixel, sample
+//! index and [`PathTraceSettings::seed`] (the same settings give the same image).
+//!
+//! Add [`PathTracePlugin`] and set `FrameScript("pathtrace")` to render with it.
+
+use std::sync::Arc;
+
+use bevy_app::{App, Plugin};
+use bevy_ecs::prelude::*;
+use engine::gpu::GpuContext;
+use engine::render::gpu_scene::flush_uploads;
+use engine::render::gpu_types::{GpuLight, ViewUniform};
+use engine::render::{CameraFrame, RenderSize, frame_script_is};
+use engine::shader::{Program, compute_program};
+use engine::wgpu;
+
+/// The name of the path tracer's frame script.
+pub const FRAME_SCRIPT: &str = "pathtrace";
+
+/// Path tracing settings.
+#[derive(Resource, Clone, Debug, PartialEq)]
+pub struct PathTraceSettings {
+    /// Paths per pixel added each frame. More converges faster per frame and costs proportionally
+    /// more GPU time per frame.
+    pub samples_per_frame: u32,
+    /// Largest number of surface interactions of a path; 0 leaves it to Russian roulette
+    /// (unbiased). A cap biases the image darker and bounds the cost of long paths.
+    pub max_bounces: u32,
+    /// Seed of the random sequences; the same seed gives the same image.
+    pub seed: u32,
+}
+
+impl Default for PathTraceSettings {
+    fn default() -> Self {
+        Self { samples_per_frame: 4, max_bounces: 0, seed: 0x5eed }
+    }
+}
+
+/// How many paths per pixel the current image holds.
+#[derive(Resource, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PathTraceProgress {
+    pub samples: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct PathTraceParams {
+    sample_offset: u32,
+    samples: u32,
+    max_bounces: u32,
+    seed: u32,
+}
+
+#[derive(Resource)]
+struct PathTraceState {
+    program: Arc<Program<wgpu::ComputePipeline>>,
+    params: wgpu::Buffer,
+    accumulation: wgpu::Buffer,
+    size: RenderSize,
+    last: Option<(ViewUniform, Vec<GpuLight>)>,
+}
+
+/// Adds the `"pathtrace"` frame script.
+pub struct PathTracePlugin;
+
+impl Plugin for PathTracePlugin {
+    fn build(&self, app: &mut App) {
+        let Some(gpu) = app.world().get_resource::<GpuContext>().cloned() else {
+            log::warn!("PathTracePlugin needs the engine's RenderPlugin (a GPU); path tracing is off");
+            return;
+        };
+        let program = match compute_program(&gpu.device, "pathtrace.wgsl", "main", "pathtrace") {
+            Ok(p) => Arc::new(p),
+            Err(e) => {
+                log::warn!("path tracer shader failed, path tracing is off: {e}");
+                return;
+            }
+        };
+        let size = *app.world().resource::<RenderSize>();
+        let params = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("pathtrace_params"),
+            size: size_of::<PathTraceParams>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let accumulation = accumulation_buffer(&gpu, size);
+        app.init_resource::<PathTraceSettings>()
+            .init_resource::<PathTraceProgress>()
+            .insert_resource(PathTraceState { program, params, accumulation, size, last: None })
+            .add_systems(engine::app::Render, render_path_traced_frame.run_if(frame_script_is(FRAME_SCRIPT)).after(flush_uploads));
+    }
+}
+
+fn accumulation_buffer(gpu: &GpuContext, size: RenderSize) -> wgpu::Buffer {
+    gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("pathtrace_accumulation"),
+        size: u64::from(size.width.max(1)) * u64::from(size.height.max(1)) * 16,
+        usage: wgpu::BufferUsages::STORAGE,
+        mapped_at_creation: false,
+    })
+}
+
+/// Render stage: the `"pathtrace"` frame script — path tracing into the HDR output, then the
+/// engine's tonemap and present.
+fn render_path_traced_frame(
+    mut frame: CameraFrame,
+    settings: Res<PathTraceSettings>,
+    mut state: ResMut<PathTraceState>,
+    mut progress: ResMut<PathTraceProgress>,
+) {
+    let size = frame.size();
+    if state.size != size {
+        state.accumulation = accumulation_buffer(&frame.gpu, size);
+        state.size = size;
+        state.last = None;
+    }
+    // Start over when what the image shows has changed.
+    let now = (frame.scene.view_uniform, frame.scene.light_data.clone());
+    let view_changed = state.last.as_ref().is_none_or(|(v, l)| {
+        let mut v = *v;
+        v.frame = now.0.frame;
+        v != now.0 || *l != now.1
+    });
+    if view_changed || !frame.scene.instance_changes().dirty.is_empty() {
+        progress.samples = 0;
+    }
+    state.last = Some(now);
+    let samples = settings.samples_per_frame.max(1);
+    let params = PathTraceParams { sample_offset: progress.samples, samples, max_bounces: settings.max_bounces, seed: settings.seed };
+    frame.gpu.queue.write_buffer(&state.params, 0, bytemuck::bytes_of(&params));
+    progress.samples += samples;
+
+    let mut script = frame.begin();
+    {
+        let mut pass = script.graph.add_pass("pathtrace");
+        let out = pass.write(&mut script.hdr);
+        let program = state.program.clone();
+        let group0 = program.bind_group(&frame.gpu.device, 0, &frame.scene_bindings());
+        let (params, accumulation) = (state.params.clone(), state.accumulation.clone());
+        pass.render(move |ctx| {
+            let group1 = program.bind_group(
+                &ctx.gpu.device,
+                1,
+                &[
+                    ("path_params", params.as_entire_binding()),
+                    ("path_accumulation", accumulation.as_entire_binding()),
+                    ("path_radiance_out", wgpu::BindingResource::TextureView(ctx.view(out))),
+                ],
+            );
+            engine::render::dispatch(
+                ctx.encoder,
+                ctx.label,
+                &program.pipeline,
+                &[&group0, &group1],
+                (size.width.div_ceil(8), size.height.div_ceil(8)),
+            );
+        });
+    }
+    frame.finish(script);
+}

@@ -1,0 +1,68 @@
+//! The reference path tracer against analytic results: the white furnace and the inverse-square law.
+
+use engine::headless::{HeadlessSettings, RenderedFrame, render_scene_with};
+use engine::render::FrameScript;
+use engine::scene::{Camera, Material, NodeContent, PointLight, SceneDescription, Transform};
+use glam::{Vec2, Vec3};
+use pathtrace::{FRAME_SCRIPT, PathTracePlugin, PathTraceSettings};
+
+fn path_trace(gpu: &engine::gpu::GpuContext, scene: SceneDescription, size: u32, frames: u32, per_frame: u32) -> RenderedFrame {
+    let settings = HeadlessSettings { width: size, height: size, frames, ..Default::default() };
+    render_scene_with(gpu, scene, &settings, |app| {
+        app.insert_resource(PathTraceSettings { samples_per_frame: per_frame, ..Default::default() })
+            .insert_resource(FrameScript(FRAME_SCRIPT))
+            .add_plugins(PathTracePlugin);
+    })
+    .expect("render")
+}
+
+fn mean_rgb(frame: &RenderedFrame) -> Vec3 {
+    let n = (frame.width * frame.height) as f32;
+    frame.hdr.chunks_exact(4).fold(Vec3::ZERO, |acc, p| acc + Vec3::new(p[0], p[1], p[2])) / n
+}
+
+#[test]
+fn white_furnace_converges_to_emission_over_one_minus_albedo() {
+    let Some(gpu) = workspace_tests::gpu("white_furnace_converges_to_emission_over_one_minus_albedo") else { return };
+    // A closed box of albedo ρ emitting Le everywhere: every path sees Le·Σρᵏ = Le/(1−ρ).
+    for albedo in [0.5f32, 0.8] {
+        let emission = 0.25;
+        let mut s = SceneDescription { name: "furnace".into(), ..Default::default() };
+        let boxed = s.add_mesh(engine::builtin::cuboid("box", Vec3::splat(2.0)));
+        let m =
+            s.add_material(Material { base_color: Vec3::splat(albedo).extend(1.0), emissive: Vec3::splat(emission), ..Default::default() });
+        s.add_node("box", Transform::IDENTITY, None, vec![NodeContent::Meshes(vec![(boxed, m)])]);
+        let camera = Transform::from_xyz(0.3, -0.2, 0.5).looking_at(Vec3::new(1.0, 0.5, -2.0), Vec3::Y);
+        s.add_node("camera", camera, None, vec![NodeContent::Camera(Camera { yfov: 1.2, ..Default::default() })]);
+        let frame = path_trace(&gpu, s, 32, 8, 16);
+        let expected = emission / (1.0 - albedo);
+        let mean = mean_rgb(&frame);
+        assert!((mean - Vec3::splat(expected)).abs().max_element() < 0.01 * expected, "ρ = {albedo}: mean {mean}, expected {expected}");
+        assert!(frame.hdr.iter().all(|v| v.is_finite()));
+    }
+}
+
+#[test]
+fn path_traced_point_light_follows_the_inverse_square_law() {
+    let Some(gpu) = workspace_tests::gpu("path_traced_point_light_follows_the_inverse_square_law") else { return };
+    for height in [1.0f32, 2.0] {
+        let mut s = SceneDescription { name: "floor".into(), ..Default::default() };
+        let floor = s.add_mesh(engine::builtin::quad("floor", Vec2::splat(20.0)));
+        let m = s.add_material(Material::diffuse("grey", Vec3::splat(0.5)));
+        s.add_node("floor", Transform::IDENTITY, None, vec![NodeContent::Meshes(vec![(floor, m)])]);
+        let camera = Transform::from_xyz(0.0, 5.0, 0.0).looking_at(Vec3::ZERO, Vec3::NEG_Z);
+        s.add_node("camera", camera, None, vec![NodeContent::Camera(Camera { yfov: 0.01, ..Default::default() })]);
+        s.add_node(
+            "light",
+            Transform::from_xyz(0.0, height, 0.0),
+            None,
+            vec![NodeContent::PointLight(PointLight { color: Vec3::ONE, intensity: 8.0, range: None })],
+        );
+        // The camera sees a 5 cm patch under the light; bounced paths escape to a black sky, so the
+        // image is the direct term: albedo/π · I / h².
+        let frame = path_trace(&gpu, s, 8, 2, 4);
+        let expected = 0.5 / std::f32::consts::PI * 8.0 / (height * height);
+        let mean = mean_rgb(&frame);
+        assert!((mean.x - expected).abs() < 0.01 * expected, "height {height}: {mean} vs {expected}");
+    }
+}
