@@ -66,3 +66,36 @@ fn path_traced_point_light_follows_the_inverse_square_law() {
         assert!((mean.x - expected).abs() < 0.01 * expected, "height {height}: {mean} vs {expected}");
     }
 }
+
+fn cornell(gpu: &engine::gpu::GpuContext, seed: u32) -> RenderedFrame {
+    let scene = engine::builtin::builtin_scene("cornell").expect("cornell");
+    let settings = HeadlessSettings { width: 128, height: 128, frames: CORNELL_SPP / 16, ..Default::default() };
+    render_scene_with(gpu, scene, &settings, |app| {
+        app.insert_resource(PathTraceSettings { samples_per_frame: 16, seed, ..Default::default() })
+            .insert_resource(FrameScript(FRAME_SCRIPT))
+            .add_plugins(PathTracePlugin);
+    })
+    .expect("render")
+}
+
+/// Paths per pixel of the Cornell reference test.
+const CORNELL_SPP: u32 = 256;
+
+#[test]
+fn path_traced_cornell_box_matches_its_stored_reference() {
+    let Some(gpu) = workspace_tests::gpu("path_traced_cornell_box_matches_its_stored_reference") else { return };
+    let frame = cornell(&gpu, PathTraceSettings::default().seed);
+    assert!(frame.hdr.iter().all(|v| v.is_finite()));
+    // The bound: with the reference's own seed only float differences between drivers remain, well
+    // under 0.02. Another seed at the same 256 paths per pixel differs by its noise alone: mean FLIP
+    // 0.046 and relative MSE 0.008 on lavapipe (2026-11-22). A wrong light, material or bounce moves
+    // the image further than that noise, so 0.02 against the reference is a real check, and the
+    // noise level itself is bounded below.
+    let mean = workspace_tests::assert_golden("cornell_pathtrace_256spp", 128, 128, &frame.ldr, 0.02);
+    let other = cornell(&gpu, 12345);
+    let (noise, _) = workspace_tests::flip(&frame.ldr, &other.ldr, 128, 128);
+    let relative = engine::metrics::relative_mse(&frame.hdr, &other.hdr);
+    eprintln!("cornell path traced: FLIP {mean:.4} against the reference; between seeds FLIP {noise:.4}, relative MSE {relative:.5}");
+    assert!(noise > mean && noise < 0.08, "noise between seeds: FLIP {noise}");
+    assert!(relative < 0.02, "relative MSE between seeds {relative}");
+}
