@@ -108,11 +108,21 @@ fn render(args: RenderArgs) -> Result<(), String> {
         // The last frame of the run holds all the samples: earlier frames are only for animation.
         settings.frames = args.frames.max(1) + args.spp.max(1).div_ceil(per_frame) - 1;
         let path = pathtrace::PathTraceSettings { samples_per_frame: per_frame, max_bounces: args.max_bounces, ..Default::default() };
-        engine::headless::render_scene_with(&gpu, scene, &settings, |app| {
+        // A progress bar on standard error for long renders (hidden when it is not a terminal).
+        let bar = indicatif::ProgressBar::new(u64::from(settings.frames));
+        bar.set_style(
+            indicatif::ProgressStyle::with_template("path tracing {bar:40} {pos}/{len} frames, {elapsed} elapsed, {eta} left")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        let tick = bar.clone();
+        let frame = engine::headless::render_scene_with(&gpu, scene, &settings, |app| {
             app.insert_resource(path)
                 .insert_resource(engine::render::FrameScript(pathtrace::FRAME_SCRIPT))
-                .add_plugins(pathtrace::PathTracePlugin);
-        })
+                .add_plugins(pathtrace::PathTracePlugin)
+                .add_systems(engine::bevy_app::Last, move || tick.inc(1));
+        });
+        bar.finish_and_clear();
+        frame
     } else {
         render_scene(&gpu, scene, &settings)
     }
