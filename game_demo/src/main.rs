@@ -9,7 +9,7 @@ mod bench;
 use clap::{Parser, Subcommand};
 use engine::gpu::{GpuContext, GpuOptions};
 use engine::headless::{HeadlessSettings, render_scene};
-use engine::scene::SceneDescription;
+use engine::scene::{Camera, NodeContent, SceneDescription, Transform};
 
 #[derive(Parser)]
 #[command(version, about = "Dynamic diffuse global illumination demo: headless renders and a windowed viewer")]
@@ -78,9 +78,26 @@ struct RenderArgs {
     /// Output folder.
     #[arg(long, default_value = "out/render")]
     out: PathBuf,
+    /// Replace the scene's camera: its position `x,y,z` (needs --camera-target).
+    #[arg(long, value_parser = parse_vec3, requires = "camera_target")]
+    camera_position: Option<glam::Vec3>,
+    /// The point the replacement camera looks at `x,y,z`.
+    #[arg(long, value_parser = parse_vec3, requires = "camera_position")]
+    camera_target: Option<glam::Vec3>,
+    /// Vertical field of view of the replacement camera, in degrees.
+    #[arg(long, default_value_t = 50.0)]
+    fov: f32,
     /// Print the built-in scene names and exit.
     #[arg(long)]
     list_scenes: bool,
+}
+
+fn parse_vec3(text: &str) -> Result<glam::Vec3, String> {
+    let v: Vec<f32> = text.split(',').map(|p| p.trim().parse::<f32>().map_err(|e| format!("'{p}': {e}"))).collect::<Result<_, _>>()?;
+    match v[..] {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(glam::Vec3::new(x, y, z)),
+        _ => Err(format!("expected three finite numbers x,y,z, got '{text}'")),
+    }
 }
 
 /// A built-in scene by name, or a scene file by path.
@@ -100,7 +117,23 @@ fn render(args: RenderArgs) -> Result<(), String> {
         println!("{}", engine::builtin::BUILTIN_SCENES.join("\n"));
         return Ok(());
     }
-    let scene = load(&args.scene)?;
+    let mut scene = load(&args.scene)?;
+    if let (Some(position), Some(target)) = (args.camera_position, args.camera_target) {
+        if !(args.fov > 0.0 && args.fov < 180.0) {
+            return Err(format!("--fov must be between 0 and 180 degrees, got {}", args.fov));
+        }
+        for node in &mut scene.nodes {
+            node.content.retain(|c| !matches!(c, NodeContent::Camera(_)));
+        }
+        let up = if (target - position).normalize_or_zero().y.abs() > 0.99 { glam::Vec3::Z } else { glam::Vec3::Y };
+        let camera = Camera { yfov: args.fov.to_radians(), ..Default::default() };
+        scene.add_node(
+            "command_line_camera",
+            Transform::from_translation(position).looking_at(target, up),
+            None,
+            vec![NodeContent::Camera(camera)],
+        );
+    }
     let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
     let mut settings = HeadlessSettings { width: args.width, height: args.height, frames: args.frames, ..Default::default() };
     let frame = if args.mode == "pathtrace" {
