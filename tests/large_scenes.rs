@@ -14,6 +14,7 @@ use engine::builtin::{BUILTIN_SCENES, Opening, builtin_openings, builtin_scene};
 use engine::builtin_large::{CATHEDRAL_NAVE_MAX, CATHEDRAL_NAVE_MIN, FOREST_SIZE, cathedral_openings, forest_terrain_height};
 use engine::scene::{Mesh, NodeContent, SceneDescription};
 use glam::{Affine3A, Vec3};
+use workspace_tests::assert_valid_mesh;
 use workspace_tests::cpu_rays::{fibonacci_directions, intersect};
 
 /// Triangle budgets and their tolerance.
@@ -24,8 +25,6 @@ const BUDGET_TOLERANCE: f64 = 0.03;
 /// `MAX_UNIQUE_TRIANGLES` together.
 const MIN_FOREST_INSTANCES: usize = 10_000;
 const MAX_UNIQUE_TRIANGLES: usize = 1_000_000;
-/// Allowed deviation of a normal's length from 1.
-const UNIT_TOLERANCE: f32 = 1e-4;
 /// Allowed distance (metres) between an instance's origin and the terrain height under it.
 const TERRAIN_TOLERANCE: f32 = 1e-3;
 /// Allowed distance (metres) between the terrain function and the terrain mesh's linear
@@ -91,32 +90,6 @@ fn sun_direction(desc: &SceneDescription) -> Vec3 {
 fn node_position(desc: &SceneDescription, name: &str) -> Vec3 {
     let index = desc.nodes.iter().position(|n| n.name == name).unwrap_or_else(|| panic!("{}: no node {name}", desc.name));
     desc.world_transforms()[index].translation.into()
-}
-
-/// Asserts the mesh invariants of [`Mesh`], that no triangle is degenerate and that every triangle
-/// is wound counter-clockwise seen from the side its vertex normals face.
-fn assert_valid_mesh(scene: &str, mesh: &Mesh) {
-    let name = &mesh.name;
-    assert!(!mesh.positions.is_empty(), "{scene}/{name}: empty mesh");
-    assert_eq!(mesh.normals.len(), mesh.positions.len(), "{scene}/{name}: one normal per vertex");
-    assert!(mesh.uvs.is_empty() || mesh.uvs.len() == mesh.positions.len(), "{scene}/{name}: uvs either absent or one per vertex");
-    assert!(mesh.positions.iter().all(|p| p.is_finite()), "{scene}/{name}: non-finite position");
-    assert!(mesh.uvs.iter().all(|uv| uv.is_finite()), "{scene}/{name}: non-finite uv");
-    for n in &mesh.normals {
-        assert!(n.is_finite() && (n.length() - 1.0).abs() < UNIT_TOLERANCE, "{scene}/{name}: normal {n} is not unit length");
-    }
-    assert!(!mesh.indices.is_empty(), "{scene}/{name}: no triangles");
-    assert_eq!(mesh.indices.len() % 3, 0, "{scene}/{name}: index count not a multiple of 3");
-    let count = mesh.positions.len() as u32;
-    assert!(mesh.indices.iter().all(|&i| i < count), "{scene}/{name}: index out of range");
-    for tri in mesh.indices.chunks_exact(3) {
-        let [a, b, c] = [tri[0], tri[1], tri[2]].map(|i| mesh.positions[i as usize]);
-        let face = (b - a).cross(c - a);
-        assert!(face.length() > 1e-8, "{scene}/{name}: degenerate triangle {tri:?}");
-        for &i in tri {
-            assert!(face.dot(mesh.normals[i as usize]) > 0.0, "{scene}/{name}: triangle {tri:?} is wound against its normals");
-        }
-    }
 }
 
 /// Asserts that `mesh` is a union of closed, consistently wound surfaces: every edge (by exact

@@ -6,30 +6,11 @@ use engine::app::{EnginePlugin, Time, run_headless};
 use engine::bevy_app::App;
 use engine::headless::{HeadlessSettings, render_scene};
 use engine::render::{GpuScene, RenderPlugin, RenderSize};
+use engine::rng::SplitMix64;
 use engine::rt::cpu::{CpuScene, GpuRay, TraceResult};
 use engine::rt::{RayTracer, RayTracingScene, WaitForBlasBuilds};
 use engine::scene::{Assets, Camera, Material, Mesh, NodeContent, PointLight, SceneDescription, Transform};
 use glam::{Quat, Vec2, Vec3};
-
-/// A small deterministic generator (xorshift) so that failures reproduce.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f32 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 40) as f32 / (1u64 << 24) as f32
-    }
-    fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.next()
-    }
-    fn direction(&mut self) -> Vec3 {
-        let z = self.range(-1.0, 1.0);
-        let phi = self.range(0.0, std::f32::consts::TAU);
-        let r = (1.0 - z * z).max(0.0).sqrt();
-        Vec3::new(r * phi.cos(), z, r * phi.sin())
-    }
-}
 
 fn app_for(gpu: &engine::gpu::GpuContext, scene: SceneDescription) -> App {
     let mut app = App::new();
@@ -54,7 +35,7 @@ fn cpu_reference(app: &App) -> CpuScene {
 
 /// Random rays from inside (and around) the scene's bounds with directions of random length.
 fn random_rays(bounds: (Vec3, Vec3), count: usize, seed: u64) -> Vec<GpuRay> {
-    let mut rng = Rng(seed);
+    let mut rng = SplitMix64::new(seed);
     let (lo, hi) = bounds;
     let pad = (hi - lo) * 0.25;
     (0..count)
@@ -274,13 +255,13 @@ fn after_many_moves_and_refits_hits_still_match_the_cpu_reference() {
     let scene = cuboid_scene();
     let bounds = scene.bounds().expect("bounds");
     let mut app = app_for(&gpu, scene);
-    let mut rng = Rng(77);
+    let mut rng = SplitMix64::new(77);
     let mut refits = 0;
     for _ in 0..6 {
         let world = app.world_mut();
         let mut q = world.query_filtered::<&mut Transform, bevy_ecs::query::With<engine::scene::MeshInstance>>();
         for mut t in q.iter_mut(world) {
-            if rng.next() < 0.5 {
+            if rng.unit() < 0.5 {
                 t.translation += Vec3::new(rng.range(-0.3, 0.3), rng.range(-0.3, 0.3), rng.range(-0.3, 0.3));
                 t.rotation *= Quat::from_rotation_y(rng.range(-0.5, 0.5));
             }

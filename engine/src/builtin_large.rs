@@ -24,6 +24,7 @@ use std::sync::LazyLock;
 use glam::{Affine3A, Quat, Vec2, Vec3};
 
 use crate::builtin::{Opening, box_part, box_with_hole, merge};
+use crate::rng::SplitMix64;
 use crate::scene::{Camera, DirectionalLight, Material, Mesh, NodeContent, SceneDescription, Transform};
 
 // ---------------------------------------------------------------------------------------------
@@ -894,33 +895,6 @@ fn fern_mesh() -> Mesh {
     merge("fern", &parts)
 }
 
-/// SplitMix64: a tiny, fast deterministic generator (Steele, Lea and Flood, 2014).
-struct SplitMix64(u64);
-
-impl SplitMix64 {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in [0, 1).
-    fn unit(&mut self) -> f32 {
-        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
-    }
-
-    fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.unit()
-    }
-
-    /// Uniform in `0..n` (n > 0).
-    fn below(&mut self, n: usize) -> usize {
-        (((self.next_u64() >> 32) * n as u64) >> 32) as usize
-    }
-}
-
 /// The placement of one instance standing at (x, z) on the terrain: a random turn about Y and a
 /// random uniform scale.
 fn instance_transform(rng: &mut SplitMix64, x: f32, z: f32) -> Transform {
@@ -954,7 +928,7 @@ pub fn forest() -> SceneDescription {
         [kind(&mut desc, pine_mesh(), PINE_ALBEDO), kind(&mut desc, oak_mesh(), OAK_ALBEDO), kind(&mut desc, birch_mesh(), BIRCH_ALBEDO)];
     let plants = [kind(&mut desc, bush_mesh(), BUSH_ALBEDO), kind(&mut desc, fern_mesh(), FERN_ALBEDO)];
 
-    let mut rng = SplitMix64(FOREST_SEED);
+    let mut rng = SplitMix64::new(FOREST_SEED);
     desc.nodes.reserve(TREE_GRID * TREE_GRID + PLANT_COUNT + 4);
     let tree_group = desc.add_node("trees", Transform::IDENTITY, None, vec![NodeContent::Empty]);
     let cell = FOREST_SIZE / TREE_GRID as f32;

@@ -17,6 +17,7 @@ pub mod headless;
 pub mod import;
 pub mod metrics;
 pub mod render;
+pub mod rng;
 pub mod rt;
 pub mod scene;
 pub mod shader;

@@ -8,6 +8,7 @@ use engine::bevy_app::App;
 use engine::bevy_ecs::prelude::*;
 use engine::gpu::GpuContext;
 use engine::render::{GpuScene, RenderPlugin, RenderSize};
+use engine::rng::SplitMix64;
 use engine::rt::{RayTracingScene, WaitForBlasBuilds, ray_workgroups};
 use engine::scene::{Assets, Mesh, MeshInstance, SceneDescription, Transform};
 use engine::shader::compute_program_with_constants;
@@ -32,19 +33,9 @@ struct BenchParams {
     max_distance: f32,
 }
 
-/// Deterministic pseudo-random numbers (xorshift64).
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f32 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 40) as f32 / (1u64 << 24) as f32
-    }
-    fn rotation(&mut self) -> Quat {
-        let axis = Vec3::new(self.next() - 0.5, self.next() - 0.5, self.next() - 0.5).normalize_or(Vec3::Y);
-        Quat::from_axis_angle(axis, self.next() * std::f32::consts::TAU)
-    }
+/// A random rotation (axis and angle uniform), for the per-dispatch rotation of the ray directions.
+fn random_rotation(rng: &mut SplitMix64) -> Quat {
+    Quat::from_axis_angle(rng.direction(), rng.unit() * std::f32::consts::TAU)
 }
 
 /// One cell of the throughput table.
@@ -168,12 +159,12 @@ impl TraceKernel {
     }
 }
 
-fn params_for(rng: &mut Rng, bounds: (Vec3, Vec3), grid: [u32; 3], rays_per_probe: u32) -> BenchParams {
+fn params_for(rng: &mut SplitMix64, bounds: (Vec3, Vec3), grid: [u32; 3], rays_per_probe: u32) -> BenchParams {
     let (lo, hi) = bounds;
     let extent = (hi - lo).max(Vec3::splat(1e-3));
     let spacing = extent / Vec3::new(grid[0] as f32, grid[1] as f32, grid[2] as f32);
     BenchParams {
-        rotation: Mat4::from_quat(rng.rotation()).to_cols_array_2d(),
+        rotation: Mat4::from_quat(random_rotation(rng)).to_cols_array_2d(),
         grid_origin: (lo + spacing * 0.5).to_array(),
         rays_per_probe,
         grid_spacing: spacing.to_array(),
@@ -189,7 +180,7 @@ pub fn trace_throughput(gpu: &GpuContext, app: &App, bounds: (Vec3, Vec3), itera
         return Err(format!("{} has no timestamp queries: GPU times cannot be measured", gpu.adapter_name()));
     }
     let kernel = TraceKernel::new(gpu, app, false)?;
-    let mut rng = Rng(0x5EED_1234_ABCD);
+    let mut rng = SplitMix64::new(0x5EED_1234_ABCD);
     let mut cells = Vec::new();
     for grid in GRIDS {
         for rays_per_probe in RAYS {
@@ -213,7 +204,7 @@ pub fn trace_throughput(gpu: &GpuContext, app: &App, bounds: (Vec3, Vec3), itera
 /// nodes, triangles tested.
 pub fn traversal_work(gpu: &GpuContext, app: &App, bounds: (Vec3, Vec3), grid: [u32; 3], rays_per_probe: u32) -> Result<[f64; 4], String> {
     let kernel = TraceKernel::new(gpu, app, true)?;
-    let p = params_for(&mut Rng(0xD1A6), bounds, grid, rays_per_probe);
+    let p = params_for(&mut SplitMix64::new(0xD1A6), bounds, grid, rays_per_probe);
     kernel.run(gpu, &p)?;
     let w = kernel.work(gpu)?;
     Ok(w.map(|v| f64::from(v) / f64::from(p.ray_count)))
@@ -228,7 +219,7 @@ pub fn tlas_update_cost(app: &mut App, count: usize, frames: usize) -> Option<(D
     if entities.len() < count {
         return None;
     }
-    let mut rng = Rng(0xC0FF_EE00 + count as u64);
+    let mut rng = SplitMix64::new(0xC0FF_EE00 + count as u64);
     let mut times = Vec::new();
     let mut rebuilt = false;
     for _ in 0..frames {
@@ -236,7 +227,7 @@ pub fn tlas_update_cost(app: &mut App, count: usize, frames: usize) -> Option<(D
         for &e in entities.iter().take(count) {
             if let Some(mut t) = world.get_mut::<Transform>(e) {
                 // A small jiggle, as animated props move from frame to frame.
-                t.translation += Vec3::new(rng.next() - 0.5, rng.next() - 0.5, rng.next() - 0.5) * 0.02;
+                t.translation += Vec3::new(rng.unit() - 0.5, rng.unit() - 0.5, rng.unit() - 0.5) * 0.02;
             }
         }
         app.update();
