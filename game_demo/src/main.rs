@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 mod bench;
+mod eval;
 
 use clap::{Parser, Subcommand};
 use engine::gpu::{GpuContext, GpuOptions};
@@ -23,6 +24,26 @@ enum Command {
     /// Render a scene without a window: writes image.png (tonemapped sRGB), image.exr (linear
     /// radiance) and timings.json (GPU milliseconds per pass and frame) into --out.
     Render(RenderArgs),
+    /// Error against a path-traced reference and GPU time for a list of configurations (direct
+    /// light, the path tracer at 1, 4, 16, 64 paths per pixel): report.md, results.json and strips.
+    Eval {
+        /// A built-in scene name or a scene file.
+        #[arg(long, default_value = "cornell")]
+        scene: String,
+        #[arg(long, default_value_t = 256)]
+        width: u32,
+        #[arg(long, default_value_t = 256)]
+        height: u32,
+        /// Paths per pixel of the reference (cached on disk by scene, size and this number).
+        #[arg(long, default_value_t = 4096)]
+        reference_spp: u32,
+        /// Output folder (default: out/eval/<scene>).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Folder of cached references.
+        #[arg(long, default_value = "out/eval/cache")]
+        cache: PathBuf,
+    },
     /// Benchmarks (results as Markdown tables on standard output).
     #[command(subcommand)]
     Bench(BenchCommand),
@@ -236,6 +257,13 @@ fn main() -> ExitCode {
     let result = match Cli::parse().command {
         Command::Render(args) => render(args),
         Command::Bench(command) => bench(command),
+        Command::Eval { scene, width, height, reference_spp, out, cache } => load(&scene).and_then(|description| {
+            let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
+            let out = out.unwrap_or_else(|| PathBuf::from("out/eval").join(scene.replace(['/', '\\', '.'], "_")));
+            eval::run(&gpu, &scene, description, width, height, reference_spp, &out, &cache)?;
+            println!("report: {}", out.join("report.md").display());
+            Ok(())
+        }),
         Command::Play { scene } => load(&scene).and_then(|s| engine::window::run_windowed(s).map_err(|e| e.to_string())),
     };
     match result {
