@@ -120,17 +120,21 @@ fn save_strip(path: &Path, panels: &[Vec<u8>], width: u32, height: u32) -> Resul
     strip.save(path).map_err(|e| format!("{}: {e}", path.display()))
 }
 
-/// Runs the evaluation of `scene` and writes the report into `out`.
-pub fn run(
-    gpu: &GpuContext,
-    name: &str,
-    scene: SceneDescription,
-    width: u32,
-    height: u32,
-    reference_spp: u32,
-    out: &Path,
-    cache: &Path,
-) -> Result<Vec<EvalRow>, String> {
+/// What to evaluate and where to write it.
+pub struct EvalOptions {
+    pub width: u32,
+    pub height: u32,
+    /// Paths per pixel of the reference.
+    pub reference_spp: u32,
+    /// Folder of the report.
+    pub out: PathBuf,
+    /// Folder of cached references.
+    pub cache: PathBuf,
+}
+
+/// Runs the evaluation of `scene` (named `name`) and writes the report.
+pub fn run(gpu: &GpuContext, name: &str, scene: SceneDescription, options: &EvalOptions) -> Result<Vec<EvalRow>, String> {
+    let EvalOptions { width, height, reference_spp, ref out, ref cache } = *options;
     std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
     let exposure = 1.0;
     let reference = reference(gpu, name, &scene, width, height, reference_spp, cache)?;

@@ -260,8 +260,9 @@ fn main() -> ExitCode {
         Command::Eval { scene, width, height, reference_spp, out, cache } => load(&scene).and_then(|description| {
             let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
             let out = out.unwrap_or_else(|| PathBuf::from("out/eval").join(scene.replace(['/', '\\', '.'], "_")));
-            eval::run(&gpu, &scene, description, width, height, reference_spp, &out, &cache)?;
-            println!("report: {}", out.join("report.md").display());
+            let options = eval::EvalOptions { width, height, reference_spp, out, cache };
+            eval::run(&gpu, &scene, description, &options)?;
+            println!("report: {}", options.out.join("report.md").display());
             Ok(())
         }),
         Command::Play { scene } => load(&scene).and_then(|s| engine::window::run_windowed(s).map_err(|e| e.to_string())),
