@@ -30,7 +30,11 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let n = textureLoad(gbuffer_normal, id.xy, 0).xyz;
     let albedo = textureLoad(gbuffer_albedo, id.xy, 0).rgb;
     var radiance = textureLoad(gbuffer_emissive, id.xy, 0).rgb;
-    let origin = offset_ray_origin(p, n);
+    // A position rebuilt from depth carries an error that grows with distance (and with the
+    // driver's math): push the shadow-ray origin off the surface by a small fraction of the view
+    // distance before the float-exact offset, or grazing-lit faces shadow themselves in bands.
+    let view_distance = length(p - view.camera_position);
+    let origin = offset_ray_origin(p + n * (1e-4 * view_distance), n);
     for (var i = 0u; i < view.light_count; i++) {
         let s = sample_light(lights[i], p, n);
         if all(s.irradiance <= vec3<f32>(0.0)) {
