@@ -1,17 +1,14 @@
 //! The reference path tracer against analytic results: the white furnace and the inverse-square law.
 
 use engine::headless::{HeadlessSettings, RenderedFrame, render_scene_with};
-use engine::render::FrameScript;
 use engine::scene::{Camera, Material, NodeContent, PointLight, SceneDescription, Transform};
 use glam::{Vec2, Vec3};
-use pathtrace::{FRAME_SCRIPT, PathTracePlugin, PathTraceSettings};
+use pathtrace::{PathTraceSettings, use_path_tracer};
 
 fn path_trace(gpu: &engine::gpu::GpuContext, scene: SceneDescription, size: u32, frames: u32, per_frame: u32) -> RenderedFrame {
     let settings = HeadlessSettings { width: size, height: size, frames, ..Default::default() };
     render_scene_with(gpu, scene, &settings, |app| {
-        app.insert_resource(PathTraceSettings { samples_per_frame: per_frame, ..Default::default() })
-            .insert_resource(FrameScript(FRAME_SCRIPT))
-            .add_plugins(PathTracePlugin);
+        use_path_tracer(app, PathTraceSettings { samples_per_frame: per_frame, ..Default::default() })
     })
     .expect("render")
 }
@@ -71,9 +68,7 @@ fn cornell(gpu: &engine::gpu::GpuContext, seed: u32) -> RenderedFrame {
     let scene = engine::builtin::builtin_scene("cornell").expect("cornell");
     let settings = HeadlessSettings { width: 128, height: 128, frames: CORNELL_SPP / 16, ..Default::default() };
     render_scene_with(gpu, scene, &settings, |app| {
-        app.insert_resource(PathTraceSettings { samples_per_frame: 16, seed, ..Default::default() })
-            .insert_resource(FrameScript(FRAME_SCRIPT))
-            .add_plugins(PathTracePlugin);
+        use_path_tracer(app, PathTraceSettings { samples_per_frame: 16, seed, ..Default::default() })
     })
     .expect("render")
 }

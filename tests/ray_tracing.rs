@@ -13,9 +13,7 @@ use engine::scene::{Assets, Camera, Material, Mesh, NodeContent, PointLight, Sce
 use glam::{Quat, Vec2, Vec3};
 
 fn app_for(gpu: &engine::gpu::GpuContext, scene: SceneDescription) -> App {
-    let mut app = App::new();
-    app.insert_resource(Time::fixed(1.0 / 60.0)).insert_resource(WaitForBlasBuilds(true));
-    app.add_plugins((EnginePlugin, RenderPlugin { gpu: gpu.clone(), size: RenderSize { width: 8, height: 8 } }));
+    let mut app = engine::headless::headless_app(gpu, RenderSize { width: 8, height: 8 }, 1.0 / 60.0);
     scene.spawn(app.world_mut());
     run_headless(&mut app, 1);
     app

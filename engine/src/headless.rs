@@ -65,6 +65,16 @@ pub fn add_default_camera(scene: &mut SceneDescription) {
     scene.add_node("default_camera", transform, None, vec![NodeContent::Camera(Camera { znear: (radius * 1e-3).max(1e-6), ..camera })]);
 }
 
+/// An app with the engine and the camera path rendering `size` pixels headless: a fixed clock of
+/// `step` seconds, BLAS builds waited for, per-frame timings waited for. Spawn a scene and run it.
+pub fn headless_app(gpu: &GpuContext, size: RenderSize, step: f64) -> App {
+    let mut app = App::new();
+    app.insert_resource(Time::fixed(step)).insert_resource(crate::rt::WaitForBlasBuilds(true));
+    app.add_plugins((EnginePlugin, RenderPlugin { gpu: gpu.clone(), size }));
+    app.world_mut().resource_mut::<FrameTimings>().wait_each_frame = true;
+    app
+}
+
 /// Renders `scene` for `settings.frames` frames with a fixed time step and returns the last frame.
 pub fn render_scene(gpu: &GpuContext, scene: SceneDescription, settings: &HeadlessSettings) -> Result<RenderedFrame, RenderError> {
     render_scene_with(gpu, scene, settings, |_| {})
@@ -88,13 +98,9 @@ pub fn render_scene_with(
     if !scene.has_camera() {
         add_default_camera(&mut scene);
     }
-    let mut app = App::new();
-    app.add_plugins((EnginePlugin, RenderPlugin { gpu: gpu.clone(), size: RenderSize { width: settings.width, height: settings.height } }));
-    app.world_mut().resource_mut::<FrameTimings>().wait_each_frame = true;
-    app.insert_resource(crate::rt::WaitForBlasBuilds(true));
+    let mut app = headless_app(gpu, RenderSize { width: settings.width, height: settings.height }, settings.step);
     configure(&mut app);
     scene.spawn(app.world_mut());
-    app.insert_resource(Time::fixed(settings.step));
     run_headless(&mut app, settings.frames);
     let world = app.world_mut();
     let outputs = world.resource::<RenderOutputs>();

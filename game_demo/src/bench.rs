@@ -3,13 +3,13 @@
 
 use std::time::{Duration, Instant};
 
-use engine::app::{EnginePlugin, Time, run_headless};
+use engine::app::run_headless;
 use engine::bevy_app::App;
 use engine::bevy_ecs::prelude::*;
 use engine::gpu::GpuContext;
-use engine::render::{GpuScene, RenderPlugin, RenderSize};
+use engine::render::{GpuScene, RenderSize};
 use engine::rng::SplitMix64;
-use engine::rt::{RayTracingScene, WaitForBlasBuilds, ray_workgroups};
+use engine::rt::{RayTracingScene, ray_workgroups};
 use engine::scene::{Assets, Mesh, MeshInstance, SceneDescription, Transform};
 use engine::shader::compute_program_with_constants;
 use engine::wgpu;
@@ -54,9 +54,7 @@ impl TraceCell {
 
 /// A headless app with the scene prepared (BLASes built, TLAS uploaded).
 pub fn prepared_app(gpu: &GpuContext, scene: SceneDescription) -> App {
-    let mut app = App::new();
-    app.insert_resource(Time::fixed(1.0 / 60.0)).insert_resource(WaitForBlasBuilds(true));
-    app.add_plugins((EnginePlugin, RenderPlugin { gpu: gpu.clone(), size: RenderSize { width: 8, height: 8 } }));
+    let mut app = engine::headless::headless_app(gpu, RenderSize { width: 8, height: 8 }, 1.0 / 60.0);
     scene.spawn(app.world_mut());
     run_headless(&mut app, 1);
     app

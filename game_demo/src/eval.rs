@@ -57,11 +57,7 @@ fn render(
             let per_frame = (*spp).clamp(1, SAMPLES_PER_FRAME);
             let settings = HeadlessSettings { width, height, frames: spp.div_ceil(per_frame), ..Default::default() };
             let path = pathtrace::PathTraceSettings { samples_per_frame: per_frame, seed, ..Default::default() };
-            render_scene_with(gpu, scene.clone(), &settings, |app| {
-                app.insert_resource(path)
-                    .insert_resource(engine::render::FrameScript(pathtrace::FRAME_SCRIPT))
-                    .add_plugins(pathtrace::PathTracePlugin);
-            })
+            render_scene_with(gpu, scene.clone(), &settings, |app| pathtrace::use_path_tracer(app, path))
         }
     }
     .map_err(|e| e.to_string())

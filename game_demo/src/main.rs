@@ -170,10 +170,8 @@ fn render(args: RenderArgs) -> Result<(), String> {
         );
         let tick = bar.clone();
         let frame = engine::headless::render_scene_with(&gpu, scene, &settings, |app| {
-            app.insert_resource(path)
-                .insert_resource(engine::render::FrameScript(pathtrace::FRAME_SCRIPT))
-                .add_plugins(pathtrace::PathTracePlugin)
-                .add_systems(engine::bevy_app::Last, move || tick.inc(1));
+            pathtrace::use_path_tracer(app, path);
+            app.add_systems(engine::bevy_app::Last, move || tick.inc(1));
         });
         bar.finish_and_clear();
         frame

@@ -68,6 +68,11 @@ struct PathTraceState {
     last: Option<(ViewUniform, Vec<GpuLight>)>,
 }
 
+/// Adds the path tracer to `app` with `settings` and makes it the active frame script.
+pub fn use_path_tracer(app: &mut App, settings: PathTraceSettings) {
+    app.insert_resource(settings).insert_resource(engine::render::FrameScript(FRAME_SCRIPT)).add_plugins(PathTracePlugin);
+}
+
 /// Adds the `"pathtrace"` frame script.
 pub struct PathTracePlugin;
 
