@@ -8,14 +8,6 @@
 @group(1) @binding(3) var gbuffer_emissive: texture_2d<f32>;
 @group(1) @binding(4) var radiance_out: texture_storage_2d<rgba32float, write>;
 
-// World position of a pixel centre at a reverse-Z depth.
-fn world_position(pixel: vec2<u32>, depth: f32) -> vec3<f32> {
-    let uv = (vec2<f32>(pixel) + 0.5) / vec2<f32>(view.size);
-    let ndc = vec4<f32>(uv.x * 2.0 - 1.0, 1.0 - uv.y * 2.0, depth, 1.0);
-    let h = view.world_from_clip * ndc;
-    return h.xyz / max(abs(h.w), 1e-30) * sign(h.w);
-}
-
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if any(id.xy >= view.size) {
@@ -26,7 +18,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         textureStore(radiance_out, id.xy, vec4<f32>(view.sky_radiance, 1.0));
         return;
     }
-    let p = world_position(id.xy, depth);
+    let p = view_world_position(id.xy, depth);
     let n = textureLoad(gbuffer_normal, id.xy, 0).xyz;
     let albedo = textureLoad(gbuffer_albedo, id.xy, 0).rgb;
     var radiance = textureLoad(gbuffer_emissive, id.xy, 0).rgb;

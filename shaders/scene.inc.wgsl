@@ -68,6 +68,11 @@ struct GpuLight {
     _pad2: u32,
 }
 
+// Pipeline constants: a pipeline built for a scene without spot lights or without emissive
+// materials sets these to false, and the spot cone or the emission lookup is compiled out.
+override SCENE_HAS_SPOT_LIGHTS: bool = true;
+override SCENE_HAS_EMISSIVE: bool = true;
+
 @group(0) @binding(0) var<uniform> view: ViewUniform;
 @group(0) @binding(1) var<storage, read> lights: array<GpuLight>;
 @group(0) @binding(2) var<storage, read> materials: array<GpuMaterial>;
@@ -75,6 +80,14 @@ struct GpuLight {
 @group(0) @binding(4) var atlas_sampler: sampler;
 @group(0) @binding(5) var<storage, read> vertices: array<GpuVertex>;
 @group(0) @binding(6) var<storage, read> instances: array<GpuInstance>;
+
+// World position of a pixel centre at a reverse-Z depth.
+fn view_world_position(pixel: vec2<u32>, depth: f32) -> vec3<f32> {
+    let uv = (vec2<f32>(pixel) + 0.5) / vec2<f32>(view.size);
+    let ndc = vec4<f32>(uv.x * 2.0 - 1.0, 1.0 - uv.y * 2.0, depth, 1.0);
+    let h = view.world_from_clip * ndc;
+    return h.xyz / max(abs(h.w), 1e-30) * sign(h.w);
+}
 
 // A local-space normal direction in world space (not normalized): the inverse transpose of the
 // instance's linear part.
@@ -103,7 +116,10 @@ fn eval_material(index: u32, uv: vec2<f32>) -> SurfaceMaterial {
     let m = materials[index];
     var out: SurfaceMaterial;
     out.albedo = clamp(m.base_color.rgb * sample_slot(m.base_color_texture, uv).rgb, vec3<f32>(0.0), vec3<f32>(1.0));
-    out.emissive = sanitize_radiance(m.emissive.rgb * sample_slot(m.emissive_texture, uv).rgb);
+    out.emissive = vec3<f32>(0.0);
+    if SCENE_HAS_EMISSIVE {
+        out.emissive = sanitize_radiance(m.emissive.rgb * sample_slot(m.emissive_texture, uv).rgb);
+    }
     return out;
 }
 
@@ -133,7 +149,7 @@ fn sample_light(l: GpuLight, p: vec3<f32>, n: vec3<f32>) -> LightSample {
         let window = clamp(1.0 - ratio * ratio * ratio * ratio, 0.0, 1.0);
         attenuation *= window;
     }
-    if l.kind == LIGHT_SPOT {
+    if SCENE_HAS_SPOT_LIGHTS && l.kind == LIGHT_SPOT {
         let cd = dot(safe_normalize(l.direction, vec3<f32>(0.0, -1.0, 0.0)), -s.to_light);
         let a = clamp(cd * l.spot_scale + l.spot_offset, 0.0, 1.0);
         attenuation *= a * a;

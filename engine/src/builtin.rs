@@ -52,6 +52,22 @@ pub struct Opening {
 
 /// The openings of the built-in scene `name`: a ray from inside that leaves the scene's rooms must
 /// pass through one of them. Empty for a fully closed scene and for unknown names.
+/// Bounds for a global-illumination probe volume in a built-in scene: the region its camera and
+/// light care about (a room's interior, the surroundings of a door), or `None` for the scene's
+/// bounds.
+pub fn builtin_gi_bounds(name: &str) -> Option<(Vec3, Vec3)> {
+    match name {
+        // The box and the space in front of its open side, so that the walls' front edges, which
+        // face away from the light, have probes that see their dark side.
+        "cornell" => Some((CORNELL_MIN - Vec3::splat(0.2), CORNELL_MAX + Vec3::new(0.2, 0.2, 0.6))),
+        "ceiling_opening" => Some((SKY_ROOM_MIN, SKY_ROOM_MAX)),
+        // The room and the ground in front of its door, where the camera stands.
+        "door_room" => Some((Vec3::new(-3.5, 0.0, -3.0), Vec3::new(4.5, 4.0, 6.0))),
+        "color_bleed" => Some((BLEED_ROOM_MIN, BLEED_ROOM_MAX)),
+        _ => None,
+    }
+}
+
 pub fn builtin_openings(name: &str) -> &'static [Opening] {
     match name {
         "cornell" => &[CORNELL_FRONT],

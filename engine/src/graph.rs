@@ -103,6 +103,9 @@ struct PassNode {
     reads: Vec<usize>,
     writes: Vec<usize>,
     run: Option<PassFn>,
+    /// Why the pass runs as it does (a specialization), or why it was left out.
+    note: String,
+    left_out: bool,
 }
 
 /// One frame's graph. Build it, then [`RenderGraph::execute`] it.
@@ -149,7 +152,22 @@ impl RenderGraph {
 
     /// Starts a pass; finish it with [`PassBuilder::render`].
     pub fn add_pass(&mut self, label: &str) -> PassBuilder<'_> {
-        PassBuilder { graph: self, node: PassNode { label: label.into(), reads: Vec::new(), writes: Vec::new(), run: None } }
+        PassBuilder {
+            graph: self,
+            node: PassNode { label: label.into(), reads: Vec::new(), writes: Vec::new(), run: None, note: String::new(), left_out: false },
+        }
+    }
+
+    /// Records a pass that the script chose not to run this frame, and why (the report lists it).
+    pub fn leave_out(&mut self, label: &str, why: &str) {
+        self.passes.push(PassNode {
+            label: label.into(),
+            reads: Vec::new(),
+            writes: Vec::new(),
+            run: None,
+            note: why.into(),
+            left_out: true,
+        });
     }
 
     /// For each pass in order, whether it runs: a pass runs when something it writes is exported or
@@ -212,7 +230,8 @@ impl RenderGraph {
         let mut query_index = 0u32;
         for (pass, is_live) in self.passes.iter_mut().zip(&live) {
             if !is_live {
-                report.passes.push(PassRecord { label: pass.label.clone(), ran: false, note: "outputs not read this frame".into() });
+                let note = if pass.left_out { pass.note.clone() } else { "outputs not read this frame".into() };
+                report.passes.push(PassRecord { label: pass.label.clone(), ran: false, note });
                 continue;
             }
             encoder.push_debug_group(&pass.label);
@@ -228,7 +247,7 @@ impl RenderGraph {
             }
             query_index += 2;
             encoder.pop_debug_group();
-            report.passes.push(PassRecord { label: pass.label.clone(), ran: true, note: String::new() });
+            report.passes.push(PassRecord { label: pass.label.clone(), ran: true, note: std::mem::take(&mut pass.note) });
         }
         let pending = queries.map(|t| t.resolve(&gpu.device, &mut encoder, query_index));
         gpu.queue.submit([encoder.finish()]);
@@ -260,6 +279,11 @@ impl PassBuilder<'_> {
     pub fn write<K>(&mut self, handle: &mut Handle<K>) -> Write<K> {
         self.node.writes.push(handle.id);
         Write { id: handle.id, _kind: PhantomData }
+    }
+
+    /// Says how this pass was specialized for the frame (shown in the report beside its time).
+    pub fn note(&mut self, text: &str) {
+        self.node.note = text.into();
     }
 
     /// Finishes the pass with the closure that records its commands.
@@ -372,7 +396,7 @@ pub struct FrameReport {
 pub struct PassRecord {
     pub label: String,
     pub ran: bool,
-    /// Why it was left out, when it was.
+    /// Why it was left out, when it was; how it was specialized, when it ran.
     pub note: String,
 }
 

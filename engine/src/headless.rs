@@ -84,9 +84,21 @@ pub fn render_scene(gpu: &GpuContext, scene: SceneDescription, settings: &Headle
 /// frame script, for instance).
 pub fn render_scene_with(
     gpu: &GpuContext,
+    scene: SceneDescription,
+    settings: &HeadlessSettings,
+    configure: impl FnOnce(&mut App),
+) -> Result<RenderedFrame, RenderError> {
+    render_scene_and_inspect(gpu, scene, settings, configure, |_| {})
+}
+
+/// [`render_scene_with`], then a look at the app's world after the last frame (to read back what a
+/// plugin keeps on the GPU, say).
+pub fn render_scene_and_inspect(
+    gpu: &GpuContext,
     mut scene: SceneDescription,
     settings: &HeadlessSettings,
     configure: impl FnOnce(&mut App),
+    inspect: impl FnOnce(&mut bevy_ecs::world::World),
 ) -> Result<RenderedFrame, RenderError> {
     let max = gpu.device.limits().max_texture_dimension_2d;
     if settings.width == 0 || settings.height == 0 || settings.width > max || settings.height > max {
@@ -107,6 +119,7 @@ pub fn render_scene_with(
     let hdr = read_rgba32f(gpu, &outputs.hdr);
     let ldr = read_texture(gpu, &outputs.ldr);
     let timings = std::mem::take(&mut world.resource_mut::<FrameTimings>().frames);
+    inspect(world);
     Ok(RenderedFrame { width: settings.width, height: settings.height, hdr, ldr, timings, adapter: gpu.adapter_name() })
 }
 

@@ -19,6 +19,11 @@ pub const SHADER_FILES: &[(&str, &str)] = &[
     ("direct_lighting.wgsl", include_str!("../../shaders/direct_lighting.wgsl")),
     ("tonemap.wgsl", include_str!("../../shaders/tonemap.wgsl")),
     ("blit.wgsl", include_str!("../../shaders/blit.wgsl")),
+    ("ddgi.inc.wgsl", include_str!("../../shaders/ddgi.inc.wgsl")),
+    ("ddgi_rays.wgsl", include_str!("../../shaders/ddgi_rays.wgsl")),
+    ("ddgi_update.wgsl", include_str!("../../shaders/ddgi_update.wgsl")),
+    ("ddgi_gather.wgsl", include_str!("../../shaders/ddgi_gather.wgsl")),
+    ("ddgi_selftest.wgsl", include_str!("../../shaders/ddgi_selftest.wgsl")),
 ];
 
 /// A shader that failed to load; the message carries naga's report with file and line.

@@ -83,13 +83,17 @@ struct RenderArgs {
     width: u32,
     #[arg(long, default_value_t = 480)]
     height: u32,
-    /// Frames to run with a fixed 1/60 s step; the image is the last frame. With `--mode pathtrace`
-    /// the frames needed for `--spp` are added.
-    #[arg(long, default_value_t = 1)]
-    frames: u32,
-    /// What renders the image: `direct` (direct light with shadows) or `pathtrace` (the reference).
-    #[arg(long, default_value = "direct", value_parser = ["direct", "pathtrace"])]
+    /// Frames to run with a fixed 1/60 s step; the image is the last frame (default: 1, or 120 with
+    /// `--mode ddgi` and `indirect`, for the probes to converge). With `--mode pathtrace` the frames
+    /// needed for `--spp` are added.
+    #[arg(long)]
+    frames: Option<u32>,
+    /// What renders the image: `direct` (direct light with shadows), `ddgi` (direct light + DDGI's
+    /// indirect light), `indirect` (DDGI's indirect light alone) or `pathtrace` (the reference).
+    #[arg(long, default_value = "direct", value_parser = ["direct", "ddgi", "indirect", "pathtrace"])]
     mode: String,
+    #[command(flatten)]
+    ddgi: DdgiArgs,
     /// Paths per pixel for `--mode pathtrace`.
     #[arg(long, default_value_t = 64)]
     spp: u32,
@@ -111,6 +115,50 @@ struct RenderArgs {
     /// Print the built-in scene names and exit.
     #[arg(long)]
     list_scenes: bool,
+}
+
+/// DDGI volume settings from the command line (the volume fills the scene's bounds).
+#[derive(clap::Args, Clone, Debug)]
+struct DdgiArgs {
+    /// Probes along x, y and z, `X,Y,Z`.
+    #[arg(long, value_parser = parse_uvec3, default_value = "8,8,8")]
+    probes: glam::UVec3,
+    /// Rays per probe per frame.
+    #[arg(long, default_value_t = 128)]
+    rays: u32,
+    /// Side of each probe's irradiance map, in texels.
+    #[arg(long, default_value_t = 8)]
+    irradiance_texels: u32,
+    /// Side of each probe's distance map, in texels.
+    #[arg(long, default_value_t = 16)]
+    distance_texels: u32,
+    /// Weight of the old probe value per frame, in [0, 1].
+    #[arg(long, default_value_t = 0.97)]
+    hysteresis: f32,
+    /// Write the irradiance and distance atlases and the ray directions as images beside the output.
+    #[arg(long)]
+    dump_atlases: bool,
+}
+
+impl DdgiArgs {
+    fn volume(&self) -> ddgi::DdgiVolume {
+        ddgi::DdgiVolume {
+            probe_counts: self.probes,
+            rays_per_probe: self.rays,
+            irradiance_texels: self.irradiance_texels,
+            distance_texels: self.distance_texels,
+            hysteresis: self.hysteresis,
+            ..Default::default()
+        }
+    }
+}
+
+fn parse_uvec3(text: &str) -> Result<glam::UVec3, String> {
+    let v: Vec<u32> = text.split(',').map(|p| p.trim().parse::<u32>().map_err(|e| format!("'{p}': {e}"))).collect::<Result<_, _>>()?;
+    match v[..] {
+        [x, y, z] => Ok(glam::UVec3::new(x, y, z)),
+        _ => Err(format!("expected three whole numbers x,y,z, got '{text}'")),
+    }
 }
 
 fn parse_vec3(text: &str) -> Result<glam::Vec3, String> {
@@ -156,11 +204,39 @@ fn render(args: RenderArgs) -> Result<(), String> {
         );
     }
     let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
-    let mut settings = HeadlessSettings { width: args.width, height: args.height, frames: args.frames, ..Default::default() };
-    let frame = if args.mode == "pathtrace" {
+    let ddgi_mode = matches!(args.mode.as_str(), "ddgi" | "indirect");
+    let frames = args.frames.unwrap_or(if ddgi_mode { 120 } else { 1 });
+    let mut settings = HeadlessSettings { width: args.width, height: args.height, frames, ..Default::default() };
+    let frame = if ddgi_mode {
+        let volume = args.ddgi.volume();
+        volume.validate().map_err(|e| e.to_string())?;
+        let output = if args.mode == "indirect" { ddgi::DdgiOutput::Indirect } else { ddgi::DdgiOutput::Full };
+        let mut dumped: Result<Vec<PathBuf>, String> = Ok(Vec::new());
+        let dump = args.ddgi.dump_atlases;
+        let out = args.out.clone();
+        let frame = engine::headless::render_scene_and_inspect(
+            &gpu,
+            scene,
+            &settings,
+            |app| ddgi::use_ddgi(app, volume, output),
+            |world| {
+                let volumes = world.resource::<ddgi::DdgiGpuVolumes>();
+                if let Some(error) = volumes.volumes.is_empty().then(|| volumes.first_error()).flatten() {
+                    dumped = Err(format!("the DDGI volume is off: {error}"));
+                } else if dump && let Some((_, v)) = volumes.volumes.first() {
+                    dumped = ddgi::atlas::write_atlas_images(&gpu, v, &out);
+                }
+            },
+        )
+        .map_err(|e| e.to_string())?;
+        for path in dumped? {
+            println!("  {}", path.display());
+        }
+        Ok(frame)
+    } else if args.mode == "pathtrace" {
         let per_frame = args.spp.clamp(1, 16);
         // The last frame of the run holds all the samples: earlier frames are only for animation.
-        settings.frames = args.frames.max(1) + args.spp.max(1).div_ceil(per_frame) - 1;
+        settings.frames = frames.max(1) + args.spp.max(1).div_ceil(per_frame) - 1;
         let path = pathtrace::PathTraceSettings { samples_per_frame: per_frame, max_bounces: args.max_bounces, ..Default::default() };
         // A progress bar on standard error for long renders (hidden when it is not a terminal).
         let bar = indicatif::ProgressBar::new(u64::from(settings.frames));

@@ -97,6 +97,8 @@ pub struct GpuScene {
     pub light_data: Vec<GpuLight>,
     /// Which light kinds the scene has, so passes can leave out what it does not need.
     pub has_spot_lights: bool,
+    /// Whether any material emits light (shaders may leave out the emission lookup when none does).
+    pub has_emissive: bool,
     pub view_uniform: ViewUniform,
     atlas_rects: Vec<[f32; 4]>,
     seen_generations: Option<(u64, u64, u64)>,
@@ -135,6 +137,7 @@ impl GpuScene {
             light_count: 0,
             light_data: Vec::new(),
             has_spot_lights: false,
+            has_emissive: false,
             view_uniform: ViewUniform::zeroed(),
             atlas_rects: Vec::new(),
             seen_generations: None,
@@ -227,6 +230,7 @@ impl GpuScene {
                 emissive_texture: slot(&m.emissive_texture),
             })
             .collect();
+        self.has_emissive = materials.iter().any(|(_, m)| m.emissive_strength != 0.0 && m.emissive != Vec3::ZERO);
         self.materials.write(gpu, bytemuck::cast_slice(&data));
     }
 }

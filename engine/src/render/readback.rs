@@ -46,3 +46,26 @@ pub fn read_rgba32f(gpu: &GpuContext, texture: &wgpu::Texture) -> Vec<f32> {
     assert_eq!(texture.format(), wgpu::TextureFormat::Rgba32Float, "read_rgba32f needs an Rgba32Float texture");
     bytemuck::pod_collect_to_vec(&read_texture(gpu, texture))
 }
+
+/// Reads a whole buffer (it needs `COPY_SRC` usage). Blocks until the GPU is idle.
+pub fn read_buffer(gpu: &GpuContext, source: &wgpu::Buffer) -> Vec<u8> {
+    let size = source.size();
+    let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("buffer_readback"),
+        size,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("buffer_readback") });
+    encoder.copy_buffer_to_buffer(source, 0, &buffer, 0, size);
+    gpu.queue.submit([encoder.finish()]);
+    buffer.slice(..).map_async(wgpu::MapMode::Read, |r| {
+        if let Err(e) = r {
+            log::error!("buffer readback failed: {e}");
+        }
+    });
+    gpu.wait_idle();
+    let out = buffer.slice(..).get_mapped_range().expect("the readback buffer was mapped").to_vec();
+    buffer.unmap();
+    out
+}

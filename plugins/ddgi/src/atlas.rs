@@ -1,0 +1,113 @@
+//! Reading the atlases back (tests, `--dump-atlases`, the overlay) and writing them as images.
+
+use std::path::{Path, PathBuf};
+
+use engine::gpu::GpuContext;
+use engine::render::readback::read_texture;
+use glam::{UVec2, Vec2, Vec3};
+
+use crate::gpu::{DdgiRay, IRRADIANCE_GAMMA};
+use crate::render::VolumeGpu;
+
+/// An atlas read back from the GPU, row-major from the top-left.
+pub struct Atlas<T> {
+    pub size: UVec2,
+    pub texels: Vec<T>,
+}
+
+impl<T: Copy> Atlas<T> {
+    pub fn get(&self, x: u32, y: u32) -> T {
+        self.texels[(y * self.size.x + x) as usize]
+    }
+}
+
+fn read_half4(gpu: &GpuContext, texture: &engine::wgpu::Texture) -> Atlas<[f32; 4]> {
+    let bytes = read_texture(gpu, texture);
+    let texels = bytes
+        .chunks_exact(8)
+        .map(|t| std::array::from_fn(|i| half::f16::from_le_bytes([t[2 * i], t[2 * i + 1]]).to_f32()))
+        .collect();
+    Atlas { size: UVec2::new(texture.width(), texture.height()), texels }
+}
+
+/// The irradiance atlas, decoded to linear irradiance (W/m²), borders included.
+pub fn read_irradiance(gpu: &GpuContext, volume: &VolumeGpu) -> Atlas<Vec3> {
+    let raw = read_half4(gpu, &volume.irradiance);
+    let decode = |v: f32| if v > 0.0 { v.powf(IRRADIANCE_GAMMA) } else { 0.0 };
+    Atlas { size: raw.size, texels: raw.texels.iter().map(|t| Vec3::new(decode(t[0]), decode(t[1]), decode(t[2]))).collect() }
+}
+
+/// The distance atlas in world units: (mean distance, mean squared distance).
+pub fn read_distance(gpu: &GpuContext, volume: &VolumeGpu) -> Atlas<Vec2> {
+    let raw = read_half4(gpu, &volume.distance);
+    let scale = (volume.layout.spacing.length() * 1.5).max(f32::MIN_POSITIVE);
+    Atlas { size: raw.size, texels: raw.texels.iter().map(|t| Vec2::new(t[0] * scale, t[1] * scale * scale)).collect() }
+}
+
+/// This frame's probe rays (direction and probe index with the skip bit).
+pub fn read_rays(gpu: &GpuContext, volume: &VolumeGpu) -> Vec<DdgiRay> {
+    let bytes = engine::render::readback::read_buffer(gpu, &volume.rays);
+    bytemuck::pod_collect_to_vec(&bytes)
+}
+
+/// Mean irradiance over the interior texels of one probe's map.
+pub fn probe_mean_irradiance(atlas: &Atlas<Vec3>, volume: &VolumeGpu, probe: u32) -> Vec3 {
+    let n = volume.layout.irradiance_texels;
+    let origin = volume.layout.tile_origin(probe, n) + UVec2::ONE;
+    let mut sum = Vec3::ZERO;
+    for y in 0..n {
+        for x in 0..n {
+            sum += atlas.get(origin.x + x, origin.y + y);
+        }
+    }
+    sum / (n * n) as f32
+}
+
+fn to_srgb8(v: f32) -> u8 {
+    let v = v.clamp(0.0, 1.0);
+    let e = if v <= 0.003_130_8 { v * 12.92 } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 };
+    (e * 255.0 + 0.5) as u8
+}
+
+fn save_rgb(path: &Path, size: UVec2, rgb: &[u8]) -> Result<(), String> {
+    image::save_buffer(path, rgb, size.x, size.y, image::ExtendedColorType::Rgb8).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// Writes `irradiance.png` (radiance E/π of a white surface, sRGB) and `irradiance.exr` (linear
+/// E), `distance.png` (mean distance over the distance scale, grey) and `ray_directions.png` (one
+/// row per probe, one column per ray, direction × 0.5 + 0.5; skipped probes black) into `dir`.
+pub fn write_atlas_images(gpu: &GpuContext, volume: &VolumeGpu, dir: &Path) -> Result<Vec<PathBuf>, String> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let irradiance = read_irradiance(gpu, volume);
+    let path = dir.join("irradiance.png");
+    let rgb: Vec<u8> = irradiance.texels.iter().flat_map(|e| (*e / std::f32::consts::PI).to_array().map(to_srgb8)).collect();
+    save_rgb(&path, irradiance.size, &rgb)?;
+    let exr = dir.join("irradiance.exr");
+    let linear: Vec<f32> = irradiance.texels.iter().flat_map(|e| e.to_array()).collect();
+    image::Rgb32FImage::from_raw(irradiance.size.x, irradiance.size.y, linear)
+        .ok_or("irradiance atlas size mismatch")?
+        .save(&exr)
+        .map_err(|e| format!("{}: {e}", exr.display()))?;
+    let distance = read_distance(gpu, volume);
+    let scale = (volume.layout.spacing.length() * 1.5).max(f32::MIN_POSITIVE);
+    let dpath = dir.join("distance.png");
+    let grey: Vec<u8> = distance.texels.iter().flat_map(|d| [((d.x / scale).clamp(0.0, 1.0) * 255.0) as u8; 3]).collect();
+    save_rgb(&dpath, distance.size, &grey)?;
+    let rays = read_rays(gpu, volume);
+    let m = volume.settings.rays_per_probe;
+    let probes = volume.layout.probe_count;
+    let rpath = dir.join("ray_directions.png");
+    let rgb: Vec<u8> = rays
+        .iter()
+        .take((m * probes) as usize)
+        .flat_map(|r| {
+            if r.probe & crate::gpu::RAY_SKIP != 0 {
+                [0; 3]
+            } else {
+                r.direction.map(|c| ((c * 0.5 + 0.5).clamp(0.0, 1.0) * 255.0) as u8)
+            }
+        })
+        .collect();
+    save_rgb(&rpath, UVec2::new(m, probes), &rgb)?;
+    Ok(vec![path, exr, dpath, rpath])
+}

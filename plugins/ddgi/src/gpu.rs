@@ -1,0 +1,132 @@
+//! Host mirrors of the WGSL structs in `shaders/ddgi.inc.wgsl` and `shaders/ddgi_gather.wgsl`.
+//! [`GPU_STRUCTS`] lists them for the test that compares their sizes with naga's layout.
+
+use bytemuck::{Pod, Zeroable};
+
+use crate::volume::{DdgiLayout, DdgiVolume};
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct DdgiVolumeGpu {
+    pub origin: [f32; 3],
+    pub rays_per_probe: u32,
+    pub spacing: [f32; 3],
+    pub probe_count: u32,
+    pub counts: [u32; 3],
+    pub flags: u32,
+    /// Columns of a 3×3 matrix, each padded to 16 bytes.
+    pub ray_rotation: [[f32; 4]; 3],
+    pub sky_radiance: [f32; 3],
+    pub hysteresis: f32,
+    pub normal_bias: f32,
+    pub view_bias: f32,
+    pub distance_sharpness: f32,
+    pub max_ray_distance: f32,
+    pub distance_scale: f32,
+    pub irradiance_texels: u32,
+    pub distance_texels: u32,
+    pub tiles_per_row: u32,
+    pub firefly_threshold: f32,
+    pub backface_threshold: f32,
+    pub min_frontface_distance: f32,
+    pub recheck: u32,
+    pub irradiance_atlas_size: [f32; 2],
+    pub distance_atlas_size: [f32; 2],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct DdgiProbeData {
+    pub offset: [f32; 3],
+    pub state: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct DdgiRay {
+    pub direction: [f32; 3],
+    pub probe: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct DdgiGatherParams {
+    pub first_volume: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
+}
+
+pub const WEIGHT_BACKFACE: u32 = 1;
+pub const WEIGHT_CHEBYSHEV: u32 = 2;
+pub const WEIGHT_NORMAL_BIAS: u32 = 4;
+pub const WEIGHT_CRUSH: u32 = 8;
+pub const WEIGHT_TRILINEAR: u32 = 16;
+pub const RELOCATION: u32 = 32;
+pub const CLASSIFICATION: u32 = 64;
+
+pub const PROBE_INACTIVE: u32 = 1;
+pub const PROBE_FRESH: u32 = 2;
+pub const RAY_SKIP: u32 = 0x8000_0000;
+/// Hit distance of a miss in the shaded-ray buffer.
+pub const MISS: f32 = 3.0e38;
+/// Irradiance is stored as `E^(1/gamma)`.
+pub const IRRADIANCE_GAMMA: f32 = 5.0;
+
+/// Longest ray when the volume sets none (finite, below the miss marker).
+pub const UNBOUNDED_RAY: f32 = 1.0e30;
+
+impl DdgiVolumeGpu {
+    /// The uniform of one frame: `rotation` turns the ray directions, `sky` is the miss radiance.
+    pub fn new(volume: &DdgiVolume, layout: &DdgiLayout, rotation: glam::Mat3, sky: glam::Vec3, recheck: bool) -> Self {
+        let w = volume.weights;
+        let flags = [
+            (w.backface, WEIGHT_BACKFACE),
+            (w.chebyshev, WEIGHT_CHEBYSHEV),
+            (w.normal_bias, WEIGHT_NORMAL_BIAS),
+            (w.crush, WEIGHT_CRUSH),
+            (w.trilinear, WEIGHT_TRILINEAR),
+            (volume.relocation, RELOCATION),
+            (volume.classification, CLASSIFICATION),
+        ]
+        .iter()
+        .filter(|(on, _)| *on)
+        .fold(0, |acc, (_, bit)| acc | bit);
+        let min_spacing = layout.spacing.min_element();
+        let column = |c: glam::Vec3| [c.x, c.y, c.z, 0.0];
+        Self {
+            origin: layout.origin.to_array(),
+            rays_per_probe: volume.rays_per_probe,
+            spacing: layout.spacing.to_array(),
+            probe_count: layout.probe_count,
+            counts: layout.counts.to_array(),
+            flags,
+            ray_rotation: [column(rotation.x_axis), column(rotation.y_axis), column(rotation.z_axis)],
+            sky_radiance: sky.to_array(),
+            hysteresis: volume.hysteresis,
+            normal_bias: volume.normal_bias * min_spacing,
+            view_bias: volume.view_bias * min_spacing,
+            distance_sharpness: volume.distance_sharpness,
+            max_ray_distance: volume.max_ray_distance.unwrap_or(UNBOUNDED_RAY).min(UNBOUNDED_RAY),
+            // Distances beyond 1.5 cell diagonals tell visibility nothing more (Majercik et al.).
+            distance_scale: (layout.spacing.length() * 1.5).max(f32::MIN_POSITIVE),
+            irradiance_texels: layout.irradiance_texels,
+            distance_texels: layout.distance_texels,
+            tiles_per_row: layout.tiles_per_row,
+            firefly_threshold: volume.firefly_threshold,
+            backface_threshold: volume.backface_threshold,
+            min_frontface_distance: volume.min_frontface_distance * min_spacing,
+            recheck: u32::from(recheck),
+            irradiance_atlas_size: layout.irradiance_atlas.as_vec2().to_array(),
+            distance_atlas_size: layout.distance_atlas.as_vec2().to_array(),
+        }
+    }
+}
+
+/// (WGSL struct name, size of the Rust mirror, a shader file that declares it).
+pub const GPU_STRUCTS: &[(&str, usize, &str)] = &[
+    ("DdgiVolumeGpu", size_of::<DdgiVolumeGpu>(), "ddgi.inc.wgsl"),
+    ("DdgiProbeData", size_of::<DdgiProbeData>(), "ddgi.inc.wgsl"),
+    ("DdgiRay", size_of::<DdgiRay>(), "ddgi.inc.wgsl"),
+    ("DdgiGatherParams", size_of::<DdgiGatherParams>(), "ddgi_gather.wgsl"),
+];

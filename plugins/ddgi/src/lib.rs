@@ -1,0 +1,96 @@
+//! # Dynamic diffuse global illumination
+//!
+//! Diffuse light that has bounced off other surfaces changes slowly across space, so it can be
+//! stored sparsely: in a grid of *probes*, each of which records the irradiance arriving from
+//! every direction. DDGI (Majercik, Guertin, Nowrouzezahrai and McGuire, "Dynamic Diffuse Global
+//! Illumination with Ray-Traced Irradiance Fields", JCGT 8(2), 2019) keeps such a grid up to date
+//! every frame, for fully dynamic scenes, by tracing a few hundred rays from each probe:
+//!
+//! 1. **Ray generation**: `rays_per_probe` spherical Fibonacci directions (Keinert et al. 2015),
+//!    turned by a new random rotation each frame so that successive frames see new directions.
+//! 2. **Trace** against the scene's BVH (the engine's ray-tracing core). Back-face hits are kept:
+//!    a probe that sees many of them sits inside geometry.
+//! 3. **Shade** each hit as a Lambertian surface: emission, direct light with a shadow ray per
+//!    light, and indirect light read from *last frame's* probes — so each frame adds one bounce,
+//!    and the field converges to all bounces. Misses see the sky.
+//! 4. **Update** each probe's two octahedral maps (Cigolle et al. 2014): irradiance (8×8 texels,
+//!    the cosine-weighted mean of the rays' radiance over each texel's hemisphere) and distance
+//!    (16×16 texels, the mean and mean square of the hit distance, with a sharp cosine-power
+//!    weight), each blended with the old value by the *hysteresis*, then copy each map's border
+//!    texels so that bilinear filtering wraps around the octahedron.
+//!
+//! A shaded point — a camera pixel or a probe ray's hit — reads the 8 probes of the grid cell
+//! around it and blends them with four weights: a *wrap-shading* back-face weight, a *Chebyshev*
+//! visibility test on the distance moments (as in variance shadow maps: a probe whose mean
+//! distance in the point's direction is shorter than the point's distance is probably behind a
+//! wall), a *log-perception crush* of small weights, and *trilinear* interpolation; the lookup
+//! point is first pushed off the surface along the normal and towards the viewer (*normal and view
+//! bias*) so that surfaces do not shadow themselves.
+//!
+//! Majercik, Müller, Keller, Nowrouzezahrai and McGuire ("Scaling Probe-Based Real-Time Dynamic
+//! Global Illumination for Production", JCGT 10(2), 2021) add **relocation** — a probe stuck in a
+//! wall moves out of it, within its cell — and **classification** — probes inside geometry or
+//! with no surface within a cell of them are switched off: they trace no rays and get no weight.
+//! Hvezda and Bittner ("Dynamic Diffuse Global Illumination: Implementation and Evaluation")
+//! describe the implementation this plugin follows and its evaluation against a path tracer.
+//!
+//! ## In the ECS
+//!
+//! Add [`DdgiPlugin`], spawn an entity with a [`DdgiVolume`] (its settings), and select the
+//! `"ddgi"` frame script ([`use_ddgi`] does both). Each probe becomes an entity with a
+//! [`DdgiProbe`] mirroring its GPU state. The passes, each with its own timing span:
+//! `ddgi_ray_generation → ddgi_trace → ddgi_ray_shading → ddgi_irradiance_update →
+//! ddgi_distance_update → ddgi_borders → ddgi_relocation → ddgi_classification`, then per camera
+//! `ddgi_gather → ddgi_composite`. Shaders: `shaders/ddgi*.wgsl`.
+
+pub mod atlas;
+pub mod gpu;
+pub mod render;
+pub mod volume;
+
+use bevy_app::{App, Plugin};
+use bevy_ecs::prelude::*;
+use engine::gpu::GpuContext;
+use engine::render::gpu_scene::{flush_uploads, prepare_gpu_scene};
+use engine::render::{FrameScript, frame_script_is};
+
+pub use render::{DdgiGpuVolumes, DdgiOutput, DdgiPipelines, VolumeGpu};
+pub use volume::{DdgiLayout, DdgiProbe, DdgiProbeState, DdgiSettingsError, DdgiVolume, DdgiWeights};
+
+/// The name of the DDGI frame script.
+pub const FRAME_SCRIPT: &str = "ddgi";
+
+/// Dynamic diffuse global illumination: probe volumes updated every frame and the `"ddgi"` frame
+/// script. Needs the engine's `RenderPlugin`; without a GPU, or if the shaders fail to build, it
+/// warns and stays off.
+pub struct DdgiPlugin;
+
+impl Plugin for DdgiPlugin {
+    fn build(&self, app: &mut App) {
+        let Some(gpu) = app.world().get_resource::<GpuContext>().cloned() else {
+            log::warn!("DdgiPlugin needs the engine's RenderPlugin (a GPU); global illumination is off");
+            return;
+        };
+        let pipelines = match DdgiPipelines::new(&gpu) {
+            Ok(p) => p,
+            Err(e) => {
+                log::warn!("DDGI shaders failed, global illumination is off: {e}");
+                return;
+            }
+        };
+        app.insert_resource(pipelines)
+            .init_resource::<DdgiGpuVolumes>()
+            .init_resource::<DdgiOutput>()
+            .add_systems(
+                engine::app::Prepare,
+                (render::read_back_ddgi_probes, render::prepare_ddgi_volumes).chain().after(prepare_gpu_scene),
+            )
+            .add_systems(engine::app::Render, render::render_ddgi_frame.run_if(frame_script_is(FRAME_SCRIPT)).after(flush_uploads));
+    }
+}
+
+/// Adds DDGI to `app`, spawns `volume` and makes `"ddgi"` the frame script, writing `output`.
+pub fn use_ddgi(app: &mut App, volume: DdgiVolume, output: DdgiOutput) {
+    app.insert_resource(FrameScript(FRAME_SCRIPT)).insert_resource(output).add_plugins(DdgiPlugin);
+    app.world_mut().spawn(volume);
+}

@@ -1,0 +1,761 @@
+//! The GPU side: per-volume resources, the passes of the probe update, the camera's gather and
+//! composite, the `"ddgi"` frame script and the asynchronous probe readback.
+
+use std::collections::HashMap;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU8, Ordering};
+
+use bevy_ecs::prelude::*;
+use engine::gpu::GpuContext;
+use engine::graph::{Buffer as GraphBuffer, BufferDesc, Handle, RenderGraph, Texture as GraphTexture, TextureDesc};
+use engine::render::gpu_scene::GpuScene;
+use engine::render::{CameraFrame, HDR_FORMAT, SkyRadiance, dispatch};
+use engine::rng::SplitMix64;
+use engine::scene::{Assets, Mesh};
+use engine::shader::{Program, ShaderError, compute_program, compute_program_with_constants};
+use engine::wgpu;
+use glam::{Mat3, Quat, Vec3};
+
+use crate::gpu::{DdgiGatherParams, DdgiProbeData, DdgiVolumeGpu, PROBE_FRESH, PROBE_INACTIVE};
+use crate::volume::{DdgiLayout, DdgiLimits, DdgiProbe, DdgiProbeState, DdgiVolume};
+
+/// Format of both atlases (irradiance perceptually encoded; distances
+/// divided by the volume's distance scale, so half floats neither overflow nor lose precision at
+/// any scene scale).
+pub const ATLAS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+
+/// What the `"ddgi"` frame script writes into the image.
+#[derive(Resource, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum DdgiOutput {
+    /// Direct light plus DDGI's indirect light.
+    #[default]
+    Full,
+    /// DDGI's indirect light alone (albedo / π × irradiance).
+    Indirect,
+}
+
+type ComputeProgram = Arc<Program<wgpu::ComputePipeline>>;
+
+/// Which scene features the ray passes were compiled for (spot cones and emission lookups are left
+/// out of scenes that have none).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+struct Specialization {
+    spot_lights: bool,
+    emissive: bool,
+}
+
+impl Specialization {
+    fn note(self) -> String {
+        let mut parts = Vec::new();
+        if !self.spot_lights {
+            parts.push("no spot-cone code (no spot lights)");
+        }
+        if !self.emissive {
+            parts.push("no emission lookup (no emissive materials)");
+        }
+        if parts.is_empty() { String::new() } else { format!("specialized: {}", parts.join(", ")) }
+    }
+}
+
+/// Pipelines of the DDGI passes.
+#[derive(Resource)]
+pub struct DdgiPipelines {
+    generate: ComputeProgram,
+    specialized: HashMap<Specialization, (ComputeProgram, ComputeProgram)>,
+    update_irradiance: ComputeProgram,
+    update_distance: ComputeProgram,
+    copy_irradiance_borders: ComputeProgram,
+    copy_distance_borders: ComputeProgram,
+    relocate: ComputeProgram,
+    classify: ComputeProgram,
+    gather: ComputeProgram,
+    composite: ComputeProgram,
+    composite_indirect: ComputeProgram,
+    sampler: wgpu::Sampler,
+}
+
+impl DdgiPipelines {
+    pub fn new(gpu: &GpuContext) -> Result<Self, ShaderError> {
+        let p = |file: &str, entry: &str| compute_program(&gpu.device, file, entry, entry).map(Arc::new);
+        Ok(Self {
+            generate: p("ddgi_rays.wgsl", "generate_rays")?,
+            specialized: HashMap::new(),
+            update_irradiance: p("ddgi_update.wgsl", "update_irradiance")?,
+            update_distance: p("ddgi_update.wgsl", "update_distance")?,
+            copy_irradiance_borders: p("ddgi_update.wgsl", "copy_irradiance_borders")?,
+            copy_distance_borders: p("ddgi_update.wgsl", "copy_distance_borders")?,
+            relocate: p("ddgi_update.wgsl", "relocate_probes")?,
+            classify: p("ddgi_update.wgsl", "classify_probes")?,
+            gather: p("ddgi_gather.wgsl", "gather_irradiance")?,
+            composite: p("ddgi_gather.wgsl", "composite")?,
+            composite_indirect: p("ddgi_gather.wgsl", "composite_indirect")?,
+            sampler: gpu.device.create_sampler(&wgpu::SamplerDescriptor {
+                label: Some("ddgi_sampler"),
+                mag_filter: wgpu::FilterMode::Linear,
+                min_filter: wgpu::FilterMode::Linear,
+                ..Default::default()
+            }),
+        })
+    }
+
+    /// The trace and shading pipelines compiled for `s` (built on first use).
+    fn ray_programs(&mut self, gpu: &GpuContext, s: Specialization) -> Result<(ComputeProgram, ComputeProgram), ShaderError> {
+        if let Some(p) = self.specialized.get(&s) {
+            return Ok(p.clone());
+        }
+        let constants = [("SCENE_HAS_SPOT_LIGHTS", f64::from(u8::from(s.spot_lights))), ("SCENE_HAS_EMISSIVE", f64::from(u8::from(s.emissive)))];
+        let build = |entry: &str| compute_program_with_constants(&gpu.device, "ddgi_rays.wgsl", entry, entry, &constants).map(Arc::new);
+        let programs = (build("trace_rays")?, build("shade_rays")?);
+        self.specialized.insert(s, programs.clone());
+        Ok(programs)
+    }
+}
+
+/// The GPU resources and state of one volume.
+pub struct VolumeGpu {
+    pub layout: DdgiLayout,
+    /// The settings the resources were made for.
+    pub settings: DdgiVolume,
+    pub uniform: wgpu::Buffer,
+    pub probes: wgpu::Buffer,
+    pub rays: wgpu::Buffer,
+    pub surfels: wgpu::Buffer,
+    pub radiance: wgpu::Buffer,
+    /// The maps at full precision (see `ddgi.inc.wgsl`): irradiance (vec4 per texel) and distance
+    /// moments (vec2 per texel), in probe order.
+    pub irradiance_history: wgpu::Buffer,
+    pub distance_history: wgpu::Buffer,
+    /// The atlases that sampling reads (half floats, irradiance perceptually encoded).
+    pub irradiance: wgpu::Texture,
+    pub distance: wgpu::Texture,
+    views: [wgpu::TextureView; 2],
+    /// Frames updated so far.
+    pub frames: u64,
+    rng: SplitMix64,
+    /// The probe entities, by probe index.
+    pub probe_entities: Vec<Entity>,
+    readback: ProbeReadback,
+    /// The last probe data read back (offsets and states), by probe index.
+    pub probe_data: Vec<DdgiProbeData>,
+}
+
+impl VolumeGpu {
+    fn new(gpu: &GpuContext, settings: &DdgiVolume, layout: DdgiLayout) -> Self {
+        use wgpu::BufferUsages as B;
+        let device = &gpu.device;
+        let buffer = |label: &str, size: u64, usage: B| {
+            device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size: size.max(16), usage, mapped_at_creation: false })
+        };
+        let rays = u64::from(layout.probe_count) * u64::from(settings.rays_per_probe) * crate::volume::BYTES_PER_RAY;
+        let probes = buffer("ddgi_probes", u64::from(layout.probe_count) * 16, B::STORAGE | B::COPY_SRC | B::COPY_DST);
+        let initial = vec![DdgiProbeData { offset: [0.0; 3], state: PROBE_FRESH }; layout.probe_count as usize];
+        gpu.queue.write_buffer(&probes, 0, bytemuck::cast_slice(&initial));
+        let texture = |label: &str, size: glam::UVec2| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d { width: size.x, height: size.y, depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: ATLAS_FORMAT,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::COPY_SRC,
+                view_formats: &[],
+            })
+        };
+        let irradiance = texture("ddgi_irradiance", layout.irradiance_atlas);
+        let distance = texture("ddgi_distance", layout.distance_atlas);
+        let view = |t: &wgpu::Texture| t.create_view(&Default::default());
+        let views = [view(&irradiance), view(&distance)];
+        let texels = |n: u32| u64::from(layout.probe_count) * u64::from(n * n);
+        Self {
+            uniform: buffer("ddgi_volume", size_of::<DdgiVolumeGpu>() as u64, B::UNIFORM | B::COPY_DST),
+            probes,
+            rays: buffer("ddgi_rays", rays, B::STORAGE | B::COPY_SRC),
+            surfels: buffer("ddgi_surfels", rays, B::STORAGE),
+            radiance: buffer("ddgi_radiance", rays, B::STORAGE | B::COPY_SRC),
+            irradiance_history: buffer("ddgi_irradiance_history", texels(layout.irradiance_texels) * 16, B::STORAGE),
+            distance_history: buffer("ddgi_distance_history", texels(layout.distance_texels) * 8, B::STORAGE),
+            irradiance,
+            distance,
+            views,
+            frames: 0,
+            rng: SplitMix64::new(settings.seed),
+            probe_entities: Vec::new(),
+            readback: ProbeReadback::default(),
+            probe_data: initial,
+            settings: settings.clone(),
+            layout,
+        }
+    }
+
+    /// Group 1 resources by WGSL name; `atlas_out` is the atlas the border pass writes.
+    fn bindings<'a>(&'a self, sampler: &'a wgpu::Sampler, atlas_out: &'a wgpu::TextureView) -> Vec<(&'static str, wgpu::BindingResource<'a>)> {
+        let [irradiance, distance] = &self.views;
+        vec![
+            ("ddgi_volume", self.uniform.as_entire_binding()),
+            ("ddgi_probes", self.probes.as_entire_binding()),
+            ("ddgi_irradiance", wgpu::BindingResource::TextureView(irradiance)),
+            ("ddgi_distance", wgpu::BindingResource::TextureView(distance)),
+            ("ddgi_sampler", wgpu::BindingResource::Sampler(sampler)),
+            ("ddgi_rays", self.rays.as_entire_binding()),
+            ("ddgi_surfels", self.surfels.as_entire_binding()),
+            ("ddgi_radiance", self.radiance.as_entire_binding()),
+            ("ddgi_irradiance_history", self.irradiance_history.as_entire_binding()),
+            ("ddgi_distance_history", self.distance_history.as_entire_binding()),
+            ("ddgi_atlas_out", wgpu::BindingResource::TextureView(atlas_out)),
+        ]
+    }
+
+    /// Group 1 for passes that write no atlas.
+    fn common_bindings<'a>(&'a self, sampler: &'a wgpu::Sampler) -> Vec<(&'static str, wgpu::BindingResource<'a>)> {
+        // Unused by those passes' layouts; any texture view fills the name.
+        self.bindings(sampler, &self.views[0])
+    }
+
+    pub fn probe_state(&self, index: usize) -> DdgiProbeState {
+        match self.probe_data.get(index) {
+            Some(p) if p.state & PROBE_INACTIVE != 0 => DdgiProbeState::Inactive,
+            _ => DdgiProbeState::Active,
+        }
+    }
+}
+
+/// The GPU state of every volume, by volume entity.
+#[derive(Resource, Default)]
+pub struct DdgiGpuVolumes {
+    pub volumes: Vec<(Entity, VolumeGpu)>,
+    /// The last settings error of each volume entity (logged once).
+    errors: HashMap<Entity, String>,
+    /// Local bounds of each mesh, computed once.
+    mesh_bounds: HashMap<u32, Option<(Vec3, Vec3)>>,
+}
+
+impl DdgiGpuVolumes {
+    pub fn get(&self, entity: Entity) -> Option<&VolumeGpu> {
+        self.volumes.iter().find(|(e, _)| *e == entity).map(|(_, v)| v)
+    }
+
+    /// The settings error that keeps `entity`'s volume from lighting the scene, if any.
+    pub fn error(&self, entity: Entity) -> Option<&str> {
+        self.errors.get(&entity).map(String::as_str)
+    }
+
+    /// Any volume's settings error (for tools that run a single volume).
+    pub fn first_error(&self) -> Option<&str> {
+        self.errors.values().next().map(String::as_str)
+    }
+
+    fn scene_bounds(&mut self, scene: &GpuScene, meshes: &Assets<Mesh>) -> Option<(Vec3, Vec3)> {
+        let mut out: Option<(Vec3, Vec3)> = None;
+        for (_, mesh, transform) in scene.live_instances() {
+            let local = *self.mesh_bounds.entry(mesh).or_insert_with(|| {
+                meshes.iter().find(|(h, _)| h.index() == mesh).and_then(|(_, m)| m.bounds()).filter(|(a, b)| a.is_finite() && b.is_finite())
+            });
+            let Some((lo, hi)) = local else { continue };
+            for i in 0..8 {
+                let corner = Vec3::new(
+                    if i & 1 == 0 { lo.x } else { hi.x },
+                    if i & 2 == 0 { lo.y } else { hi.y },
+                    if i & 4 == 0 { lo.z } else { hi.z },
+                );
+                let p = transform.transform_point3(corner);
+                out = Some(out.map_or((p, p), |(a, b)| (a.min(p), b.max(p))));
+            }
+        }
+        out
+    }
+}
+
+fn random_rotation(rng: &mut SplitMix64) -> Mat3 {
+    // Shoemake's uniform random unit quaternion.
+    let (u1, u2, u3) = (rng.unit(), rng.unit() * std::f32::consts::TAU, rng.unit() * std::f32::consts::TAU);
+    let (a, b) = ((1.0 - u1).sqrt(), u1.sqrt());
+    Mat3::from_quat(Quat::from_xyzw(a * u2.sin(), a * u2.cos(), b * u3.sin(), b * u3.cos()).normalize())
+}
+
+/// Whether two settings need the same resources (probe layout, ray count, map sizes).
+fn same_resources(a: &DdgiVolume, b: &DdgiVolume) -> bool {
+    a.bounds == b.bounds
+        && a.probe_counts == b.probe_counts
+        && a.rays_per_probe == b.rays_per_probe
+        && a.irradiance_texels == b.irradiance_texels
+        && a.distance_texels == b.distance_texels
+        && a.seed == b.seed
+}
+
+/// Prepare stage: creates (or re-creates, when the layout changes) each volume's resources and its
+/// probe entities, and writes this frame's uniform (a new random rotation of the rays, re-check
+/// flag).
+#[allow(clippy::too_many_arguments)]
+pub fn prepare_ddgi_volumes(
+    mut commands: Commands,
+    gpu: Res<GpuContext>,
+    scene: Res<GpuScene>,
+    sky: Res<SkyRadiance>,
+    meshes: Res<Assets<Mesh>>,
+    volumes: Query<(Entity, &DdgiVolume)>,
+    mut state: ResMut<DdgiGpuVolumes>,
+) {
+    let state = &mut *state;
+    state.volumes.retain(|(e, v)| {
+        let keep = volumes.get(*e).is_ok();
+        if !keep {
+            for &probe in &v.probe_entities {
+                commands.entity(probe).try_despawn();
+            }
+        }
+        keep
+    });
+    let mut list: Vec<(Entity, &DdgiVolume)> = volumes.iter().collect();
+    list.sort_by_key(|(e, _)| *e);
+    let scene_changed = {
+        let c = scene.instance_changes();
+        c.structure_changed || !c.moved.is_empty()
+    };
+    for (entity, volume) in list {
+        let existing = state.volumes.iter().position(|(e, _)| *e == entity);
+        let rebuild = existing.is_none_or(|i| !same_resources(&state.volumes[i].1.settings, volume));
+        if rebuild {
+            let bounds = match volume.bounds {
+                Some(b) => Some(b),
+                None => state.scene_bounds(&scene, &meshes),
+            };
+            let layout = bounds
+                .ok_or(crate::volume::DdgiSettingsError::NoBounds)
+                .and_then(|b| DdgiLayout::new(volume, b, DdgiLimits::of(&gpu.device)));
+            let old = existing.map(|i| state.volumes.remove(i));
+            if let Some((_, old)) = &old {
+                for &probe in &old.probe_entities {
+                    commands.entity(probe).try_despawn();
+                }
+            }
+            let layout = match layout {
+                Ok(l) => {
+                    state.errors.remove(&entity);
+                    l
+                }
+                Err(e) => {
+                    let message = e.to_string();
+                    if state.errors.get(&entity) != Some(&message) {
+                        log::error!("DDGI volume {entity}: {message}; the volume is off");
+                    }
+                    state.errors.insert(entity, message);
+                    continue;
+                }
+            };
+            let mut v = VolumeGpu::new(&gpu, volume, layout);
+            v.probe_entities = (0..v.layout.probe_count)
+                .map(|i| {
+                    commands
+                        .spawn(DdgiProbe {
+                            volume: entity,
+                            grid: v.layout.probe_grid(i),
+                            index: i,
+                            offset: Vec3::ZERO,
+                            position: v.layout.grid_position(i),
+                            state: DdgiProbeState::Active,
+                            ray_count: volume.rays_per_probe,
+                        })
+                        .id()
+                })
+                .collect();
+            state.volumes.push((entity, v));
+            state.volumes.sort_by_key(|(e, _)| *e);
+        }
+        let Some((_, v)) = state.volumes.iter_mut().find(|(e, _)| *e == entity) else { continue };
+        v.settings = volume.clone();
+        let interval = u64::from(volume.recheck_interval);
+        let recheck = scene_changed || (interval > 0 && v.frames % interval == 0);
+        let rotation = random_rotation(&mut v.rng);
+        let uniform = DdgiVolumeGpu::new(volume, &v.layout, rotation, volume.sky_radiance.unwrap_or(sky.0), recheck);
+        gpu.queue.write_buffer(&v.uniform, 0, bytemuck::bytes_of(&uniform));
+    }
+}
+
+/// Handles of one volume's persistent resources in a frame's graph.
+pub struct VolumeHandles {
+    pub probes: Handle<GraphBuffer>,
+    pub irradiance: Handle<GraphTexture>,
+    pub distance: Handle<GraphTexture>,
+}
+
+fn per_probe_groups(count: u32) -> (u32, u32) {
+    (count.clamp(1, 65535), count.div_ceil(65535).max(1))
+}
+
+/// Adds the probe update of one volume to `graph`: ray generation → trace → shading → irradiance
+/// and distance updates → borders → relocation → classification. `suffix` tells apart the labels of
+/// several volumes.
+fn add_volume_update(
+    graph: &mut RenderGraph,
+    gpu: &GpuContext,
+    scene_bindings: &[(&'static str, wgpu::BindingResource<'_>)],
+    pipelines: &mut DdgiPipelines,
+    specialization: Specialization,
+    volume: &VolumeGpu,
+    suffix: &str,
+) -> Result<VolumeHandles, ShaderError> {
+    let device = &gpu.device;
+    let label = |name: &str| format!("{name}{suffix}");
+    let mut probes = graph.import_buffer(&label("ddgi_probes"), &volume.probes);
+    let mut rays = graph.import_buffer(&label("ddgi_rays"), &volume.rays);
+    let mut surfels = graph.import_buffer(&label("ddgi_surfels"), &volume.surfels);
+    let mut radiance = graph.import_buffer(&label("ddgi_radiance"), &volume.radiance);
+    let mut irradiance = graph.import_texture(&label("ddgi_irradiance"), &volume.irradiance);
+    let mut distance = graph.import_texture(&label("ddgi_distance"), &volume.distance);
+    let mut irradiance_history = graph.import_buffer(&label("ddgi_irradiance_history"), &volume.irradiance_history);
+    let mut distance_history = graph.import_buffer(&label("ddgi_distance_history"), &volume.distance_history);
+    let ray_groups = engine::rt::ray_workgroups(volume.layout.probe_count * volume.settings.rays_per_probe);
+    let probe_groups = per_probe_groups(volume.layout.probe_count);
+    let (trace, shade) = pipelines.ray_programs(gpu, specialization)?;
+    let sampler = &pipelines.sampler;
+    let [irradiance_view, distance_view] = &volume.views;
+
+    // Each pass: its program, group 0 (the scene) when it uses it, group 1 (the volume).
+    let groups = |program: &ComputeProgram, group1: &[(&'static str, wgpu::BindingResource<'_>)]| -> Vec<wgpu::BindGroup> {
+        let mut g = Vec::new();
+        if program.uses_group(0) {
+            g.push(program.bind_group(device, 0, scene_bindings));
+        } else {
+            g.push(device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("empty"),
+                layout: &program.pipeline.get_bind_group_layout(0),
+                entries: &[],
+            }));
+        }
+        g.push(program.bind_group(device, 1, group1));
+        g
+    };
+    let record = |program: ComputeProgram, bind: Vec<wgpu::BindGroup>, size: (u32, u32)| {
+        move |ctx: &mut engine::graph::PassContext<'_>| {
+            let refs: Vec<&wgpu::BindGroup> = bind.iter().collect();
+            dispatch(ctx.encoder, ctx.label, &program.pipeline, &refs, size);
+        }
+    };
+    let common = volume.common_bindings(sampler);
+
+    {
+        let mut pass = graph.add_pass(&label("ddgi_ray_generation"));
+        pass.read(&probes);
+        pass.write(&mut rays);
+        let g = groups(&pipelines.generate, &common);
+        pass.render(record(pipelines.generate.clone(), g, ray_groups));
+    }
+    {
+        let mut pass = graph.add_pass(&label("ddgi_trace"));
+        pass.read(&probes);
+        pass.read(&rays);
+        pass.write(&mut surfels);
+        pass.note(&specialization.note());
+        let g = groups(&trace, &common);
+        pass.render(record(trace, g, ray_groups));
+    }
+    {
+        let mut pass = graph.add_pass(&label("ddgi_ray_shading"));
+        for r in [&probes, &rays, &surfels] {
+            pass.read(r);
+        }
+        pass.read(&irradiance);
+        pass.read(&distance);
+        pass.write(&mut radiance);
+        pass.note(&specialization.note());
+        let g = groups(&shade, &common);
+        pass.render(record(shade, g, ray_groups));
+    }
+    {
+        let mut pass = graph.add_pass(&label("ddgi_irradiance_update"));
+        pass.read(&probes);
+        pass.read(&rays);
+        pass.read(&radiance);
+        pass.read(&irradiance_history);
+        pass.write(&mut irradiance_history);
+        let g = groups(&pipelines.update_irradiance, &common);
+        pass.render(record(pipelines.update_irradiance.clone(), g, probe_groups));
+    }
+    {
+        let mut pass = graph.add_pass(&label("ddgi_distance_update"));
+        pass.read(&probes);
+        pass.read(&rays);
+        pass.read(&radiance);
+        pass.read(&distance_history);
+        pass.write(&mut distance_history);
+        let g = groups(&pipelines.update_distance, &common);
+        pass.render(record(pipelines.update_distance.clone(), g, probe_groups));
+    }
+    {
+        let mut pass = graph.add_pass(&label("ddgi_borders"));
+        pass.read(&probes);
+        pass.read(&irradiance_history);
+        pass.read(&distance_history);
+        pass.write(&mut irradiance);
+        pass.write(&mut distance);
+        // Each atlas is read (ray shading) and written (here) in one frame but never in one
+        // dispatch, so a single copy of each suffices.
+        let irradiance_groups = groups(&pipelines.copy_irradiance_borders, &volume.bindings(sampler, irradiance_view));
+        let distance_groups = groups(&pipelines.copy_distance_borders, &volume.bindings(sampler, distance_view));
+        let (copy_irradiance, copy_distance) = (pipelines.copy_irradiance_borders.clone(), pipelines.copy_distance_borders.clone());
+        let (ia, da) = (volume.layout.irradiance_atlas, volume.layout.distance_atlas);
+        pass.render(move |ctx| {
+            let mut cp = ctx.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(ctx.label), timestamp_writes: None });
+            for (program, bind, size) in [(&copy_irradiance, &irradiance_groups, ia), (&copy_distance, &distance_groups, da)] {
+                cp.set_pipeline(&program.pipeline);
+                for (i, g) in bind.iter().enumerate() {
+                    cp.set_bind_group(i as u32, g, &[]);
+                }
+                cp.dispatch_workgroups(size.x.div_ceil(8), size.y.div_ceil(8), 1);
+            }
+        });
+    }
+    if volume.settings.relocation {
+        let mut pass = graph.add_pass(&label("ddgi_relocation"));
+        pass.read(&rays);
+        pass.read(&radiance);
+        pass.read(&probes);
+        pass.write(&mut probes);
+        let g = groups(&pipelines.relocate, &common);
+        pass.render(record(pipelines.relocate.clone(), g, probe_groups));
+    } else {
+        graph.leave_out(&label("ddgi_relocation"), "relocation off in the volume's settings");
+    }
+    {
+        let mut pass = graph.add_pass(&label("ddgi_classification"));
+        pass.read(&rays);
+        pass.read(&radiance);
+        pass.read(&probes);
+        pass.write(&mut probes);
+        if !volume.settings.classification {
+            pass.note("classification off: only clears the fresh-probe flags");
+        }
+        let g = groups(&pipelines.classify, &common);
+        pass.render(record(pipelines.classify.clone(), g, probe_groups));
+    }
+    // The maps and probe states live on into the next frame.
+    graph.export(&probes);
+    graph.export(&irradiance);
+    graph.export(&distance);
+    Ok(VolumeHandles { probes, irradiance, distance })
+}
+
+/// Render stage: the `"ddgi"` frame script — G-buffer, direct light, each volume's probe update,
+/// the final gather of every volume, the composite, then the engine's tonemap and present.
+pub fn render_ddgi_frame(
+    mut frame: CameraFrame,
+    mut pipelines: ResMut<DdgiPipelines>,
+    mut volumes: ResMut<DdgiGpuVolumes>,
+    output: Res<DdgiOutput>,
+) {
+    let size = frame.size();
+    let gpu = frame.gpu.clone();
+    let specialization = Specialization { spot_lights: frame.scene.has_spot_lights, emissive: frame.scene.has_emissive };
+    let mut script = frame.begin();
+    let gbuffer = frame.add_gbuffer(&mut script.graph);
+    let mut direct = script.graph.create_texture(
+        "ddgi_direct",
+        TextureDesc {
+            width: size.width,
+            height: size.height,
+            format: HDR_FORMAT,
+            usage: wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::TEXTURE_BINDING,
+        },
+    );
+    frame.add_direct_lighting(&mut script.graph, &gbuffer, &mut direct);
+    let scene_bindings = frame.scene_bindings();
+    let several = volumes.volumes.len() > 1;
+    let mut handles = Vec::new();
+    for (k, (_, volume)) in volumes.volumes.iter().enumerate() {
+        let suffix = if several { format!("_{k}") } else { String::new() };
+        match add_volume_update(&mut script.graph, &gpu, &scene_bindings, &mut pipelines, specialization, volume, &suffix) {
+            Ok(h) => handles.push((k, suffix, h)),
+            Err(e) => log::error!("DDGI pipelines failed, the volume is off: {e}"),
+        }
+    }
+
+    let pixels = u64::from(size.width.max(1)) * u64::from(size.height.max(1));
+    let mut indirect = script.graph.create_buffer(
+        "ddgi_indirect",
+        BufferDesc { size: pixels * 16, usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST },
+    );
+    let device = &gpu.device;
+    let params = |first: bool| {
+        let p = DdgiGatherParams { first_volume: u32::from(first), _pad0: 0, _pad1: 0, _pad2: 0 };
+        let b = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("ddgi_gather_params"),
+            size: size_of::<DdgiGatherParams>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        gpu.queue.write_buffer(&b, 0, bytemuck::bytes_of(&p));
+        b
+    };
+    let workgroups = (size.width.div_ceil(8), size.height.div_ceil(8));
+    if handles.is_empty() {
+        // No volume: the indirect term is zero.
+        let mut pass = script.graph.add_pass("ddgi_clear_indirect");
+        let out = pass.write(&mut indirect);
+        pass.render(move |ctx| ctx.encoder.clear_buffer(ctx.buffer(out), 0, None));
+    }
+    for (i, (k, suffix, h)) in handles.iter().enumerate() {
+        let volume = &volumes.volumes[*k].1;
+        let mut pass = script.graph.add_pass(&format!("ddgi_gather{suffix}"));
+        pass.read(&h.probes);
+        pass.read(&h.irradiance);
+        pass.read(&h.distance);
+        if i > 0 {
+            pass.read(&indirect);
+        }
+        let out = pass.write(&mut indirect);
+        let (depth, normal) = (pass.read(&gbuffer.depth), pass.read(&gbuffer.normal));
+        let program = pipelines.gather.clone();
+        let group0 = program.bind_group(device, 0, &scene_bindings);
+        let group1 = program.bind_group(device, 1, &volume.common_bindings(&pipelines.sampler));
+        let params = params(i == 0);
+        pass.render(move |ctx| {
+            let group2 = program.bind_group(
+                &ctx.gpu.device,
+                2,
+                &[
+                    ("ddgi_gather_params", params.as_entire_binding()),
+                    ("gbuffer_depth", wgpu::BindingResource::TextureView(ctx.view(depth))),
+                    ("gbuffer_normal", wgpu::BindingResource::TextureView(ctx.view(normal))),
+                    ("ddgi_indirect", ctx.buffer(out).as_entire_binding()),
+                ],
+            );
+            dispatch(ctx.encoder, ctx.label, &program.pipeline, &[&group0, &group1, &group2], workgroups);
+        });
+    }
+    {
+        let full = *output == DdgiOutput::Full;
+        let mut pass = script.graph.add_pass("ddgi_composite");
+        let (depth, albedo) = (pass.read(&gbuffer.depth), pass.read(&gbuffer.albedo));
+        let direct_in = full.then(|| pass.read(&direct));
+        let acc = pass.read(&indirect);
+        let out = pass.write(&mut script.hdr);
+        if !full {
+            pass.note("indirect light only");
+        }
+        let program = if full { pipelines.composite.clone() } else { pipelines.composite_indirect.clone() };
+        let group0 = program.bind_group(device, 0, &scene_bindings);
+        let params = params(true);
+        pass.render(move |ctx| {
+            let mut entries = vec![
+                ("ddgi_gather_params", params.as_entire_binding()),
+                ("gbuffer_depth", wgpu::BindingResource::TextureView(ctx.view(depth))),
+                ("gbuffer_albedo", wgpu::BindingResource::TextureView(ctx.view(albedo))),
+                ("ddgi_indirect", ctx.buffer(acc).as_entire_binding()),
+                ("radiance_out", wgpu::BindingResource::TextureView(ctx.view(out))),
+            ];
+            if let Some(d) = direct_in {
+                entries.push(("direct_in", wgpu::BindingResource::TextureView(ctx.view(d))));
+            }
+            let group2 = program.bind_group(&ctx.gpu.device, 2, &entries);
+            let empty = ctx.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("empty"),
+                layout: &program.pipeline.get_bind_group_layout(1),
+                entries: &[],
+            });
+            dispatch(ctx.encoder, ctx.label, &program.pipeline, &[&group0, &empty, &group2], workgroups);
+        });
+    }
+    drop(scene_bindings);
+    frame.finish(script);
+    for (_, v) in volumes.volumes.iter_mut() {
+        v.frames += 1;
+        v.readback.request(&gpu, &v.probes, v.frames);
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Asynchronous readback of the probe states into the ECS.
+
+const READBACK_SLOTS: usize = 3;
+const SLOT_IDLE: u8 = 0;
+const SLOT_PENDING: u8 = 1;
+const SLOT_READY: u8 = 2;
+
+struct ReadbackSlot {
+    buffer: wgpu::Buffer,
+    state: Arc<AtomicU8>,
+    frame: u64,
+}
+
+/// A ring of mappable copies of the probe buffer: one is requested per frame while a slot is free,
+/// and read when the GPU has filled it. Nothing waits.
+#[derive(Default)]
+struct ProbeReadback {
+    slots: Vec<ReadbackSlot>,
+}
+
+impl ProbeReadback {
+    fn request(&mut self, gpu: &GpuContext, source: &wgpu::Buffer, frame: u64) {
+        if self.slots.is_empty() {
+            self.slots = (0..READBACK_SLOTS)
+                .map(|_| ReadbackSlot {
+                    buffer: gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                        label: Some("ddgi_probes_readback"),
+                        size: source.size(),
+                        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                        mapped_at_creation: false,
+                    }),
+                    state: Arc::new(AtomicU8::new(SLOT_IDLE)),
+                    frame: 0,
+                })
+                .collect();
+        }
+        let Some(slot) = self.slots.iter_mut().find(|s| s.state.load(Ordering::Acquire) == SLOT_IDLE) else { return };
+        let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("ddgi_probes_readback") });
+        encoder.copy_buffer_to_buffer(source, 0, &slot.buffer, 0, source.size());
+        gpu.queue.submit([encoder.finish()]);
+        slot.frame = frame;
+        slot.state.store(SLOT_PENDING, Ordering::Release);
+        let flag = slot.state.clone();
+        slot.buffer.slice(..).map_async(wgpu::MapMode::Read, move |r| {
+            flag.store(if r.is_ok() { SLOT_READY } else { SLOT_IDLE }, Ordering::Release);
+        });
+    }
+
+    /// The newest probe data that has arrived, if any (older arrivals are dropped).
+    fn poll(&mut self, gpu: &GpuContext) -> Option<Vec<DdgiProbeData>> {
+        let _ = gpu.device.poll(wgpu::PollType::Poll);
+        let mut newest: Option<(u64, Vec<DdgiProbeData>)> = None;
+        for slot in &mut self.slots {
+            if slot.state.load(Ordering::Acquire) != SLOT_READY {
+                continue;
+            }
+            let data: Vec<DdgiProbeData> = match slot.buffer.slice(..).get_mapped_range() {
+                Ok(view) => bytemuck::pod_collect_to_vec(&view),
+                Err(_) => Vec::new(),
+            };
+            slot.buffer.unmap();
+            slot.state.store(SLOT_IDLE, Ordering::Release);
+            if newest.as_ref().is_none_or(|(f, _)| slot.frame > *f) && !data.is_empty() {
+                newest = Some((slot.frame, data));
+            }
+        }
+        newest.map(|(_, d)| d)
+    }
+}
+
+/// Prepare stage: copies the probe states that have come back from the GPU into the
+/// [`DdgiProbe`] components (only those that changed, so change detection stays meaningful).
+pub fn read_back_ddgi_probes(gpu: Res<GpuContext>, mut volumes: ResMut<DdgiGpuVolumes>, mut probes: Query<&mut DdgiProbe>) {
+    for (_, v) in volumes.volumes.iter_mut() {
+        let Some(data) = v.readback.poll(&gpu) else { continue };
+        if data.len() < v.layout.probe_count as usize {
+            continue;
+        }
+        v.probe_data = data;
+        for (i, &entity) in v.probe_entities.iter().enumerate() {
+            let Ok(mut probe) = probes.get_mut(entity) else { continue };
+            let offset = Vec3::from_array(v.probe_data[i].offset);
+            let state = v.probe_state(i);
+            let next = DdgiProbe {
+                offset,
+                position: v.layout.grid_position(i as u32) + offset,
+                state,
+                ray_count: if state == DdgiProbeState::Active { v.settings.rays_per_probe } else { 0 },
+                ..probe.clone()
+            };
+            probe.set_if_neq(next);
+        }
+    }
+}

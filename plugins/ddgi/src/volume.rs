@@ -1,0 +1,344 @@
+//! The settings of a probe volume ([`DdgiVolume`]), its probes as entities ([`DdgiProbe`]) and the
+//! grid layout both resolve to ([`DdgiLayout`]).
+
+use bevy_ecs::prelude::*;
+use glam::{UVec2, UVec3, Vec3};
+
+/// Which weights the sampling function applies when it blends the 8 probes around a point. Each
+/// can be switched off, for the ablation `none → back-face → Chebyshev → normal bias`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DdgiWeights {
+    /// Wrap-shading weight: probes behind the surface fade out. Costs a dot product per probe.
+    pub backface: bool,
+    /// Chebyshev visibility test on the distance moments: probes that cannot see the point are
+    /// rejected (the main defence against light leaking through walls). Costs a distance-atlas
+    /// fetch per probe.
+    pub chebyshev: bool,
+    /// Offsets the lookup point along the normal and towards the viewer
+    /// ([`DdgiVolume::normal_bias`], [`DdgiVolume::view_bias`]) before the other weights, so that a
+    /// surface does not shadow itself in the distance maps.
+    pub normal_bias: bool,
+    /// Log-perception crush: weights under 0.2 are crushed cubically, so faint leaks vanish.
+    pub crush: bool,
+    /// Trilinear weight by the point's position in the probe cage (without it, the 8 probes count
+    /// alike and the field is blocky).
+    pub trilinear: bool,
+}
+
+impl DdgiWeights {
+    pub const ALL: Self = Self { backface: true, chebyshev: true, normal_bias: true, crush: true, trilinear: true };
+    /// Trilinear interpolation alone: the start of the visibility ablation.
+    pub const NONE: Self = Self { backface: false, chebyshev: false, normal_bias: false, crush: false, trilinear: true };
+}
+
+impl Default for DdgiWeights {
+    fn default() -> Self {
+        Self::ALL
+    }
+}
+
+/// A volume of irradiance probes. Add it to an entity to light the scene inside its bounds with
+/// dynamic diffuse global illumination; several volumes may coexist (each pixel blends the volumes
+/// that contain it; a volume's probe rays read only its own probes).
+///
+/// Cost grows with `probe count × rays_per_probe` (tracing, shading) and with
+/// `probe count × texels²` (the map updates); the camera's gather costs 8 probe lookups per pixel
+/// whatever the grid.
+#[derive(Component, Clone, Debug, PartialEq)]
+pub struct DdgiVolume {
+    /// World-space box the probes fill, `(min, max)`; `None`: the bounds of the scene's instances.
+    /// Probes sit at the centres of `probe_counts` equal cells of the box.
+    pub bounds: Option<(Vec3, Vec3)>,
+    /// Probes along x, y and z (any size ≥ 1, not only powers of two).
+    pub probe_counts: UVec3,
+    /// Rays each probe traces per frame. More rays: less noise, proportionally more trace and
+    /// shading time.
+    pub rays_per_probe: u32,
+    /// Side of each probe's octahedral irradiance map, in texels (default 8). Atlas memory and the
+    /// irradiance update grow with its square.
+    pub irradiance_texels: u32,
+    /// Side of each probe's octahedral distance map (mean and mean² of hit distances, default 16).
+    pub distance_texels: u32,
+    /// Weight of the old value when blending in a frame's rays, in [0, 1]: close to 1 is stable but
+    /// slow to follow changes; 0 takes each frame's (noisy) value as is.
+    pub hysteresis: f32,
+    /// Offset of the lookup point along the surface normal, as a fraction of the smallest probe
+    /// spacing. Too small: self-shadowing blotches; too large: leaks through thin walls.
+    pub normal_bias: f32,
+    /// Offset of the lookup point towards the viewer, as a fraction of the smallest probe spacing.
+    pub view_bias: f32,
+    /// Exponent of the cosine weighting of hit distances in the distance update (50 in the
+    /// literature): higher keeps visibility edges sharp.
+    pub distance_sharpness: f32,
+    /// Longest probe ray in world units; `None`: unbounded. Shorter rays are cheaper in large
+    /// scenes and miss (seeing the sky) beyond it.
+    pub max_ray_distance: Option<f32>,
+    /// Radiance of rays that escape the scene; `None`: the engine's [`engine::render::SkyRadiance`].
+    pub sky_radiance: Option<Vec3>,
+    /// The sampling function's weights.
+    pub weights: DdgiWeights,
+    /// Moves probes out of walls and away from surfaces, within their cell (Majercik et al. 2021).
+    pub relocation: bool,
+    /// Switches off probes inside geometry or with no surface in reach; they trace no rays except
+    /// on re-check frames and get no weight in the sampling function.
+    pub classification: bool,
+    /// A new irradiance sample brighter than `1 + firefly_threshold` times the texel's current
+    /// luminance moves it only a quarter of the way (damps fireflies from rare very bright hits).
+    /// 0 switches it off.
+    pub firefly_threshold: f32,
+    /// Share of back-face hits above which a probe counts as inside geometry.
+    pub backface_threshold: f32,
+    /// Relocation keeps probes at least this far from front faces, as a fraction of the smallest
+    /// probe spacing.
+    pub min_frontface_distance: f32,
+    /// Inactive probes trace again every this many frames (and whenever instances move) so that
+    /// they wake when the scene changes. 0: only when instances move.
+    pub recheck_interval: u32,
+    /// Seed of the per-frame random rotation of the ray directions.
+    pub seed: u64,
+}
+
+impl Default for DdgiVolume {
+    fn default() -> Self {
+        Self {
+            bounds: None,
+            probe_counts: UVec3::splat(8),
+            rays_per_probe: 128,
+            irradiance_texels: 8,
+            distance_texels: 16,
+            hysteresis: 0.97,
+            normal_bias: 0.04,
+            view_bias: 0.15,
+            distance_sharpness: 50.0,
+            max_ray_distance: None,
+            sky_radiance: None,
+            weights: DdgiWeights::ALL,
+            relocation: true,
+            classification: true,
+            firefly_threshold: 8.0,
+            backface_threshold: 0.25,
+            min_frontface_distance: 0.1,
+            recheck_interval: 16,
+            seed: 0xdd61,
+        }
+    }
+}
+
+/// Largest number of probes in one volume.
+pub const MAX_PROBES: u32 = 1 << 22;
+/// Largest number of rays per probe.
+pub const MAX_RAYS_PER_PROBE: u32 = 4096;
+/// Largest side of a probe map.
+pub const MAX_MAP_TEXELS: u32 = 64;
+
+/// Why a volume cannot be used. The volume is left out (no indirect light from it) and the error
+/// is logged with its entity.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum DdgiSettingsError {
+    #[error("DdgiVolume.{field} = {value}: {reason}")]
+    Invalid { field: &'static str, value: String, reason: &'static str },
+    #[error("DdgiVolume: the {what} needs {needed} {unit}, over the adapter's limit of {limit}")]
+    OverLimit { what: &'static str, needed: u64, limit: u64, unit: &'static str },
+    #[error("DdgiVolume.bounds = None and the scene has no geometry to take bounds from")]
+    NoBounds,
+}
+
+fn invalid(field: &'static str, value: impl std::fmt::Debug, reason: &'static str) -> DdgiSettingsError {
+    DdgiSettingsError::Invalid { field, value: format!("{value:?}"), reason }
+}
+
+impl DdgiVolume {
+    /// Checks every setting; the first problem found is returned with its field and value.
+    pub fn validate(&self) -> Result<(), DdgiSettingsError> {
+        let c = self.probe_counts;
+        if c.min_element() == 0 {
+            return Err(invalid("probe_counts", c, "every axis needs at least one probe"));
+        }
+        if u64::from(c.x) * u64::from(c.y) * u64::from(c.z) > u64::from(MAX_PROBES) {
+            return Err(invalid("probe_counts", c, "more than 4,194,304 probes"));
+        }
+        if !(1..=MAX_RAYS_PER_PROBE).contains(&self.rays_per_probe) {
+            return Err(invalid("rays_per_probe", self.rays_per_probe, "must be between 1 and 4096"));
+        }
+        if !(1..=MAX_MAP_TEXELS).contains(&self.irradiance_texels) {
+            return Err(invalid("irradiance_texels", self.irradiance_texels, "must be between 1 and 64"));
+        }
+        if !(1..=MAX_MAP_TEXELS).contains(&self.distance_texels) {
+            return Err(invalid("distance_texels", self.distance_texels, "must be between 1 and 64"));
+        }
+        if !(0.0..=1.0).contains(&self.hysteresis) {
+            return Err(invalid("hysteresis", self.hysteresis, "must be between 0 and 1"));
+        }
+        let non_negative = [
+            ("normal_bias", self.normal_bias),
+            ("view_bias", self.view_bias),
+            ("firefly_threshold", self.firefly_threshold),
+            ("min_frontface_distance", self.min_frontface_distance),
+        ];
+        for (field, value) in non_negative {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(invalid(field, value, "must be finite and not negative"));
+            }
+        }
+        if !(self.distance_sharpness.is_finite() && self.distance_sharpness > 0.0) {
+            return Err(invalid("distance_sharpness", self.distance_sharpness, "must be finite and positive"));
+        }
+        if !(0.0..=1.0).contains(&self.backface_threshold) {
+            return Err(invalid("backface_threshold", self.backface_threshold, "must be between 0 and 1"));
+        }
+        if let Some(d) = self.max_ray_distance
+            && !(d.is_finite() && d > 0.0)
+        {
+            return Err(invalid("max_ray_distance", d, "must be finite and positive"));
+        }
+        if let Some(sky) = self.sky_radiance
+            && !(sky.is_finite() && sky.min_element() >= 0.0)
+        {
+            return Err(invalid("sky_radiance", sky, "must be finite and not negative"));
+        }
+        if let Some((lo, hi)) = self.bounds
+            && !(lo.is_finite() && hi.is_finite() && hi.cmpge(lo).all())
+        {
+            return Err(invalid("bounds", (lo, hi), "must be finite with max ≥ min on every axis"));
+        }
+        Ok(())
+    }
+}
+
+/// Whether a probe takes part in lighting.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum DdgiProbeState {
+    /// Traces its rays every frame and is sampled.
+    #[default]
+    Active,
+    /// Switched off by classification: traces only on re-check frames, never sampled.
+    Inactive,
+}
+
+/// One probe of a volume, as an entity. The GPU owns the truth; these components mirror it through
+/// an asynchronous readback, a few frames late, and never stall a frame.
+#[derive(Component, Clone, Debug, PartialEq)]
+pub struct DdgiProbe {
+    /// The entity holding the [`DdgiVolume`].
+    pub volume: Entity,
+    /// Grid coordinates.
+    pub grid: UVec3,
+    /// Index in the volume's probe arrays and atlases: `x + counts.x · (y + counts.y · z)`.
+    pub index: u32,
+    /// World-space offset from the grid position, from relocation.
+    pub offset: Vec3,
+    /// World position (grid position + offset).
+    pub position: Vec3,
+    pub state: DdgiProbeState,
+    /// Rays traced per frame.
+    pub ray_count: u32,
+}
+
+/// A volume's settings resolved against its bounds and the adapter: where every probe and tile is.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DdgiLayout {
+    /// Position of probe (0, 0, 0).
+    pub origin: Vec3,
+    pub spacing: Vec3,
+    pub counts: UVec3,
+    pub probe_count: u32,
+    pub bounds: (Vec3, Vec3),
+    /// Probe tiles per atlas row.
+    pub tiles_per_row: u32,
+    pub irradiance_texels: u32,
+    pub distance_texels: u32,
+    pub irradiance_atlas: UVec2,
+    pub distance_atlas: UVec2,
+}
+
+/// Adapter limits a layout must fit in.
+#[derive(Clone, Copy, Debug)]
+pub struct DdgiLimits {
+    pub max_texture_dimension: u32,
+    pub max_storage_buffer_bytes: u64,
+}
+
+impl DdgiLimits {
+    pub fn of(device: &engine::wgpu::Device) -> Self {
+        let l = device.limits();
+        Self {
+            max_texture_dimension: l.max_texture_dimension_2d,
+            max_storage_buffer_bytes: u64::from(l.max_storage_buffer_binding_size).min(l.max_buffer_size),
+        }
+    }
+}
+
+/// Bytes per ray in each of the three per-ray buffers (rays, surfels, shaded radiance).
+pub const BYTES_PER_RAY: u64 = 16;
+
+impl DdgiLayout {
+    /// Lays out `volume`'s probes in `bounds`: cell-centred probes, atlases of tiles `(n + 2)²` in
+    /// rows as wide as the adapter allows.
+    pub fn new(volume: &DdgiVolume, bounds: (Vec3, Vec3), limits: DdgiLimits) -> Result<Self, DdgiSettingsError> {
+        volume.validate()?;
+        let (lo, hi) = bounds;
+        if !(lo.is_finite() && hi.is_finite() && hi.cmpge(lo).all()) {
+            return Err(invalid("bounds", bounds, "must be finite with max ≥ min on every axis"));
+        }
+        let counts = volume.probe_counts;
+        // A flat scene (a single floor) still gets a volume with some thickness.
+        let largest = (hi - lo).max_element().max(1e-6);
+        let extent = (hi - lo).max(Vec3::splat(largest * 1e-3));
+        let center = (lo + hi) * 0.5;
+        let (lo, hi) = (center - extent * 0.5, center + extent * 0.5);
+        let spacing = extent / counts.as_vec3();
+        let probe_count = counts.x * counts.y * counts.z;
+        let largest_tile = volume.irradiance_texels.max(volume.distance_texels) + 2;
+        let tiles_per_row = (limits.max_texture_dimension / largest_tile).clamp(1, probe_count);
+        let rows = probe_count.div_ceil(tiles_per_row);
+        let atlas = |n: u32| UVec2::new(tiles_per_row * (n + 2), rows * (n + 2));
+        let (irradiance_atlas, distance_atlas) = (atlas(volume.irradiance_texels), atlas(volume.distance_texels));
+        let tallest = irradiance_atlas.y.max(distance_atlas.y);
+        if tallest > limits.max_texture_dimension {
+            return Err(DdgiSettingsError::OverLimit {
+                what: "probe atlas",
+                needed: u64::from(tallest),
+                limit: u64::from(limits.max_texture_dimension),
+                unit: "texels of height",
+            });
+        }
+        let probes = u64::from(probe_count);
+        let buffers = [
+            ("per-ray buffer (probes × rays_per_probe × 16 bytes)", probes * u64::from(volume.rays_per_probe) * BYTES_PER_RAY),
+            ("irradiance map buffer (probes × irradiance_texels² × 16 bytes)", probes * u64::from(volume.irradiance_texels.pow(2)) * 16),
+            ("distance map buffer (probes × distance_texels² × 8 bytes)", probes * u64::from(volume.distance_texels.pow(2)) * 8),
+        ];
+        for (what, needed) in buffers {
+            if needed > limits.max_storage_buffer_bytes {
+                return Err(DdgiSettingsError::OverLimit { what, needed, limit: limits.max_storage_buffer_bytes, unit: "bytes" });
+            }
+        }
+        Ok(Self {
+            origin: lo + spacing * 0.5,
+            spacing,
+            counts,
+            probe_count,
+            bounds: (lo, hi),
+            tiles_per_row,
+            irradiance_texels: volume.irradiance_texels,
+            distance_texels: volume.distance_texels,
+            irradiance_atlas,
+            distance_atlas,
+        })
+    }
+
+    pub fn probe_grid(&self, index: u32) -> UVec3 {
+        let c = self.counts;
+        UVec3::new(index % c.x, (index / c.x) % c.y, index / (c.x * c.y))
+    }
+
+    /// World position of a probe before relocation.
+    pub fn grid_position(&self, index: u32) -> Vec3 {
+        self.origin + self.spacing * self.probe_grid(index).as_vec3()
+    }
+
+    /// Top-left texel of a probe's tile (border included) in an atlas of `n × n` maps.
+    pub fn tile_origin(&self, index: u32, n: u32) -> UVec2 {
+        UVec2::new(index % self.tiles_per_row, index / self.tiles_per_row) * (n + 2)
+    }
+}

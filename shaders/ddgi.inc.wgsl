@@ -1,0 +1,296 @@
+// DDGI: the probe volume, its atlases and the sampling function shared by the ray shading pass and
+// the camera's final gather. Host mirrors of these structs are in plugins/ddgi/src/gpu.rs (a test
+// compares sizes); every DDGI binding (group 1) is declared here and nowhere else.
+//
+// Probe p sits at grid coordinates (x, y, z) with p = x + counts.x · (y + counts.y · z), at
+// origin + spacing · (x, y, z) + its relocation offset. Each probe owns one tile of each atlas: an
+// octahedral map of N × N interior texels (N = irradiance_texels or distance_texels) framed by a
+// one-texel border that repeats the map's opposite edges, so bilinear filtering wraps correctly.
+#include "ray_tracing.inc.wgsl"
+
+struct DdgiVolumeGpu {
+    // World position of probe (0, 0, 0), before relocation.
+    origin: vec3<f32>,
+    rays_per_probe: u32,
+    spacing: vec3<f32>,
+    probe_count: u32,
+    counts: vec3<u32>,
+    // DDGI_WEIGHT_* and DDGI_* flags.
+    flags: u32,
+    // This frame's random rotation of the ray directions (columns).
+    ray_rotation: mat3x3<f32>,
+    sky_radiance: vec3<f32>,
+    hysteresis: f32,
+    // World-space offsets along the normal and towards the viewer before sampling.
+    normal_bias: f32,
+    view_bias: f32,
+    // Exponent of the cosine weighting of the distance update.
+    distance_sharpness: f32,
+    max_ray_distance: f32,
+    // Hit distances are clamped to this for the moments, and stored divided by it.
+    distance_scale: f32,
+    irradiance_texels: u32,
+    distance_texels: u32,
+    // Probe tiles per atlas row.
+    tiles_per_row: u32,
+    // A sample brighter than (1 + firefly_threshold) times the texel's luminance moves it only a
+    // quarter of the way (0: off).
+    firefly_threshold: f32,
+    // Fraction of back-face hits above which a probe counts as inside geometry.
+    backface_threshold: f32,
+    // Relocation keeps probes at least this far from front faces.
+    min_frontface_distance: f32,
+    // 1 on frames when inactive probes trace too (to be re-classified).
+    recheck: u32,
+    // Atlas sizes in texels.
+    irradiance_atlas_size: vec2<f32>,
+    distance_atlas_size: vec2<f32>,
+}
+
+// Per-probe state written by relocation and classification.
+struct DdgiProbeData {
+    // Relocation offset from the grid position, in world units (within ±0.45 of a cell).
+    offset: vec3<f32>,
+    // DDGI_PROBE_* bits.
+    state: u32,
+}
+
+// One probe ray: its direction and probe (DDGI_RAY_SKIP set when the probe traces nothing).
+struct DdgiRay {
+    direction: vec3<f32>,
+    probe: u32,
+}
+
+const DDGI_WEIGHT_BACKFACE: u32 = 1u;
+const DDGI_WEIGHT_CHEBYSHEV: u32 = 2u;
+const DDGI_WEIGHT_NORMAL_BIAS: u32 = 4u;
+const DDGI_WEIGHT_CRUSH: u32 = 8u;
+const DDGI_WEIGHT_TRILINEAR: u32 = 16u;
+const DDGI_RELOCATION: u32 = 32u;
+const DDGI_CLASSIFICATION: u32 = 64u;
+
+const DDGI_PROBE_INACTIVE: u32 = 1u;
+// The probe's maps hold nothing worth keeping: its next update takes the new value at once.
+const DDGI_PROBE_FRESH: u32 = 2u;
+
+const DDGI_RAY_SKIP: u32 = 0x80000000u;
+// Hit distance of a miss in the surfel and radiance buffers.
+const DDGI_MISS: f32 = 3.0e38;
+// Back-face hits are stored as -DDGI_BACKFACE_SCALE · t: the distance maps see the wall closer, so
+// Chebyshev rejects probes behind walls; relocation recovers t.
+const DDGI_BACKFACE_SCALE: f32 = 0.2;
+// Irradiance is stored as E^(1/gamma): perceptual precision in half floats, no banding in the dark.
+const DDGI_IRRADIANCE_GAMMA: f32 = 5.0;
+
+@group(1) @binding(0) var<uniform> ddgi_volume: DdgiVolumeGpu;
+@group(1) @binding(1) var<storage, read_write> ddgi_probes: array<DdgiProbeData>;
+@group(1) @binding(2) var ddgi_irradiance: texture_2d<f32>;
+@group(1) @binding(3) var ddgi_distance: texture_2d<f32>;
+@group(1) @binding(4) var ddgi_sampler: sampler;
+@group(1) @binding(5) var<storage, read_write> ddgi_rays: array<DdgiRay>;
+// Trace results, one per ray: (signed t as bits, octahedral normal snorm16×2, albedo unorm8×4,
+// emission rgb9e5).
+@group(1) @binding(6) var<storage, read_write> ddgi_surfels: array<vec4<u32>>;
+// Shaded rays: (radiance, stored distance: t, -DDGI_BACKFACE_SCALE·t or DDGI_MISS).
+@group(1) @binding(7) var<storage, read_write> ddgi_radiance: array<vec4<f32>>;
+// The maps at full float precision, texel t of probe p at p · n² + t: the updates blend into these
+// (a half-float atlas would stall once a frame's change falls under half a unit in the last place,
+// up to several percent short of the target at hysteresis 0.97), and the border pass encodes them
+// into the atlases that sampling reads. Irradiance linear (rgb); distance moments over distance_scale.
+@group(1) @binding(8) var<storage, read_write> ddgi_irradiance_history: array<vec4<f32>>;
+@group(1) @binding(9) var<storage, read_write> ddgi_distance_history: array<vec2<f32>>;
+@group(1) @binding(10) var ddgi_atlas_out: texture_storage_2d<rgba16float, write>;
+
+fn ddgi_has(flag: u32) -> bool {
+    return (ddgi_volume.flags & flag) != 0u;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Directions
+
+fn ddgi_sign_not_zero(v: vec2<f32>) -> vec2<f32> {
+    return select(vec2<f32>(-1.0), vec2<f32>(1.0), v >= vec2<f32>(0.0));
+}
+
+// Unit direction -> octahedral coordinates in [-1, 1]² (Cigolle et al. 2014).
+fn ddgi_oct_encode(d: vec3<f32>) -> vec2<f32> {
+    let l1 = abs(d.x) + abs(d.y) + abs(d.z);
+    var uv = d.xy / max(l1, 1e-20);
+    if d.z < 0.0 {
+        uv = (vec2<f32>(1.0) - abs(uv.yx)) * ddgi_sign_not_zero(uv);
+    }
+    return uv;
+}
+
+fn ddgi_oct_decode(uv: vec2<f32>) -> vec3<f32> {
+    var d = vec3<f32>(uv, 1.0 - abs(uv.x) - abs(uv.y));
+    if d.z < 0.0 {
+        d = vec3<f32>((vec2<f32>(1.0) - abs(d.yx)) * ddgi_sign_not_zero(d.xy), d.z);
+    }
+    return safe_normalize(d, vec3<f32>(0.0, 0.0, 1.0));
+}
+
+// Direction of interior texel `texel` of an N × N octahedral map.
+fn ddgi_texel_direction(texel: vec2<u32>, n: u32) -> vec3<f32> {
+    let uv = (vec2<f32>(texel) + 0.5) / f32(n) * 2.0 - 1.0;
+    return ddgi_oct_decode(uv);
+}
+
+// Direction i of n spherical Fibonacci points (Keinert et al. 2015): even cover of the sphere.
+fn ddgi_spherical_fibonacci(i: u32, n: u32) -> vec3<f32> {
+    let golden = 0.618033988749895;
+    let phi = 2.0 * PI * fract(f32(i) * golden);
+    let cos_theta = 1.0 - (2.0 * f32(i) + 1.0) / f32(max(n, 1u));
+    let sin_theta = sqrt(clamp(1.0 - cos_theta * cos_theta, 0.0, 1.0));
+    return vec3<f32>(cos(phi) * sin_theta, sin(phi) * sin_theta, cos_theta);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Probes
+
+fn ddgi_probe_coords(p: u32) -> vec3<u32> {
+    let c = ddgi_volume.counts;
+    return vec3<u32>(p % c.x, (p / c.x) % c.y, p / (c.x * c.y));
+}
+
+fn ddgi_probe_index(coords: vec3<u32>) -> u32 {
+    let c = ddgi_volume.counts;
+    return coords.x + c.x * (coords.y + c.y * coords.z);
+}
+
+fn ddgi_probe_position(p: u32) -> vec3<f32> {
+    return ddgi_volume.origin + ddgi_volume.spacing * vec3<f32>(ddgi_probe_coords(p)) + ddgi_probes[p].offset;
+}
+
+fn ddgi_probe_active(p: u32) -> bool {
+    return (ddgi_probes[p].state & DDGI_PROBE_INACTIVE) == 0u;
+}
+
+// Whether probe p traces rays this frame: active probes always, inactive ones on re-check frames.
+fn ddgi_probe_traces(p: u32) -> bool {
+    return ddgi_probe_active(p) || ddgi_volume.recheck != 0u;
+}
+
+// Top-left texel of probe p's tile (border included) in an atlas of tiles (n + 2)².
+fn ddgi_tile_origin(p: u32, n: u32) -> vec2<u32> {
+    let tiles = max(ddgi_volume.tiles_per_row, 1u);
+    return vec2<u32>(p % tiles, p / tiles) * (n + 2u);
+}
+
+// Atlas uv of direction d in probe p's map.
+fn ddgi_atlas_uv(p: u32, d: vec3<f32>, n: u32, atlas_size: vec2<f32>) -> vec2<f32> {
+    let oct = ddgi_oct_encode(d) * 0.5 + 0.5;
+    let texel = vec2<f32>(ddgi_tile_origin(p, n) + vec2<u32>(1u)) + oct * f32(n);
+    return texel / atlas_size;
+}
+
+fn ddgi_encode_irradiance(e: vec3<f32>) -> vec3<f32> {
+    let c = min(sanitize_radiance(e), vec3<f32>(1e24));
+    return select(vec3<f32>(0.0), pow(c, vec3<f32>(1.0 / DDGI_IRRADIANCE_GAMMA)), c > vec3<f32>(0.0));
+}
+
+fn ddgi_decode_irradiance(v: vec3<f32>) -> vec3<f32> {
+    let c = clamp(v, vec3<f32>(0.0), vec3<f32>(HALF_MAX));
+    return select(vec3<f32>(0.0), pow(c, vec3<f32>(DDGI_IRRADIANCE_GAMMA)), c > vec3<f32>(0.0));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Sampling: irradiance at a surface point from the 8 probes of the cage around it.
+
+// Irradiance arriving at point `p` with unit normal `n`, seen from direction `to_viewer` (unit, from
+// p towards the camera or ray origin), from the volume's probes. Each weight can be switched off:
+// back-face (wrap shading), Chebyshev visibility on the distance moments, crush of small weights,
+// trilinear; the normal/view bias moves the lookup point off the surface first.
+fn ddgi_sample_irradiance(p: vec3<f32>, n: vec3<f32>, to_viewer: vec3<f32>) -> vec3<f32> {
+    let v = ddgi_volume;
+    var biased = p;
+    if ddgi_has(DDGI_WEIGHT_NORMAL_BIAS) {
+        biased = p + n * v.normal_bias + to_viewer * v.view_bias;
+    }
+    let spacing = max(v.spacing, vec3<f32>(1e-30));
+    let max_base = vec3<i32>(max(v.counts, vec3<u32>(2u)) - vec3<u32>(2u));
+    let grid = (biased - v.origin) / spacing;
+    let base = clamp(vec3<i32>(floor(grid)), vec3<i32>(0), max_base);
+    let alpha = clamp(grid - vec3<f32>(base), vec3<f32>(0.0), vec3<f32>(1.0));
+    var sum = vec3<f32>(0.0);
+    var total = 0.0;
+    for (var i = 0u; i < 8u; i++) {
+        let step = vec3<u32>(i & 1u, (i >> 1u) & 1u, (i >> 2u) & 1u);
+        let coords = min(vec3<u32>(base) + step, v.counts - vec3<u32>(1u));
+        let probe = ddgi_probe_index(coords);
+        if !ddgi_probe_active(probe) {
+            continue;
+        }
+        let probe_position = ddgi_probe_position(probe);
+        var weight = 1.0;
+        if ddgi_has(DDGI_WEIGHT_BACKFACE) {
+            // Wrap shading: probes behind the surface fade out smoothly instead of being cut off.
+            let to_probe = safe_normalize(probe_position - p, n);
+            let wrap = (dot(to_probe, n) + 1.0) * 0.5;
+            weight *= wrap * wrap + 0.2;
+        }
+        if ddgi_has(DDGI_WEIGHT_CHEBYSHEV) {
+            let from_probe = biased - probe_position;
+            let distance = length(from_probe);
+            let dir = safe_normalize(from_probe, n);
+            let uv = ddgi_atlas_uv(probe, dir, v.distance_texels, v.distance_atlas_size);
+            let moments = textureSampleLevel(ddgi_distance, ddgi_sampler, uv, 0.0).xy * vec2<f32>(v.distance_scale, v.distance_scale * v.distance_scale);
+            let mean = moments.x;
+            if distance > mean {
+                // One-tailed Chebyshev bound on the probability that the point is visible.
+                let variance = abs(mean * mean - moments.y);
+                let d = distance - mean;
+                var visibility = variance / max(variance + d * d, 1e-30);
+                visibility = visibility * visibility * visibility;
+                weight *= max(visibility, 0.05);
+            }
+        }
+        // Never exactly zero, so that a point whose probes all fail a test still gets something.
+        weight = max(weight, 1e-6);
+        if ddgi_has(DDGI_WEIGHT_CRUSH) {
+            // Log-perception: crush tiny weights (they would otherwise leak faint light).
+            let threshold = 0.2;
+            if weight < threshold {
+                weight *= weight * weight / (threshold * threshold);
+            }
+        }
+        if ddgi_has(DDGI_WEIGHT_TRILINEAR) {
+            let t = mix(vec3<f32>(1.0) - alpha, alpha, vec3<f32>(step));
+            weight *= t.x * t.y * t.z;
+        }
+        let uv = ddgi_atlas_uv(probe, n, v.irradiance_texels, v.irradiance_atlas_size);
+        let irradiance = ddgi_decode_irradiance(textureSampleLevel(ddgi_irradiance, ddgi_sampler, uv, 0.0).rgb);
+        sum += weight * irradiance;
+        total += weight;
+    }
+    if !(total > 0.0) {
+        return vec3<f32>(0.0);
+    }
+    return sanitize_radiance(sum / total);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Packing of the surfel buffer
+
+// Shared-exponent RGB (9 bits of mantissa each, 5 bits of exponent), as in GL's RGB9_E5.
+fn ddgi_pack_rgb9e5(c_in: vec3<f32>) -> u32 {
+    let max_value = 65408.0;
+    let c = clamp(sanitize_radiance(c_in), vec3<f32>(0.0), vec3<f32>(max_value));
+    let m = max(max(c.x, c.y), c.z);
+    if m < 1.0e-7 {
+        return 0u;
+    }
+    var exponent = max(-16, i32(floor(log2(m)))) + 1 + 15;
+    var scale = exp2(f32(exponent - 15 - 9));
+    if u32(floor(m / scale + 0.5)) >= 512u {
+        exponent += 1;
+        scale *= 2.0;
+    }
+    let q = min(vec3<u32>(floor(c / scale + 0.5)), vec3<u32>(511u));
+    return q.x | (q.y << 9u) | (q.z << 18u) | (u32(clamp(exponent, 0, 31)) << 27u);
+}
+
+fn ddgi_unpack_rgb9e5(v: u32) -> vec3<f32> {
+    let scale = exp2(f32(i32(v >> 27u) - 15 - 9));
+    return vec3<f32>(f32(v & 511u), f32((v >> 9u) & 511u), f32((v >> 18u) & 511u)) * scale;
+}

@@ -1,0 +1,34 @@
+// Kernels that run single DDGI functions on a buffer of inputs, for the tests to compare with the
+// CPU: octahedral round trips, spherical Fibonacci directions and the RGB9E5 packing.
+#include "ddgi.inc.wgsl"
+
+@group(3) @binding(0) var<storage, read> selftest_in: array<vec4<f32>>;
+@group(3) @binding(1) var<storage, read_write> selftest_out: array<vec4<f32>>;
+
+@compute @workgroup_size(64)
+fn octahedral_round_trip(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= arrayLength(&selftest_out) {
+        return;
+    }
+    let d = selftest_in[id.x].xyz;
+    let uv = ddgi_oct_encode(d);
+    selftest_out[id.x] = vec4<f32>(ddgi_oct_decode(uv), max(abs(uv.x), abs(uv.y)));
+}
+
+// Direction i of n = arrayLength(selftest_out) spherical Fibonacci points.
+@compute @workgroup_size(64)
+fn fibonacci_directions(@builtin(global_invocation_id) id: vec3<u32>) {
+    let n = arrayLength(&selftest_out);
+    if id.x >= n {
+        return;
+    }
+    selftest_out[id.x] = vec4<f32>(ddgi_spherical_fibonacci(id.x, n), 0.0);
+}
+
+@compute @workgroup_size(64)
+fn rgb9e5_round_trip(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= arrayLength(&selftest_out) {
+        return;
+    }
+    selftest_out[id.x] = vec4<f32>(ddgi_unpack_rgb9e5(ddgi_pack_rgb9e5(selftest_in[id.x].xyz)), 0.0);
+}

@@ -1,0 +1,336 @@
+// DDGI probe updates: blending the shaded rays into the irradiance and distance maps (one
+// workgroup per probe), copying the border texels, relocating probes out of geometry and
+// classifying them as active or inactive.
+#include "ddgi.inc.wgsl"
+
+const DDGI_GROUP: u32 = 64u;
+
+var<workgroup> wg_direction: array<vec3<f32>, 64>;
+var<workgroup> wg_value: array<vec4<f32>, 64>;
+var<workgroup> wg_state: u32;
+
+// Probe of a workgroup (two-dimensional dispatches for more than 65,535 probes).
+fn ddgi_group_probe(group: vec3<u32>) -> u32 {
+    return group.x + group.y * 65535u;
+}
+
+// The probe's state, the same in every thread of the workgroup (so barriers stay in uniform flow).
+fn ddgi_uniform_state(probe: u32, local: u32) -> u32 {
+    if local == 0u {
+        wg_state = ddgi_probes[probe].state;
+    }
+    return workgroupUniformLoad(&wg_state);
+}
+
+// Loads rays [base, base + 64) of `probe` into workgroup memory: direction and (radiance, stored t).
+fn ddgi_load_rays(probe: u32, base: u32, local: u32) {
+    let r = base + local;
+    if r < ddgi_volume.rays_per_probe {
+        let i = probe * ddgi_volume.rays_per_probe + r;
+        wg_direction[local] = ddgi_rays[i].direction;
+        wg_value[local] = ddgi_radiance[i];
+    }
+}
+
+fn ddgi_texel_coords(texel: u32, n: u32) -> vec2<u32> {
+    return vec2<u32>(texel % n, texel / n);
+}
+
+// Irradiance: the cosine-weighted mean of the rays' radiance over each texel's hemisphere, times
+// π, blended with the old value by the hysteresis (linear irradiance; stored perceptually encoded).
+@compute @workgroup_size(64)
+fn update_irradiance(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) local: u32) {
+    let probe = ddgi_group_probe(group);
+    if probe >= ddgi_volume.probe_count {
+        return;
+    }
+    let state = ddgi_uniform_state(probe, local);
+    if (state & DDGI_PROBE_INACTIVE) != 0u {
+        return;
+    }
+    let n = ddgi_volume.irradiance_texels;
+    let m = ddgi_volume.rays_per_probe;
+    for (var first = 0u; first < n * n; first += DDGI_GROUP) {
+        let texel = first + local;
+        let valid = texel < n * n;
+        let direction = ddgi_texel_direction(ddgi_texel_coords(texel, n), n);
+        var sum = vec4<f32>(0.0);
+        for (var base = 0u; base < m; base += DDGI_GROUP) {
+            ddgi_load_rays(probe, base, local);
+            workgroupBarrier();
+            let count = min(DDGI_GROUP, m - base);
+            for (var j = 0u; j < count; j++) {
+                let w = max(dot(direction, wg_direction[j]), 0.0);
+                sum += vec4<f32>(wg_value[j].rgb * w, w);
+            }
+            workgroupBarrier();
+        }
+        if valid {
+            let slot = probe * n * n + texel;
+            let old = ddgi_irradiance_history[slot].rgb;
+            var result = old;
+            let fresh = (state & DDGI_PROBE_FRESH) != 0u;
+            // A texel no ray reached this frame keeps its value.
+            if sum.w > 1e-6 {
+                var sample = PI * sum.rgb / sum.w;
+                if fresh {
+                    result = sample;
+                } else {
+                    let threshold = ddgi_volume.firefly_threshold;
+                    if threshold > 0.0 && luminance(sample) > (1.0 + threshold) * luminance(old) {
+                        sample = old + (sample - old) * 0.25;
+                    }
+                    result = mix(sample, old, clamp(ddgi_volume.hysteresis, 0.0, 1.0));
+                }
+            }
+            ddgi_irradiance_history[slot] = vec4<f32>(min(sanitize_radiance(result), vec3<f32>(1e24)), 1.0);
+        }
+    }
+}
+
+// Distance: cosine-power-weighted mean of the hit distance and of its square (clamped to
+// distance_scale and stored divided by it), blended by the hysteresis.
+@compute @workgroup_size(64)
+fn update_distance(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) local: u32) {
+    let probe = ddgi_group_probe(group);
+    if probe >= ddgi_volume.probe_count {
+        return;
+    }
+    let state = ddgi_uniform_state(probe, local);
+    if (state & DDGI_PROBE_INACTIVE) != 0u {
+        return;
+    }
+    let n = ddgi_volume.distance_texels;
+    let m = ddgi_volume.rays_per_probe;
+    let scale = max(ddgi_volume.distance_scale, 1e-30);
+    for (var first = 0u; first < n * n; first += DDGI_GROUP) {
+        let texel = first + local;
+        let valid = texel < n * n;
+        let direction = ddgi_texel_direction(ddgi_texel_coords(texel, n), n);
+        var sum = vec3<f32>(0.0);
+        for (var base = 0u; base < m; base += DDGI_GROUP) {
+            ddgi_load_rays(probe, base, local);
+            workgroupBarrier();
+            let count = min(DDGI_GROUP, m - base);
+            for (var j = 0u; j < count; j++) {
+                let c = max(dot(direction, wg_direction[j]), 0.0);
+                let w = select(0.0, pow(c, ddgi_volume.distance_sharpness), c > 0.0);
+                let d = min(abs(wg_value[j].w), scale) / scale;
+                sum += vec3<f32>(w * d, w * d * d, w);
+            }
+            workgroupBarrier();
+        }
+        if valid {
+            let slot = probe * n * n + texel;
+            let old = ddgi_distance_history[slot];
+            var result = old;
+            if sum.z > 1e-6 {
+                let sample = sum.xy / sum.z;
+                let h = select(clamp(ddgi_volume.hysteresis, 0.0, 1.0), 0.0, (state & DDGI_PROBE_FRESH) != 0u);
+                result = mix(sample, old, h);
+            }
+            ddgi_distance_history[slot] = clamp(result, vec2<f32>(0.0), vec2<f32>(1.0));
+        }
+    }
+}
+
+// The interior texel whose value border texel `t` of an (n + 2)² tile repeats: each edge of the
+// octahedral map continues mirrored around its midpoint, and each corner takes the opposite corner.
+fn ddgi_border_source(t: vec2<u32>, n: u32) -> vec2<u32> {
+    let last = n + 1u;
+    let on_x = t.x == 0u || t.x == last;
+    let on_y = t.y == 0u || t.y == last;
+    if on_x && on_y {
+        return vec2<u32>(select(1u, n, t.x == 0u), select(1u, n, t.y == 0u));
+    }
+    if on_y {
+        return vec2<u32>(last - t.x, select(n, 1u, t.y == 0u));
+    }
+    if on_x {
+        return vec2<u32>(select(n, 1u, t.x == 0u), last - t.y);
+    }
+    return t;
+}
+
+// For atlas texel `texel` of an atlas of n × n maps: the probe whose tile holds it, if that probe
+// was updated this frame, and the slot of the map texel it shows (its own, or for a border texel
+// the mirrored interior one).
+fn ddgi_atlas_texel_source(texel: vec2<u32>, n: u32) -> vec2<u32> {
+    let tile = texel / (n + 2u);
+    if tile.x >= ddgi_volume.tiles_per_row {
+        return vec2<u32>(0u, 0u);
+    }
+    let probe = tile.y * ddgi_volume.tiles_per_row + tile.x;
+    if probe >= ddgi_volume.probe_count || !ddgi_probe_active(probe) {
+        return vec2<u32>(0u, 0u);
+    }
+    let source = ddgi_border_source(texel - tile * (n + 2u), n) - vec2<u32>(1u);
+    return vec2<u32>(1u, probe * n * n + source.y * n + source.x);
+}
+
+// Writes the maps of the probes updated this frame into the atlases, each tile's border filled
+// from the mirrored interior.
+@compute @workgroup_size(8, 8)
+fn copy_irradiance_borders(@builtin(global_invocation_id) id: vec3<u32>) {
+    if any(vec2<f32>(id.xy) >= ddgi_volume.irradiance_atlas_size) {
+        return;
+    }
+    let source = ddgi_atlas_texel_source(id.xy, ddgi_volume.irradiance_texels);
+    if source.x != 0u {
+        textureStore(ddgi_atlas_out, id.xy, vec4<f32>(ddgi_encode_irradiance(ddgi_irradiance_history[source.y].rgb), 1.0));
+    }
+}
+
+@compute @workgroup_size(8, 8)
+fn copy_distance_borders(@builtin(global_invocation_id) id: vec3<u32>) {
+    if any(vec2<f32>(id.xy) >= ddgi_volume.distance_atlas_size) {
+        return;
+    }
+    let source = ddgi_atlas_texel_source(id.xy, ddgi_volume.distance_texels);
+    if source.x != 0u {
+        textureStore(ddgi_atlas_out, id.xy, vec4<f32>(ddgi_distance_history[source.y], 0.0, 1.0));
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// What a probe's rays saw this frame, reduced over the workgroup.
+
+struct DdgiRayStatistics {
+    backface_count: u32,
+    // (unit direction, distance); distance DDGI_MISS when there is none.
+    closest_backface: vec4<f32>,
+    closest_frontface: vec4<f32>,
+    // Misses count as front faces at the maximum ray distance.
+    farthest_frontface: vec4<f32>,
+    // A front face within one cell of the probe on every axis.
+    frontface_in_cell: u32,
+}
+
+var<workgroup> wg_statistics: array<DdgiRayStatistics, 64>;
+var<workgroup> wg_result: DdgiRayStatistics;
+
+fn ddgi_ray_statistics(probe: u32, local: u32) -> DdgiRayStatistics {
+    let m = ddgi_volume.rays_per_probe;
+    var s = DdgiRayStatistics(0u, vec4<f32>(0.0, 0.0, 1.0, DDGI_MISS), vec4<f32>(0.0, 0.0, 1.0, DDGI_MISS), vec4<f32>(0.0, 0.0, 1.0, -1.0), 0u);
+    for (var r = local; r < m; r += DDGI_GROUP) {
+        let i = probe * m + r;
+        let direction = ddgi_rays[i].direction;
+        let stored = ddgi_radiance[i].w;
+        if stored < 0.0 {
+            s.backface_count += 1u;
+            let d = -stored / DDGI_BACKFACE_SCALE;
+            if d < s.closest_backface.w {
+                s.closest_backface = vec4<f32>(direction, d);
+            }
+            continue;
+        }
+        let d = min(stored, ddgi_volume.max_ray_distance);
+        if stored < DDGI_MISS {
+            if d < s.closest_frontface.w {
+                s.closest_frontface = vec4<f32>(direction, d);
+            }
+            if all(abs(direction * d) <= ddgi_volume.spacing) {
+                s.frontface_in_cell = 1u;
+            }
+        }
+        if d > s.farthest_frontface.w {
+            s.farthest_frontface = vec4<f32>(direction, d);
+        }
+    }
+    wg_statistics[local] = s;
+    workgroupBarrier();
+    if local == 0u {
+        var total = wg_statistics[0];
+        for (var k = 1u; k < DDGI_GROUP; k++) {
+            let o = wg_statistics[k];
+            total.backface_count += o.backface_count;
+            total.frontface_in_cell = max(total.frontface_in_cell, o.frontface_in_cell);
+            if o.closest_backface.w < total.closest_backface.w {
+                total.closest_backface = o.closest_backface;
+            }
+            if o.closest_frontface.w < total.closest_frontface.w {
+                total.closest_frontface = o.closest_frontface;
+            }
+            if o.farthest_frontface.w > total.farthest_frontface.w {
+                total.farthest_frontface = o.farthest_frontface;
+            }
+        }
+        wg_result = total;
+    }
+    workgroupBarrier();
+    return wg_result;
+}
+
+fn ddgi_inside_geometry(s: DdgiRayStatistics) -> bool {
+    return f32(s.backface_count) > ddgi_volume.backface_threshold * f32(ddgi_volume.rays_per_probe);
+}
+
+// Relocation (Majercik et al. 2021): a probe inside geometry moves through the nearest back face;
+// one too close to a front face moves away from it; one in free space drifts back to its grid
+// point. The offset stays inside an ellipsoid of 0.45 cells around the grid point.
+@compute @workgroup_size(64)
+fn relocate_probes(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) local: u32) {
+    let probe = ddgi_group_probe(group);
+    if probe >= ddgi_volume.probe_count {
+        return;
+    }
+    let state = ddgi_uniform_state(probe, local);
+    if (state & DDGI_PROBE_INACTIVE) != 0u && ddgi_volume.recheck == 0u {
+        return;
+    }
+    let s = ddgi_ray_statistics(probe, local);
+    if local != 0u {
+        return;
+    }
+    let offset = ddgi_probes[probe].offset;
+    let min_distance = ddgi_volume.min_frontface_distance;
+    var moved = offset;
+    if ddgi_inside_geometry(s) && s.closest_backface.w < DDGI_MISS {
+        moved = offset + s.closest_backface.xyz * (s.closest_backface.w + min_distance * 0.5);
+    } else if s.closest_frontface.w < min_distance {
+        if dot(s.closest_frontface.xyz, s.farthest_frontface.xyz) <= 0.0 {
+            moved = offset + s.farthest_frontface.xyz * min(max(s.farthest_frontface.w, 0.0), min_distance);
+        }
+    } else if s.closest_frontface.w > min_distance {
+        let length_offset = length(offset);
+        if length_offset > 0.0 {
+            let back = min(s.closest_frontface.w - min_distance, length_offset);
+            moved = offset - offset / length_offset * back;
+        }
+    }
+    let normalized = moved / max(ddgi_volume.spacing, vec3<f32>(1e-30));
+    if dot(normalized, normalized) < 0.45 * 0.45 && all(moved == moved) {
+        ddgi_probes[probe].offset = moved;
+    }
+}
+
+// Classification (Majercik et al. 2021): a probe inside geometry, or with no front face within a
+// cell of it (so no surface samples it), is switched off; it traces again only on re-check frames.
+// Probes switched back on are marked fresh, so their maps restart from the new samples.
+@compute @workgroup_size(64)
+fn classify_probes(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) local: u32) {
+    let probe = ddgi_group_probe(group);
+    if probe >= ddgi_volume.probe_count {
+        return;
+    }
+    let state = ddgi_uniform_state(probe, local);
+    let traced = (state & DDGI_PROBE_INACTIVE) == 0u || ddgi_volume.recheck != 0u;
+    if !traced {
+        return;
+    }
+    let s = ddgi_ray_statistics(probe, local);
+    if local != 0u {
+        return;
+    }
+    var is_active = true;
+    if ddgi_has(DDGI_CLASSIFICATION) {
+        is_active = !ddgi_inside_geometry(s) && s.frontface_in_cell != 0u;
+    }
+    var next = 0u;
+    if !is_active {
+        next = DDGI_PROBE_INACTIVE;
+    } else if (state & DDGI_PROBE_INACTIVE) != 0u {
+        next = DDGI_PROBE_FRESH;
+    }
+    ddgi_probes[probe].state = next;
+}
