@@ -1,10 +1,12 @@
 //! `game_demo eval`: error against a path-traced reference and GPU time, for every configuration of
 //! a list. Writes `report.md`, `results.json`, `error_vs_time.png` and, per configuration, a strip
 //! of four panels: direct only | the method | the reference | the FLIP error map (magma).
+//! `--time-series` measures instead every frame after a change in the scene ([`time_series`]).
 //!
 //! The configurations and how each one renders are all in [`Config`].
 
 pub mod plot;
+pub mod time_series;
 
 use std::path::{Path, PathBuf};
 

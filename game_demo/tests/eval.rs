@@ -1,11 +1,12 @@
 //! `game_demo eval` end to end: the report, the strips, the plot, the cached reference, errors that
-//! fall as the path tracer gets more paths per pixel.
+//! fall as the path tracer gets more paths per pixel; and the time series after a change.
 
 use std::path::Path;
 use std::process::{Command, Output};
 
-/// The size of the plot (`eval::plot::ERROR_VS_TIME_SIZE`).
+/// The sizes of the plots (`eval::plot::ERROR_VS_TIME_SIZE`, `TIME_SERIES_SIZE`).
 const ERROR_VS_TIME_SIZE: (u32, u32) = (1200, 520);
+const TIME_SERIES_SIZE: (u32, u32) = (900, 520);
 
 fn game_demo(args: &[&str], out: &Path, cache: &Path) -> Output {
     Command::new(env!("CARGO_BIN_EXE_game_demo"))
@@ -62,4 +63,64 @@ fn eval_writes_a_report_whose_path_tracer_errors_fall_with_more_samples() {
     // The second run reads the reference from the cache.
     assert!(run().contains("reference: cached"));
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn time_series_measures_every_frame_and_the_path_tracer_converges_after_the_change() {
+    if engine::gpu::GpuContext::for_tests("time_series_measures_every_frame").is_none() {
+        return;
+    }
+    let dir = std::env::temp_dir().join(format!("game_demo_time_series_test_{}", std::process::id()));
+    let (out, cache) = (dir.join("report"), dir.join("cache"));
+    let frames = 8;
+    let args =
+        ["eval", "--scene", "cornell", "--time-series", "--frames", "8", "--width", "32", "--height", "32", "--reference-spp", "128"];
+    let stdout = succeeded(game_demo(&args, &out, &cache));
+    assert!(stdout.contains("the lamp moves"), "{stdout}");
+
+    let csv = std::fs::read_to_string(out.join("time_series.csv")).expect("time_series.csv");
+    let mut lines = csv.lines();
+    assert_eq!(lines.next(), Some("frame,config,flip,rmse,gpu_ms"));
+    let rows: Vec<(i64, String, f64, f64)> = lines
+        .map(|line| {
+            let f: Vec<&str> = line.split(',').collect();
+            assert_eq!(f.len(), 5, "{line}");
+            (f[0].parse().expect("frame"), f[1].to_string(), f[2].parse().expect("flip"), f[3].parse().expect("rmse"))
+        })
+        .collect();
+    let series = |config: &str| -> Vec<(i64, f64, f64)> { rows.iter().filter(|r| r.1 == config).map(|r| (r.0, r.2, r.3)).collect() };
+    for config in ["direct", "pathtrace_4spp"] {
+        let frames_seen: Vec<i64> = series(config).iter().map(|r| r.0).collect();
+        assert_eq!(frames_seen, (-1..frames).collect::<Vec<_>>(), "{config}: one row per frame, from the last before the change");
+    }
+    assert_eq!(rows.len(), 2 * (frames as usize + 1), "no rows of other configurations");
+
+    // The path tracer starts over at the change and converges towards the changed scene.
+    let pt = series("pathtrace_4spp");
+    let (early, late) = ((pt[1].1 + pt[2].1) / 2.0, (pt[pt.len() - 2].1 + pt[pt.len() - 1].1) / 2.0);
+    assert!(late < 0.8 * early, "path tracer FLIP after the change must fall: {pt:?}");
+    // Direct light is the same image every frame after the change, and closer to the changed
+    // scene than before it (linear RMSE: the lamp's light moved with it).
+    let direct = series("direct");
+    assert!(direct[1..].iter().all(|r| (r.1, r.2) == (direct[1].1, direct[1].2)), "{direct:?}");
+    assert!(direct[1].2 < direct[0].2, "the change must reach the renderer: {direct:?}");
+
+    assert_plot(&out.join("time_series.png"), TIME_SERIES_SIZE);
+    let report = std::fs::read_to_string(out.join("report.md")).expect("report");
+    assert!(report.contains("| pathtrace_4spp |") && report.contains("](time_series.png)"), "{report}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn eval_rejects_bad_time_series_options_by_name() {
+    let dir = std::env::temp_dir();
+    for (args, expected) in [
+        (&["eval", "--time-series", "--frames", "0"][..], "--frames"),
+        (&["eval", "--frames", "5"][..], "--time-series"),
+        (&["eval", "--reference-spp", "0"][..], "--reference-spp"),
+    ] {
+        let output = game_demo(args, &dir, &dir);
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(!output.status.success() && stderr.contains(expected), "{args:?}: {stderr}");
+    }
 }
