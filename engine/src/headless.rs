@@ -3,10 +3,11 @@
 use std::path::Path;
 
 use bevy_app::App;
+use bevy_ecs::world::World;
 use glam::Vec3;
 use serde::Serialize;
 
-use crate::app::{EnginePlugin, Time, run_headless};
+use crate::app::{EnginePlugin, Time, finish_plugins, run_headless};
 use crate::gpu::GpuContext;
 use crate::render::readback::{read_rgba32f, read_texture};
 use crate::render::{FrameTiming, FrameTimings, RenderOutputs, RenderPlugin, RenderSize};
@@ -95,17 +96,36 @@ pub fn render_scene_with(
 /// plugin keeps on the GPU, say).
 pub fn render_scene_and_inspect(
     gpu: &GpuContext,
-    mut scene: SceneDescription,
+    scene: SceneDescription,
     settings: &HeadlessSettings,
     configure: impl FnOnce(&mut App),
     inspect: impl FnOnce(&mut bevy_ecs::world::World),
 ) -> Result<RenderedFrame, RenderError> {
+    if settings.frames == 0 {
+        return Err(RenderError::NoFrames);
+    }
+    let mut app = scene_app(gpu, scene, settings, configure)?;
+    run_headless(&mut app, settings.frames);
+    let world = app.world_mut();
+    let hdr = read_hdr(gpu, world);
+    let ldr = read_texture(gpu, &world.resource::<RenderOutputs>().ldr);
+    let timings = std::mem::take(&mut world.resource_mut::<FrameTimings>().frames);
+    inspect(world);
+    Ok(RenderedFrame { width: settings.width, height: settings.height, hdr, ldr, timings, adapter: gpu.adapter_name() })
+}
+
+/// A headless app ([`headless_app`]) at the settings' size with `configure` applied and `scene`
+/// spawned (with a default camera if it has none), ready to run: all at once with
+/// [`run_headless`], or frame by frame with [`run_frames`].
+pub fn scene_app(
+    gpu: &GpuContext,
+    mut scene: SceneDescription,
+    settings: &HeadlessSettings,
+    configure: impl FnOnce(&mut App),
+) -> Result<App, RenderError> {
     let max = gpu.device.limits().max_texture_dimension_2d;
     if settings.width == 0 || settings.height == 0 || settings.width > max || settings.height > max {
         return Err(RenderError::BadSize { width: settings.width, height: settings.height, max });
-    }
-    if settings.frames == 0 {
-        return Err(RenderError::NoFrames);
     }
     if !scene.has_camera() {
         add_default_camera(&mut scene);
@@ -113,14 +133,26 @@ pub fn render_scene_and_inspect(
     let mut app = headless_app(gpu, RenderSize { width: settings.width, height: settings.height }, settings.step);
     configure(&mut app);
     scene.spawn(app.world_mut());
-    run_headless(&mut app, settings.frames);
-    let world = app.world_mut();
-    let outputs = world.resource::<RenderOutputs>();
-    let hdr = read_rgba32f(gpu, &outputs.hdr);
-    let ldr = read_texture(gpu, &outputs.ldr);
-    let timings = std::mem::take(&mut world.resource_mut::<FrameTimings>().frames);
-    inspect(world);
-    Ok(RenderedFrame { width: settings.width, height: settings.height, hdr, ldr, timings, adapter: gpu.adapter_name() })
+    Ok(app)
+}
+
+/// Runs `frames` frames of `app`, one at a time. After each, `after_frame(frame, world)` (frame
+/// counted from 0) can read the frame (see [`read_hdr`]; the frame's GPU timings are the last of
+/// [`FrameTimings`]) and change the world before the next one. Stops early if the app exits.
+pub fn run_frames(app: &mut App, frames: u32, mut after_frame: impl FnMut(u32, &mut World)) {
+    finish_plugins(app);
+    for frame in 0..frames {
+        app.update();
+        if app.should_exit().is_some() {
+            return;
+        }
+        after_frame(frame, app.world_mut());
+    }
+}
+
+/// The linear radiance of the last frame (RGBA, row-major from the top-left).
+pub fn read_hdr(gpu: &GpuContext, world: &World) -> Vec<f32> {
+    read_rgba32f(gpu, &world.resource::<RenderOutputs>().hdr)
 }
 
 #[derive(Serialize)]

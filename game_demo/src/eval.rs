@@ -1,30 +1,100 @@
 //! `game_demo eval`: error against a path-traced reference and GPU time, for every configuration of
-//! a list. Writes `report.md`, `results.json` and, per configuration, a strip of four panels:
-//! direct only | the method | the reference | the FLIP error map (magma).
+//! a list. Writes `report.md`, `results.json`, `error_vs_time.png` and, per configuration, a strip
+//! of four panels: direct only | the method | the reference | the FLIP error map (magma).
+//! `--time-series` measures instead every frame after a change in the scene ([`time_series`]).
+//!
+//! The configurations and how each one renders are all in [`Config`].
+
+pub mod plot;
+pub mod time_series;
 
 use std::path::{Path, PathBuf};
 
+use engine::bevy_app::App;
 use engine::gpu::GpuContext;
-use engine::headless::{HeadlessSettings, RenderedFrame, render_scene, render_scene_with};
+use engine::headless::{HeadlessSettings, RenderedFrame, add_default_camera, render_scene_with};
 use engine::metrics::{ErrorMetrics, compare, flip_rgb8, magma, tonemap_to_srgb8};
-use engine::scene::SceneDescription;
+use engine::render::FrameTiming;
+use engine::scene::{NodeContent, SceneDescription};
 use serde::Serialize;
 
 /// Paths per pixel of the path tracer configurations compared with the reference.
 pub const PATH_TRACE_LADDER: [u32; 4] = [1, 4, 16, 64];
+/// Most paths per pixel the path tracer adds in one frame; more take several frames.
+const SAMPLES_PER_FRAME: u32 = 16;
+/// Paths per pixel per frame of the path tracer in the time series.
+const TIME_SERIES_SPP: u32 = 4;
+/// Seed of the reference: another than the configurations', so that their noise is not the reference's.
+const REFERENCE_SEED: u32 = 0xC0DE;
+/// Exposure at which FLIP compares images.
+const EXPOSURE: f32 = 1.0;
 
-/// One thing to evaluate.
+/// One thing to evaluate. A new method is a new variant with its arms in the `match`es of this
+/// `impl` and an entry in [`Config::still_list`] and/or [`Config::time_series_list`]; nothing else
+/// in the evaluation needs to know it.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Config {
+    /// Direct light with hard shadows: the engine's default frame script, one frame.
     Direct,
+    /// The progressive path tracer with `spp` paths per pixel, at most [`SAMPLES_PER_FRAME`] per
+    /// frame. In a time series it adds `spp` (at most [`SAMPLES_PER_FRAME`]) every frame and
+    /// starts over when the scene changes.
     PathTrace { spp: u32 },
 }
 
 impl Config {
+    /// The configurations of the still-image evaluation, in report order.
+    pub fn still_list() -> Vec<Config> {
+        let mut list = vec![Config::Direct];
+        list.extend(PATH_TRACE_LADDER.iter().map(|&spp| Config::PathTrace { spp }));
+        list
+    }
+
+    /// The methods of the time series: each renders frame after frame and every frame is measured.
+    pub fn time_series_list() -> Vec<Config> {
+        vec![Config::Direct, Config::PathTrace { spp: TIME_SERIES_SPP }]
+    }
+
     pub fn name(&self) -> String {
         match self {
             Config::Direct => "direct".into(),
             Config::PathTrace { spp } => format!("pathtrace_{spp}spp"),
+        }
+    }
+
+    /// The method: configurations of one method form one series in the plots.
+    pub fn method(&self) -> &'static str {
+        match self {
+            Config::Direct => "direct light",
+            Config::PathTrace { .. } => "path tracer",
+        }
+    }
+
+    /// Frames to render: a still image is the last of them; a time series runs them before the
+    /// change, so that the method has settled.
+    pub fn frames(&self) -> u32 {
+        match self {
+            Config::Direct => 1,
+            Config::PathTrace { spp } => spp.div_ceil(self.samples_per_frame()),
+        }
+    }
+
+    fn samples_per_frame(&self) -> u32 {
+        match self {
+            Config::PathTrace { spp } => (*spp).clamp(1, SAMPLES_PER_FRAME),
+            _ => 1,
+        }
+    }
+
+    /// Sets `app` up to render this configuration (its frame script and settings); `seed` seeds
+    /// the random sequences of the methods that have any.
+    pub fn configure(&self, app: &mut App, seed: u32) {
+        match self {
+            Config::Direct => {}
+            Config::PathTrace { .. } => {
+                let settings = pathtrace::PathTraceSettings { samples_per_frame: self.samples_per_frame(), seed, ..Default::default() };
+                pathtrace::use_path_tracer(app, settings);
+            }
         }
     }
 }
@@ -33,6 +103,7 @@ impl Config {
 #[derive(Serialize)]
 pub struct EvalRow {
     pub config: String,
+    pub method: String,
     pub frames: u32,
     /// Mean GPU milliseconds per frame (all passes that ran), or absent without timestamps.
     pub gpu_ms_per_frame: Option<f64>,
@@ -40,8 +111,6 @@ pub struct EvalRow {
     pub gpu_ms_total: Option<f64>,
     pub error: ErrorMetrics,
 }
-
-const SAMPLES_PER_FRAME: u32 = 16;
 
 fn render(
     gpu: &GpuContext,
@@ -51,21 +120,17 @@ fn render(
     height: u32,
     seed: u32,
 ) -> Result<RenderedFrame, String> {
-    match config {
-        Config::Direct => render_scene(gpu, scene.clone(), &HeadlessSettings { width, height, ..Default::default() }),
-        Config::PathTrace { spp } => {
-            let per_frame = (*spp).clamp(1, SAMPLES_PER_FRAME);
-            let settings = HeadlessSettings { width, height, frames: spp.div_ceil(per_frame), ..Default::default() };
-            let path = pathtrace::PathTraceSettings { samples_per_frame: per_frame, seed, ..Default::default() };
-            render_scene_with(gpu, scene.clone(), &settings, |app| pathtrace::use_path_tracer(app, path))
-        }
-    }
-    .map_err(|e| e.to_string())
+    let settings = HeadlessSettings { width, height, frames: config.frames(), ..Default::default() };
+    render_scene_with(gpu, scene.clone(), &settings, |app| config.configure(app, seed)).map_err(|e| e.to_string())
+}
+
+/// GPU milliseconds of one frame: the sum over the passes that ran; `None` without timestamps.
+fn frame_gpu_ms(frame: &FrameTiming) -> Option<f64> {
+    frame.passes.iter().filter(|p| p.ran).map(|p| p.gpu_ms).sum()
 }
 
 fn gpu_ms(frame: &RenderedFrame) -> (Option<f64>, Option<f64>) {
-    let per_frame: Vec<f64> =
-        frame.timings.iter().filter_map(|f| f.passes.iter().filter(|p| p.ran).map(|p| p.gpu_ms).sum::<Option<f64>>()).collect();
+    let per_frame: Vec<f64> = frame.timings.iter().filter_map(frame_gpu_ms).collect();
     if per_frame.is_empty() {
         return (None, None);
     }
@@ -73,17 +138,52 @@ fn gpu_ms(frame: &RenderedFrame) -> (Option<f64>, Option<f64>) {
     (Some(total / per_frame.len() as f64), Some(total))
 }
 
-/// The reference image (linear RGBA), rendered once and cached as EXR by scene, size and paths per pixel.
+/// What the evaluation renders of `scene`: with a camera (the default one if it has none), and
+/// animations stopped where they start, so that every configuration and the reference see the
+/// same still scene.
+fn still(mut scene: SceneDescription) -> SceneDescription {
+    if !scene.has_camera() {
+        add_default_camera(&mut scene);
+    }
+    for node in &mut scene.nodes {
+        node.orbit = None;
+    }
+    scene
+}
+
+/// FNV-1a, 64 bits: a hash that stays the same across builds and Rust versions (a disk cache key).
+fn fnv1a(words: impl IntoIterator<Item = u32>) -> u64 {
+    words.into_iter().flat_map(u32::to_le_bytes).fold(0xcbf2_9ce4_8422_2325, |h, b| (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3))
+}
+
+/// The cache file of a reference: by `label` (the scene's name), size, paths per pixel and a hash
+/// of the view and the scene's layout — every camera's world transform and field of view and every
+/// node's world transform — so that another camera, or a moved light or object, gets another reference.
+pub fn reference_path(cache: &Path, label: &str, scene: &SceneDescription, width: u32, height: u32, spp: u32) -> PathBuf {
+    let mut words = Vec::new();
+    for (node, world) in scene.nodes.iter().zip(scene.world_transforms()) {
+        words.extend(world.to_cols_array().map(f32::to_bits));
+        words.extend(node.content.iter().filter_map(|c| match c {
+            NodeContent::Camera(camera) => Some(camera.yfov.to_bits()),
+            _ => None,
+        }));
+    }
+    let label = label.replace(['/', '\\', '.'], "_");
+    cache.join(format!("{label}-{width}x{height}-{spp}spp-{:016x}.exr", fnv1a(words)))
+}
+
+/// The reference image (linear RGBA) of `scene` as given (see [`still`]), rendered once and
+/// cached as EXR ([`reference_path`]).
 fn reference(
     gpu: &GpuContext,
-    name: &str,
+    label: &str,
     scene: &SceneDescription,
     width: u32,
     height: u32,
     spp: u32,
     cache: &Path,
 ) -> Result<Vec<f32>, String> {
-    let key = cache.join(format!("{}-{width}x{height}-{spp}spp.exr", name.replace(['/', '\\', '.'], "_")));
+    let key = reference_path(cache, label, scene, width, height, spp);
     if let Ok(img) = image::open(&key) {
         let rgb = img.to_rgb32f();
         if (rgb.width(), rgb.height()) == (width, height) {
@@ -92,8 +192,7 @@ fn reference(
         }
     }
     println!("reference: path tracing {spp} paths per pixel…");
-    // A different seed from the ladder's, so that the ladder's noise is not the reference's.
-    let frame = render(gpu, scene, &Config::PathTrace { spp }, width, height, 0xC0DE)?;
+    let frame = render(gpu, scene, &Config::PathTrace { spp }, width, height, REFERENCE_SEED)?;
     std::fs::create_dir_all(cache).map_err(|e| format!("{}: {e}", cache.display()))?;
     let rgb: Vec<f32> = frame.hdr.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
     image::Rgb32FImage::from_raw(width, height, rgb)
@@ -116,6 +215,10 @@ fn save_strip(path: &Path, panels: &[Vec<u8>], width: u32, height: u32) -> Resul
     strip.save(path).map_err(|e| format!("{}: {e}", path.display()))
 }
 
+fn write(path: &Path, text: &str) -> Result<(), String> {
+    std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))
+}
+
 /// What to evaluate and where to write it.
 pub struct EvalOptions {
     pub width: u32,
@@ -132,34 +235,71 @@ pub struct EvalOptions {
 pub fn run(gpu: &GpuContext, name: &str, scene: SceneDescription, options: &EvalOptions) -> Result<Vec<EvalRow>, String> {
     let EvalOptions { width, height, reference_spp, ref out, ref cache } = *options;
     std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
-    let exposure = 1.0;
+    let scene = still(scene);
     let reference = reference(gpu, name, &scene, width, height, reference_spp, cache)?;
-    let reference_ldr = tonemap_to_srgb8(&reference, exposure);
-    let mut configs = vec![Config::Direct];
-    configs.extend(PATH_TRACE_LADDER.iter().map(|&spp| Config::PathTrace { spp }));
+    let reference_ldr = tonemap_to_srgb8(&reference, EXPOSURE);
     let mut rows = Vec::new();
     let mut direct_ldr: Option<Vec<u8>> = None;
-    for config in configs {
+    for config in Config::still_list() {
         let frame = render(gpu, &scene, &config, width, height, pathtrace::PathTraceSettings::default().seed)?;
-        let error = compare(&reference, &frame.hdr, width, height, exposure);
+        let error = compare(&reference, &frame.hdr, width, height, EXPOSURE);
         let (per_frame, total) = gpu_ms(&frame);
-        let ldr = tonemap_to_srgb8(&frame.hdr, exposure);
+        let ldr = tonemap_to_srgb8(&frame.hdr, EXPOSURE);
         let direct = direct_ldr.get_or_insert_with(|| ldr.clone()).clone();
         let (_, map) = flip_rgb8(&reference_ldr, &ldr, width, height);
         save_strip(&out.join(format!("{}.png", config.name())), &[direct, ldr, reference_ldr.clone(), magma(&map)], width, height)?;
         println!("{:>18}: FLIP {:.4}, RMSE {:.4}, relative MSE {:.4}", config.name(), error.mean_flip, error.rmse, error.relative_mse);
         rows.push(EvalRow {
             config: config.name(),
+            method: config.method().into(),
             frames: frame.timings.len() as u32,
             gpu_ms_per_frame: per_frame,
             gpu_ms_total: total,
             error,
         });
     }
-    write_report(out, name, &gpu.adapter_name(), width, height, reference_spp, &rows)?;
+    let plot_note = plot_error_vs_time(&out.join("error_vs_time.png"), &rows)?;
+    write_report(out, name, &gpu.adapter_name(), width, height, reference_spp, &rows, &plot_note)?;
     Ok(rows)
 }
 
+/// One series per method through its configurations: mean FLIP against GPU ms per frame and in
+/// total. Returns a note for the report on what the plot leaves out or clamps.
+fn plot_error_vs_time(path: &Path, rows: &[EvalRow]) -> Result<String, String> {
+    let mut methods: Vec<&str> = Vec::new();
+    for row in rows {
+        if !methods.contains(&row.method.as_str()) {
+            methods.push(&row.method);
+        }
+    }
+    let series = |ms: fn(&EvalRow) -> Option<f64>| -> Vec<plot::Series> {
+        methods
+            .iter()
+            .map(|&method| plot::Series {
+                name: method.to_string(),
+                points: rows
+                    .iter()
+                    .filter(|r| r.method == method)
+                    .filter_map(|r| Some((plot::floor_for_log(ms(r)?), plot::floor_for_log(f64::from(r.error.mean_flip)))))
+                    .collect(),
+            })
+            .collect()
+    };
+    plot::error_vs_time(path, &series(|r| r.gpu_ms_per_frame), &series(|r| r.gpu_ms_total))?;
+    let mut notes = Vec::new();
+    let untimed: Vec<&str> = rows.iter().filter(|r| r.gpu_ms_total.is_none()).map(|r| r.config.as_str()).collect();
+    if !untimed.is_empty() {
+        notes.push(format!("left out for want of GPU timestamps: {}", untimed.join(", ")));
+    }
+    let values = rows.iter().flat_map(|r| [r.gpu_ms_per_frame, r.gpu_ms_total, Some(f64::from(r.error.mean_flip))]).flatten();
+    let zeros = plot::floored(values);
+    if zeros > 0 {
+        notes.push(format!("{zeros} values below {} drawn at {} on the log axes", plot::LOG_FLOOR, plot::LOG_FLOOR));
+    }
+    Ok(if notes.is_empty() { String::new() } else { format!(" ({})", notes.join("; ")) })
+}
+
+#[allow(clippy::too_many_arguments)]
 fn write_report(
     out: &Path,
     name: &str,
@@ -168,6 +308,7 @@ fn write_report(
     height: u32,
     reference_spp: u32,
     rows: &[EvalRow],
+    plot_note: &str,
 ) -> Result<(), String> {
     let ms = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:.3}"));
     let mut md = format!(
@@ -188,9 +329,42 @@ fn write_report(
             r.error.relative_mse
         );
     }
-    let path: PathBuf = out.join("report.md");
-    std::fs::write(&path, md).map_err(|e| format!("{}: {e}", path.display()))?;
-    let json = out.join("results.json");
+    md += &format!(
+        "\nMean FLIP against GPU time, one series per method, per frame (left) and in total for the image (right), log scales{plot_note}:\n\n\
+         ![error against GPU time](error_vs_time.png)\n"
+    );
+    write(&out.join("report.md"), &md)?;
     let text = serde_json::to_string_pretty(rows).map_err(|e| e.to_string())?;
-    std::fs::write(&json, text).map_err(|e| format!("{}: {e}", json.display()))
+    write(&out.join("results.json"), &text)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use engine::glam::Vec3;
+    use engine::scene::{Camera, NodeContent};
+
+    #[test]
+    fn reference_cache_key_changes_with_the_camera_and_only_with_what_the_reference_sees() {
+        let cache = Path::new("cache");
+        let scene = engine::builtin::builtin_scene("cornell").expect("cornell");
+        let key = |s: &SceneDescription| reference_path(cache, "cornell", s, 64, 48, 256);
+        assert_eq!(key(&scene), key(&scene.clone()), "same scene and camera, same key");
+        let camera = scene.nodes.iter().position(|n| n.content.iter().any(|c| matches!(c, NodeContent::Camera(_)))).expect("camera");
+
+        let mut moved = scene.clone();
+        moved.nodes[camera].transform.translation += Vec3::new(0.0, 0.0, 0.01);
+        assert_ne!(key(&scene), key(&moved), "a moved camera needs another reference");
+
+        let mut zoomed = scene.clone();
+        for c in &mut zoomed.nodes[camera].content {
+            if let NodeContent::Camera(Camera { yfov, .. }) = c {
+                *yfov *= 0.9;
+            }
+        }
+        assert_ne!(key(&scene), key(&zoomed), "another field of view needs another reference");
+
+        assert_ne!(key(&scene), reference_path(cache, "cornell", &scene, 64, 48, 512), "spp is in the key");
+        assert_ne!(key(&scene), reference_path(cache, "cornell", &scene, 48, 64, 256), "size is in the key");
+    }
 }

@@ -25,7 +25,9 @@ enum Command {
     /// radiance) and timings.json (GPU milliseconds per pass and frame) into --out.
     Render(RenderArgs),
     /// Error against a path-traced reference and GPU time for a list of configurations (direct
-    /// light, the path tracer at 1, 4, 16, 64 paths per pixel): report.md, results.json and strips.
+    /// light, the path tracer at 1, 4, 16, 64 paths per pixel): report.md, results.json,
+    /// error_vs_time.png and strips. With --time-series: the error of every frame after a change
+    /// in the scene (time_series.csv, time_series.png, report.md).
     Eval {
         /// A built-in scene name or a scene file.
         #[arg(long, default_value = "cornell")]
@@ -34,10 +36,18 @@ enum Command {
         width: u32,
         #[arg(long, default_value_t = 256)]
         height: u32,
-        /// Paths per pixel of the reference (cached on disk by scene, size and this number).
-        #[arg(long, default_value_t = 4096)]
+        /// Paths per pixel of the reference (cached on disk by scene, camera, size and this number).
+        #[arg(long, default_value_t = 4096, value_parser = clap::value_parser!(u32).range(1..))]
         reference_spp: u32,
-        /// Output folder (default: out/eval/<scene>).
+        /// Measure every frame after a change in the scene instead (cornell: the lamp moves;
+        /// color_bleed: the spot light jumps along its orbit; door_room: the door opens; other
+        /// scenes: the first light moves).
+        #[arg(long)]
+        time_series: bool,
+        /// Frames after the change (with --time-series).
+        #[arg(long, default_value_t = 60, requires = "time_series", value_parser = clap::value_parser!(u32).range(1..))]
+        frames: u32,
+        /// Output folder (default: out/eval/<scene>, or out/eval/<scene>/time_series).
         #[arg(long)]
         out: Option<PathBuf>,
         /// Folder of cached references.
@@ -331,11 +341,16 @@ fn main() -> ExitCode {
     let result = match Cli::parse().command {
         Command::Render(args) => render(args),
         Command::Bench(command) => bench(command),
-        Command::Eval { scene, width, height, reference_spp, out, cache } => load(&scene).and_then(|description| {
+        Command::Eval { scene, width, height, reference_spp, time_series, frames, out, cache } => load(&scene).and_then(|description| {
             let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
-            let out = out.unwrap_or_else(|| PathBuf::from("out/eval").join(scene.replace(['/', '\\', '.'], "_")));
+            let default_out = PathBuf::from("out/eval").join(scene.replace(['/', '\\', '.'], "_"));
+            let out = out.unwrap_or_else(|| if time_series { default_out.join("time_series") } else { default_out });
             let options = eval::EvalOptions { width, height, reference_spp, out, cache };
-            eval::run(&gpu, &scene, description, &options)?;
+            if time_series {
+                eval::time_series::run(&gpu, &scene, description, &options, frames)?;
+            } else {
+                eval::run(&gpu, &scene, description, &options)?;
+            }
             println!("report: {}", options.out.join("report.md").display());
             Ok(())
         }),

@@ -1,7 +1,36 @@
-//! `game_demo eval` end to end: the report, the strips, the cached reference, and errors that fall
-//! as the path tracer gets more paths per pixel.
+//! `game_demo eval` end to end: the report, the strips, the plot, the cached reference, errors that
+//! fall as the path tracer gets more paths per pixel; and the time series after a change.
 
-use std::process::Command;
+use std::path::Path;
+use std::process::{Command, Output};
+
+/// The sizes of the plots (`eval::plot::ERROR_VS_TIME_SIZE`, `TIME_SERIES_SIZE`).
+const ERROR_VS_TIME_SIZE: (u32, u32) = (1200, 520);
+const TIME_SERIES_SIZE: (u32, u32) = (900, 520);
+
+fn game_demo(args: &[&str], out: &Path, cache: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_game_demo"))
+        .args(args)
+        .arg("--out")
+        .arg(out)
+        .arg("--cache")
+        .arg(cache)
+        .output()
+        .expect("run game_demo")
+}
+
+fn succeeded(output: Output) -> String {
+    assert!(output.status.success(), "eval failed: {}", String::from_utf8_lossy(&output.stderr));
+    String::from_utf8_lossy(&output.stdout).into_owned()
+}
+
+/// Asserts that `path` is a PNG of `size` with something drawn on it (not one flat colour).
+fn assert_plot(path: &Path, size: (u32, u32)) {
+    let plot = image::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display())).to_rgb8();
+    assert_eq!(plot.dimensions(), size, "{}", path.display());
+    let first = plot.get_pixel(0, 0);
+    assert!(plot.pixels().any(|p| p != first), "{} is blank", path.display());
+}
 
 #[test]
 fn eval_writes_a_report_whose_path_tracer_errors_fall_with_more_samples() {
@@ -11,18 +40,8 @@ fn eval_writes_a_report_whose_path_tracer_errors_fall_with_more_samples() {
     }
     let dir = std::env::temp_dir().join(format!("game_demo_eval_test_{}", std::process::id()));
     let (out, cache) = (dir.join("report"), dir.join("cache"));
-    let run = || {
-        let output = Command::new(env!("CARGO_BIN_EXE_game_demo"))
-            .args(["eval", "--scene", "cornell", "--width", "48", "--height", "48", "--reference-spp", "256"])
-            .arg("--out")
-            .arg(&out)
-            .arg("--cache")
-            .arg(&cache)
-            .output()
-            .expect("run game_demo");
-        assert!(output.status.success(), "eval failed: {}", String::from_utf8_lossy(&output.stderr));
-        String::from_utf8_lossy(&output.stdout).into_owned()
-    };
+    let run =
+        || succeeded(game_demo(&["eval", "--scene", "cornell", "--width", "48", "--height", "48", "--reference-spp", "256"], &out, &cache));
     let first = run();
     assert!(first.contains("path tracing 256 paths per pixel"), "{first}");
     let results: serde_json::Value =
@@ -37,8 +56,71 @@ fn eval_writes_a_report_whose_path_tracer_errors_fall_with_more_samples() {
         let strip = image::open(out.join(format!("{name}.png"))).expect("strip");
         assert_eq!((strip.width(), strip.height()), (4 * 48, 48));
     }
-    assert!(std::fs::read_to_string(out.join("report.md")).expect("report").contains("| pathtrace_16spp |"));
+    assert_plot(&out.join("error_vs_time.png"), ERROR_VS_TIME_SIZE);
+    let report = std::fs::read_to_string(out.join("report.md")).expect("report");
+    assert!(report.contains("| pathtrace_16spp |"), "{report}");
+    assert!(report.contains("](error_vs_time.png)"), "the report links the plot: {report}");
     // The second run reads the reference from the cache.
     assert!(run().contains("reference: cached"));
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn time_series_measures_every_frame_and_the_path_tracer_converges_after_the_change() {
+    if engine::gpu::GpuContext::for_tests("time_series_measures_every_frame").is_none() {
+        return;
+    }
+    let dir = std::env::temp_dir().join(format!("game_demo_time_series_test_{}", std::process::id()));
+    let (out, cache) = (dir.join("report"), dir.join("cache"));
+    let frames = 8;
+    let args =
+        ["eval", "--scene", "cornell", "--time-series", "--frames", "8", "--width", "32", "--height", "32", "--reference-spp", "128"];
+    let stdout = succeeded(game_demo(&args, &out, &cache));
+    assert!(stdout.contains("the lamp moves"), "{stdout}");
+
+    let csv = std::fs::read_to_string(out.join("time_series.csv")).expect("time_series.csv");
+    let mut lines = csv.lines();
+    assert_eq!(lines.next(), Some("frame,config,flip,rmse,gpu_ms"));
+    let rows: Vec<(i64, String, f64, f64)> = lines
+        .map(|line| {
+            let f: Vec<&str> = line.split(',').collect();
+            assert_eq!(f.len(), 5, "{line}");
+            (f[0].parse().expect("frame"), f[1].to_string(), f[2].parse().expect("flip"), f[3].parse().expect("rmse"))
+        })
+        .collect();
+    let series = |config: &str| -> Vec<(i64, f64, f64)> { rows.iter().filter(|r| r.1 == config).map(|r| (r.0, r.2, r.3)).collect() };
+    for config in ["direct", "pathtrace_4spp"] {
+        let frames_seen: Vec<i64> = series(config).iter().map(|r| r.0).collect();
+        assert_eq!(frames_seen, (-1..frames).collect::<Vec<_>>(), "{config}: one row per frame, from the last before the change");
+    }
+    assert_eq!(rows.len(), 2 * (frames as usize + 1), "no rows of other configurations");
+
+    // The path tracer starts over at the change and converges towards the changed scene.
+    let pt = series("pathtrace_4spp");
+    let (early, late) = ((pt[1].1 + pt[2].1) / 2.0, (pt[pt.len() - 2].1 + pt[pt.len() - 1].1) / 2.0);
+    assert!(late < 0.8 * early, "path tracer FLIP after the change must fall: {pt:?}");
+    // Direct light is the same image every frame after the change, and closer to the changed
+    // scene than before it (linear RMSE: the lamp's light moved with it).
+    let direct = series("direct");
+    assert!(direct[1..].iter().all(|r| (r.1, r.2) == (direct[1].1, direct[1].2)), "{direct:?}");
+    assert!(direct[1].2 < direct[0].2, "the change must reach the renderer: {direct:?}");
+
+    assert_plot(&out.join("time_series.png"), TIME_SERIES_SIZE);
+    let report = std::fs::read_to_string(out.join("report.md")).expect("report");
+    assert!(report.contains("| pathtrace_4spp |") && report.contains("](time_series.png)"), "{report}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn eval_rejects_bad_time_series_options_by_name() {
+    let dir = std::env::temp_dir();
+    for (args, expected) in [
+        (&["eval", "--time-series", "--frames", "0"][..], "--frames"),
+        (&["eval", "--frames", "5"][..], "--time-series"),
+        (&["eval", "--reference-spp", "0"][..], "--reference-spp"),
+    ] {
+        let output = game_demo(args, &dir, &dir);
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(!output.status.success() && stderr.contains(expected), "{args:?}: {stderr}");
+    }
 }

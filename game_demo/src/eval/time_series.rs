@@ -1,0 +1,312 @@
+//! `game_demo eval --time-series`: the error of every frame after a change in the scene, to show
+//! how long each method takes to converge again.
+//!
+//! Each method of [`Config::time_series_list`] renders the scene before the change for its
+//! [`Config::frames`] (so that it has settled), the change is applied, and the method goes on for
+//! `--frames` frames. Every frame from the last one before the change (frame -1) on is compared with
+//! a path-traced reference of the scene after the change.
+
+use std::f32::consts::FRAC_PI_2;
+use std::path::Path;
+
+use engine::bevy_ecs::prelude::{Entity, Without};
+use engine::builtin::{builtin_openings, cuboid, merge};
+use engine::glam::{Affine3A, Quat, Vec3};
+use engine::gpu::GpuContext;
+use engine::headless::{HeadlessSettings, read_hdr, run_frames, scene_app};
+use engine::metrics::compare;
+use engine::render::FrameTimings;
+use engine::scene::{Material, Name, NodeContent, SceneDescription, SceneRoot, Transform};
+
+use super::{Config, EXPOSURE, EvalOptions, frame_gpu_ms, plot, reference, still, write};
+
+/// What changes: one node of the scene takes another transform (relative to its parent).
+#[derive(Clone, Debug)]
+pub struct SceneChange {
+    /// What happens, in words, for the report.
+    pub description: String,
+    /// The node that changes; its name is unique in the scene.
+    pub node: usize,
+    pub after: Transform,
+}
+
+impl SceneChange {
+    fn applied(&self, scene: &SceneDescription) -> SceneDescription {
+        let mut after = scene.clone();
+        after.nodes[self.node].transform = self.after;
+        after
+    }
+}
+
+/// The cornell lamp (quad and point light) moves this far towards the red (-X) wall.
+const CORNELL_LAMP_SHIFT: f32 = 0.5;
+/// door_room's door: panel thickness, how far it overlaps the wall around the opening, and how far
+/// its outer face stays behind the wall's (so that the two never fight for the same pixels).
+const DOOR_THICKNESS: f32 = 0.05;
+const DOOR_OVERLAP: f32 = 0.02;
+const DOOR_RECESS: f32 = 0.01;
+const DOOR_ALBEDO: Vec3 = Vec3::new(0.45, 0.3, 0.2);
+/// Fallback: a point or spot light moves this fraction of the scene's width along X (towards the
+/// middle); a directional light turns this many degrees about the vertical.
+const FALLBACK_SHIFT: f32 = 0.2;
+const FALLBACK_TURN_DEGREES: f32 = 20.0;
+
+/// The change of the time series for the scene `name`, prepared in `scene`:
+/// - `cornell`: the lamp moves [`CORNELL_LAMP_SHIFT`] towards the red wall;
+/// - `color_bleed`: the spot light jumps half a turn along its orbit, to the red cube's side;
+/// - `door_room`: a door (added to the scene, closed: the room is dark) swings open outwards;
+/// - any other scene: its first light moves (a point or spot light by [`FALLBACK_SHIFT`] of the
+///   scene's width along X, a directional light turns by [`FALLBACK_TURN_DEGREES`] about Y).
+pub fn scene_change(name: &str, scene: &mut SceneDescription) -> Result<SceneChange, String> {
+    let find = |scene: &SceneDescription, node: &str| {
+        scene.nodes.iter().position(|n| n.name == node).ok_or_else(|| format!("scene '{name}' has no node '{node}' to change"))
+    };
+    let change = match name {
+        "cornell" => {
+            let node = find(scene, "lamp")?;
+            let mut after = scene.nodes[node].transform;
+            after.translation.x -= CORNELL_LAMP_SHIFT;
+            SceneChange { description: format!("the lamp moves {CORNELL_LAMP_SHIFT} m towards the red wall"), node, after }
+        }
+        "color_bleed" => {
+            let node = find(scene, "spot")?;
+            let orbit = scene.nodes[node].orbit.ok_or("color_bleed's spot light has no orbit")?;
+            // The orbit starts at +X from its centre (angle 0); half a turn is at -X.
+            let after = Transform::from_translation(orbit.center - Vec3::X * orbit.radius);
+            let after = orbit.look_at.map_or(after, |target| after.looking_at(target, Vec3::Y));
+            SceneChange { description: "the spot light jumps half a turn along its orbit, to the red cube's side".into(), node, after }
+        }
+        "door_room" => add_door(scene)?,
+        _ => move_first_light(name, scene)?,
+    };
+    let changed = scene.nodes[change.node].name.clone();
+    if scene.nodes.iter().filter(|n| n.name == changed).count() > 1 {
+        // The run finds the node's entity in the world by its name.
+        scene.nodes[change.node].name = format!("{changed} (changed)");
+    }
+    Ok(change)
+}
+
+/// A door panel hinged on the -X side of door_room's doorway, closed; the change opens it
+/// outwards by a quarter turn.
+fn add_door(scene: &mut SceneDescription) -> Result<SceneChange, String> {
+    let door = builtin_openings("door_room").iter().find(|o| o.name == "door").ok_or("door_room has no door opening")?;
+    let size = Vec3::new(door.max.x - door.min.x + 2.0 * DOOR_OVERLAP, door.max.y - door.min.y + 2.0 * DOOR_OVERLAP, DOOR_THICKNESS);
+    // Local origin at the hinge, the panel's outer bottom corner: it extends along +X, +Y and -Z.
+    let offset = Affine3A::from_translation(Vec3::new(size.x, size.y, -size.z) * 0.5);
+    let mesh = scene.add_mesh(merge("door_panel", &[(cuboid("door_panel", size * 0.5), offset)]));
+    let material = scene.add_material(Material::diffuse("door_panel", DOOR_ALBEDO));
+    let hinge = Vec3::new(door.min.x - DOOR_OVERLAP, door.min.y - DOOR_OVERLAP, door.max.z - DOOR_RECESS);
+    let node = scene.add_node("door_panel", Transform::from_translation(hinge), None, vec![NodeContent::Meshes(vec![(mesh, material)])]);
+    let after = Transform::from_translation(hinge).with_rotation(Quat::from_rotation_y(-FRAC_PI_2));
+    Ok(SceneChange {
+        description: "the closed door swings open outwards (a quarter turn): sunlight enters the dark room".into(),
+        node,
+        after,
+    })
+}
+
+fn move_first_light(name: &str, scene: &SceneDescription) -> Result<SceneChange, String> {
+    let light = |c: &NodeContent| matches!(c, NodeContent::PointLight(_) | NodeContent::SpotLight(_) | NodeContent::DirectionalLight(_));
+    let node = scene
+        .nodes
+        .iter()
+        .position(|n| n.content.iter().any(light))
+        .ok_or_else(|| format!("scene '{name}' has no light to move for --time-series"))?;
+    let (before, light_name) = (scene.nodes[node].transform, &scene.nodes[node].name);
+    if scene.nodes[node].content.iter().any(|c| matches!(c, NodeContent::DirectionalLight(_))) {
+        let after = before.with_rotation(Quat::from_rotation_y(FALLBACK_TURN_DEGREES.to_radians()) * before.rotation);
+        let description = format!("the directional light '{light_name}' turns {FALLBACK_TURN_DEGREES}° about the vertical");
+        return Ok(SceneChange { description, node, after });
+    }
+    let (lo, hi) = scene.bounds().ok_or_else(|| format!("scene '{name}' has no geometry"))?;
+    let position = scene.world_transforms()[node].translation;
+    let towards_middle = if (lo.x + hi.x) * 0.5 >= position.x { 1.0 } else { -1.0 };
+    let shift = towards_middle * FALLBACK_SHIFT * (hi.x - lo.x);
+    let mut after = before;
+    after.translation.x += shift;
+    Ok(SceneChange { description: format!("the light '{light_name}' moves {shift:+.2} along X"), node, after })
+}
+
+/// One frame of one method.
+pub struct SeriesRow {
+    /// Frames since the change: -1 is the last frame before it, 0 the first after.
+    pub frame: i64,
+    pub config: String,
+    pub flip: f32,
+    pub rmse: f64,
+    pub gpu_ms: Option<f64>,
+}
+
+/// The settled error of a series of errors (frames 0, 1, … after the change): the mean of its last
+/// tenth (at least one frame); and the first frame from which every error is within 10% of it.
+pub fn settling(errors: &[f32]) -> (f32, Option<usize>) {
+    let tail = (errors.len() / 10).max(1).min(errors.len());
+    if tail == 0 {
+        return (f32::NAN, None);
+    }
+    let settled = errors[errors.len() - tail..].iter().sum::<f32>() / tail as f32;
+    let from = errors.iter().rposition(|&e| (e - settled).abs() > 0.1 * settled).map_or(0, |i| i + 1);
+    (settled, (from < errors.len()).then_some(from))
+}
+
+/// Runs the time series of `scene` (named `name`) for `frames` frames after the change and writes
+/// `time_series.csv`, `time_series.png` and `report.md` into `options.out`.
+pub fn run(
+    gpu: &GpuContext,
+    name: &str,
+    mut scene: SceneDescription,
+    options: &EvalOptions,
+    frames: u32,
+) -> Result<Vec<SeriesRow>, String> {
+    let EvalOptions { width, height, reference_spp, ref out, ref cache } = *options;
+    std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
+    let change = scene_change(name, &mut scene)?;
+    println!("change: {}", change.description);
+    let before = still(scene);
+    let reference = reference(gpu, &format!("{name}-changed"), &change.applied(&before), width, height, reference_spp, cache)?;
+    let changed = before.nodes[change.node].name.clone();
+    let seed = pathtrace::PathTraceSettings::default().seed;
+    let mut rows = Vec::new();
+    for config in Config::time_series_list() {
+        let settle = config.frames();
+        let settings = HeadlessSettings { width, height, frames: settle + frames, ..Default::default() };
+        let mut app = scene_app(gpu, before.clone(), &settings, |app| config.configure(app, seed)).map_err(|e| e.to_string())?;
+        let world = app.world_mut();
+        let mut named = world.query_filtered::<(Entity, &Name), Without<SceneRoot>>();
+        let entity = named
+            .iter(world)
+            .find(|(_, n)| n.0 == changed)
+            .map(|(e, _)| e)
+            .ok_or_else(|| format!("node '{changed}' is not in the world"))?;
+        run_frames(&mut app, settings.frames, |frame, world| {
+            let frame = i64::from(frame) - i64::from(settle);
+            if frame < -1 {
+                return;
+            }
+            let error = compare(&reference, &read_hdr(gpu, world), width, height, EXPOSURE);
+            let gpu_ms = world.resource::<FrameTimings>().frames.last().and_then(frame_gpu_ms);
+            rows.push(SeriesRow { frame, config: config.name(), flip: error.mean_flip, rmse: error.rmse, gpu_ms });
+            if frame == -1
+                && let Some(mut transform) = world.get_mut::<Transform>(entity)
+            {
+                *transform = change.after;
+            }
+        });
+        let flips: Vec<f32> = rows.iter().filter(|r| r.config == config.name()).map(|r| r.flip).collect();
+        println!(
+            "{:>18}: FLIP before the change {:.4}, first frame after {:.4}, last {:.4}",
+            config.name(),
+            flips[0],
+            flips[1],
+            flips[flips.len() - 1]
+        );
+    }
+    write_csv(&out.join("time_series.csv"), &rows)?;
+    let plot_note = plot_series(&out.join("time_series.png"), name, &change, &rows)?;
+    write_report(out, name, &gpu.adapter_name(), options, frames, &change, &rows, &plot_note)?;
+    Ok(rows)
+}
+
+fn write_csv(path: &Path, rows: &[SeriesRow]) -> Result<(), String> {
+    let mut csv = String::from("frame,config,flip,rmse,gpu_ms\n");
+    for r in rows {
+        let ms = r.gpu_ms.map_or(String::new(), |ms| format!("{ms:.4}"));
+        csv += &format!("{},{},{:.6},{:.6},{ms}\n", r.frame, r.config, r.flip, r.rmse);
+    }
+    write(path, &csv)
+}
+
+fn configs(rows: &[SeriesRow]) -> Vec<&str> {
+    let mut names: Vec<&str> = Vec::new();
+    for row in rows {
+        if !names.contains(&row.config.as_str()) {
+            names.push(&row.config);
+        }
+    }
+    names
+}
+
+fn plot_series(path: &Path, name: &str, change: &SceneChange, rows: &[SeriesRow]) -> Result<String, String> {
+    let series: Vec<plot::Series> = configs(rows)
+        .into_iter()
+        .map(|config| plot::Series {
+            name: config.to_string(),
+            points: rows.iter().filter(|r| r.config == config).map(|r| (r.frame as f64, plot::floor_for_log(f64::from(r.flip)))).collect(),
+        })
+        .collect();
+    plot::time_series(path, &format!("{name}: {}", change.description), &series)?;
+    let zeros = plot::floored(rows.iter().map(|r| f64::from(r.flip)));
+    Ok(if zeros > 0 { format!(" ({zeros} errors below {} drawn at {})", plot::LOG_FLOOR, plot::LOG_FLOOR) } else { String::new() })
+}
+
+#[allow(clippy::too_many_arguments)]
+fn write_report(
+    out: &Path,
+    name: &str,
+    adapter: &str,
+    options: &EvalOptions,
+    frames: u32,
+    change: &SceneChange,
+    rows: &[SeriesRow],
+    plot_note: &str,
+) -> Result<(), String> {
+    let settle: Vec<String> = Config::time_series_list().iter().map(|c| format!("{} {}", c.name(), c.frames())).collect();
+    let mut md = format!(
+        "# Time series: {name}\n\nBefore frame 0, {}.\n\n{}×{} on {adapter}, {frames} frames after the change. Reference: the scene after the change, \
+         path traced at {} paths per pixel (another seed). Every frame is compared with it (mean FLIP on sRGB at exposure 1, RMSE on \
+         linear radiance); frame -1 is the last one before the change, once the method has settled (frames before the change: {}). \
+         A path tracer configuration adds its paths per pixel every frame and starts over when the scene changes.\n\n\
+         | configuration | FLIP before (frame -1) | FLIP at frame 0 | settled FLIP | frames to within 10% of it |\n|---|---:|---:|---:|---:|\n",
+        change.description,
+        options.width,
+        options.height,
+        options.reference_spp,
+        settle.join(", ")
+    );
+    for config in configs(rows) {
+        let series: Vec<&SeriesRow> = rows.iter().filter(|r| r.config == config).collect();
+        let after: Vec<f32> = series.iter().filter(|r| r.frame >= 0).map(|r| r.flip).collect();
+        let (settled, from) = settling(&after);
+        let at = |frame: i64| series.iter().find(|r| r.frame == frame).map_or("n/a".into(), |r| format!("{:.4}", r.flip));
+        let from = from.map_or(format!("not within {frames} frames"), |f| f.to_string());
+        md += &format!("| {config} | {} | {} | {settled:.4} | {from} |\n", at(-1), at(0));
+    }
+    md += &format!(
+        "\nSettled FLIP: the mean over the last tenth of the frames (at least one); the path tracer keeps converging, so its \
+         settled value and frame count depend on `--frames`. Frames to within 10%: the first frame after the change from which \
+         every frame's FLIP is within 10% of the settled value.\n\n\
+         Mean FLIP per frame, one series per configuration, log scale{plot_note}:\n\n![mean FLIP per frame](time_series.png)\n\n\
+         Every frame: [time_series.csv](time_series.csv) (frame, config, flip, rmse, gpu_ms).\n"
+    );
+    write(&out.join("report.md"), &md)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn settling_finds_the_first_frame_that_stays_within_ten_percent() {
+        let (settled, from) = settling(&[1.0, 0.5, 0.2, 0.105, 0.12, 0.1]);
+        assert_eq!(settled, 0.1);
+        // 0.12 is 20% off: the error has settled only from the last frame on.
+        assert_eq!(from, Some(5));
+        assert_eq!(settling(&[0.3, 0.3, 0.3]), (0.3, Some(0)), "a constant error has settled at once");
+        assert_eq!(settling(&[]).1, None);
+    }
+
+    #[test]
+    fn every_built_in_scene_has_a_change_that_moves_a_uniquely_named_node() {
+        for &name in engine::builtin::BUILTIN_SCENES {
+            let mut scene = engine::builtin::builtin_scene(name).expect(name);
+            let change = scene_change(name, &mut scene).unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert_ne!(scene.nodes[change.node].transform, change.after, "{name}: {}", change.description);
+            let changed = &scene.nodes[change.node].name;
+            assert_eq!(scene.nodes.iter().filter(|n| &n.name == changed).count(), 1, "{name}: '{changed}' must be unique");
+        }
+        let mut dark = SceneDescription { name: "dark".into(), ..Default::default() };
+        let error = scene_change("dark", &mut dark).expect_err("a scene without lights has nothing to move");
+        assert!(error.contains("'dark' has no light"), "{error}");
+    }
+}
