@@ -258,3 +258,112 @@ pub fn flat_rebuild_cost(app: &mut App) -> (Duration, usize) {
     std::hint::black_box(&bvh);
     (started.elapsed(), tris.len())
 }
+
+/// The passes of DDGI's probe update (everything but the camera's gather and composite).
+pub const DDGI_UPDATE_PASSES: [&str; 8] = [
+    "ddgi_ray_generation",
+    "ddgi_trace",
+    "ddgi_ray_shading",
+    "ddgi_irradiance_update",
+    "ddgi_distance_update",
+    "ddgi_borders",
+    "ddgi_relocation",
+    "ddgi_classification",
+];
+
+/// One cell of the DDGI throughput table: median GPU milliseconds of each pass over the timed
+/// frames, and of the whole probe update per frame.
+pub struct DdgiCell {
+    pub grid: [u32; 3],
+    pub rays_per_probe: u32,
+    pub rays: u64,
+    pub passes: Vec<(String, f64)>,
+    pub update_ms: f64,
+}
+
+impl DdgiCell {
+    /// Rays per second of the full probe update (generation, trace, shading, map updates, borders,
+    /// relocation, classification).
+    pub fn mrays_per_second(&self) -> f64 {
+        self.rays as f64 / (self.update_ms * 1e-3) / 1e6
+    }
+
+    pub fn pass_ms(&self, label: &str) -> Option<f64> {
+        self.passes.iter().find(|(l, _)| l == label).map(|(_, ms)| *ms)
+    }
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+}
+
+/// Runs DDGI on `scene` at every grid × rays cell of the published table (one app, the volume's
+/// settings changed between cells, so the BVHs are built once): 3 warm-up frames, then
+/// `iterations` timed frames per cell. Every probe stays active (classification off), so each
+/// cell traces exactly probes × rays rays per frame. The camera renders `size` pixels, so the
+/// gather's time is the one of that resolution.
+pub fn ddgi_throughput(
+    gpu: &GpuContext,
+    scene: SceneDescription,
+    size: RenderSize,
+    iterations: u32,
+    grids: &[[u32; 3]],
+    ray_counts: &[u32],
+) -> Result<Vec<DdgiCell>, String> {
+    if !gpu.timestamps {
+        return Err(format!("{} has no timestamp queries: GPU times cannot be measured", gpu.adapter_name()));
+    }
+    let volume = |grid: [u32; 3], rays: u32| ddgi::DdgiVolume {
+        probe_counts: grid.into(),
+        rays_per_probe: rays,
+        classification: false,
+        ..Default::default()
+    };
+    let mut app = engine::headless::headless_app(gpu, size, 1.0 / 60.0);
+    ddgi::use_ddgi(&mut app, volume(grids[0], ray_counts[0]), ddgi::DdgiOutput::Full);
+    scene.spawn(app.world_mut());
+    let mut cells = Vec::new();
+    for &grid in grids {
+        for &rays_per_probe in ray_counts {
+            {
+                let world = app.world_mut();
+                let mut volumes = world.query::<&mut ddgi::DdgiVolume>();
+                for mut v in volumes.iter_mut(world) {
+                    *v = volume(grid, rays_per_probe);
+                }
+            }
+            run_headless(&mut app, 3 + iterations);
+            let world = app.world_mut();
+            if let Some(error) = world.resource::<ddgi::DdgiGpuVolumes>().first_error() {
+                return Err(format!("{}×{}×{} × {rays_per_probe}: {error}", grid[0], grid[1], grid[2]));
+            }
+            let frames = std::mem::take(&mut world.resource_mut::<engine::render::FrameTimings>().frames);
+            let timed = &frames[frames.len().saturating_sub(iterations as usize)..];
+            let mut labels: Vec<String> = Vec::new();
+            for f in timed {
+                for p in f.passes.iter().filter(|p| p.ran && p.gpu_ms.is_some()) {
+                    if !labels.contains(&p.label) {
+                        labels.push(p.label.clone());
+                    }
+                }
+            }
+            let passes = labels
+                .into_iter()
+                .map(|l| {
+                    let times = timed.iter().filter_map(|f| f.passes.iter().find(|p| p.label == l).and_then(|p| p.gpu_ms)).collect();
+                    (l, median(times))
+                })
+                .collect();
+            let update_ms = median(
+                timed
+                    .iter()
+                    .map(|f| f.passes.iter().filter(|p| DDGI_UPDATE_PASSES.contains(&p.label.as_str())).filter_map(|p| p.gpu_ms).sum())
+                    .collect(),
+            );
+            let rays = u64::from(grid[0] * grid[1] * grid[2] * rays_per_probe);
+            cells.push(DdgiCell { grid, rays_per_probe, rays, passes, update_ms });
+        }
+    }
+    Ok(cells)
+}

@@ -40,25 +40,101 @@ pub enum Config {
     /// frame. In a time series it adds `spp` (at most [`SAMPLES_PER_FRAME`]) every frame and
     /// starts over when the scene changes.
     PathTrace { spp: u32 },
+    /// Direct light + DDGI's indirect light from one probe volume, after [`DDGI_FRAMES`] frames (in
+    /// a time series: frame after frame, the probes following the change at their hysteresis).
+    Ddgi { name: String, volume: Box<ddgi::DdgiVolume> },
+}
+
+/// Frames DDGI runs before a still image is taken (the probes converge over many frames: each
+/// adds a bounce, and the hysteresis smooths them).
+pub const DDGI_FRAMES: u32 = 120;
+
+/// The probe grids of the quality experiment (densities) and the irradiance map sides
+/// (resolutions; the distance maps are twice as fine, as in the literature).
+pub const DDGI_DENSITIES: [[u32; 3]; 3] = [[8, 4, 8], [16, 8, 16], [32, 16, 32]];
+pub const DDGI_RESOLUTIONS: [u32; 3] = [4, 8, 16];
+
+/// The probe grid of the published experiment on each built-in scene (Hvezda and Bittner): 16×8×16
+/// for the door room, 16×16×15 for the room under a skylight, 2×2×2 for the colour bleeding box,
+/// 16×8×12 for Sibenik (our cathedral); 8×8×8 elsewhere.
+pub fn ddgi_paper_grid(scene: &str) -> [u32; 3] {
+    match scene {
+        "door_room" => [16, 8, 16],
+        "ceiling_opening" => [16, 16, 15],
+        "color_bleed" => [2, 2, 2],
+        "cathedral" => [16, 8, 12],
+        _ => [8, 8, 8],
+    }
 }
 
 impl Config {
-    /// The configurations of the still-image evaluation, in report order.
-    pub fn still_list() -> Vec<Config> {
+    /// A DDGI configuration on `scene` (its volume bounds from [`engine::builtin::builtin_gi_bounds`]).
+    pub fn ddgi(name: String, scene: &str, volume: ddgi::DdgiVolume) -> Config {
+        let bounds = volume.bounds.or_else(|| engine::builtin::builtin_gi_bounds(scene));
+        Config::Ddgi { name, volume: Box::new(ddgi::DdgiVolume { bounds, ..volume }) }
+    }
+
+    /// DDGI with the published grid for `scene` and the default settings.
+    pub fn ddgi_default(scene: &str) -> Config {
+        let probes = ddgi_paper_grid(scene);
+        let volume = ddgi::DdgiVolume { probe_counts: probes.into(), ..Default::default() };
+        Config::ddgi(format!("ddgi_{}x{}x{}", probes[0], probes[1], probes[2]), scene, volume)
+    }
+
+    /// The quality table (every density × resolution) and the ablation of the visibility weights
+    /// (none → back-face → Chebyshev → normal bias), in report order.
+    pub fn ddgi_experiments(scene: &str) -> Vec<Config> {
+        let mut list = Vec::new();
+        for grid in DDGI_DENSITIES {
+            for texels in DDGI_RESOLUTIONS {
+                let volume = ddgi::DdgiVolume {
+                    probe_counts: grid.into(),
+                    irradiance_texels: texels,
+                    distance_texels: 2 * texels,
+                    ..Default::default()
+                };
+                list.push(Config::ddgi(format!("ddgi_{}x{}x{}_{texels}px", grid[0], grid[1], grid[2]), scene, volume));
+            }
+        }
+        let none = ddgi::DdgiWeights::NONE;
+        let steps = [
+            ("none", none),
+            ("backface", ddgi::DdgiWeights { backface: true, ..none }),
+            ("chebyshev", ddgi::DdgiWeights { backface: true, chebyshev: true, ..none }),
+            ("normal_bias", ddgi::DdgiWeights::ALL),
+        ];
+        for (step, weights) in steps {
+            let grid = ddgi_paper_grid(scene);
+            let volume = ddgi::DdgiVolume { probe_counts: grid.into(), weights, ..Default::default() };
+            list.push(Config::ddgi(format!("ddgi_weights_{step}"), scene, volume));
+        }
+        list
+    }
+}
+
+impl Config {
+    /// The configurations of the still-image evaluation of `scene`, in report order; with
+    /// `experiments`, DDGI's quality table and weight ablation too.
+    pub fn still_list(scene: &str, experiments: bool) -> Vec<Config> {
         let mut list = vec![Config::Direct];
         list.extend(PATH_TRACE_LADDER.iter().map(|&spp| Config::PathTrace { spp }));
+        list.push(Config::ddgi_default(scene));
+        if experiments {
+            list.extend(Config::ddgi_experiments(scene));
+        }
         list
     }
 
     /// The methods of the time series: each renders frame after frame and every frame is measured.
-    pub fn time_series_list() -> Vec<Config> {
-        vec![Config::Direct, Config::PathTrace { spp: TIME_SERIES_SPP }]
+    pub fn time_series_list(scene: &str) -> Vec<Config> {
+        vec![Config::Direct, Config::PathTrace { spp: TIME_SERIES_SPP }, Config::ddgi_default(scene)]
     }
 
     pub fn name(&self) -> String {
         match self {
             Config::Direct => "direct".into(),
             Config::PathTrace { spp } => format!("pathtrace_{spp}spp"),
+            Config::Ddgi { name, .. } => name.clone(),
         }
     }
 
@@ -67,6 +143,7 @@ impl Config {
         match self {
             Config::Direct => "direct light",
             Config::PathTrace { .. } => "path tracer",
+            Config::Ddgi { .. } => "DDGI",
         }
     }
 
@@ -76,6 +153,7 @@ impl Config {
         match self {
             Config::Direct => 1,
             Config::PathTrace { spp } => spp.div_ceil(self.samples_per_frame()),
+            Config::Ddgi { .. } => DDGI_FRAMES,
         }
     }
 
@@ -95,6 +173,7 @@ impl Config {
                 let settings = pathtrace::PathTraceSettings { samples_per_frame: self.samples_per_frame(), seed, ..Default::default() };
                 pathtrace::use_path_tracer(app, settings);
             }
+            Config::Ddgi { volume, .. } => ddgi::use_ddgi(app, (**volume).clone(), ddgi::DdgiOutput::Full),
         }
     }
 }
@@ -229,18 +308,20 @@ pub struct EvalOptions {
     pub out: PathBuf,
     /// Folder of cached references.
     pub cache: PathBuf,
+    /// Also DDGI's quality table (probe densities × map resolutions) and weight ablation.
+    pub experiments: bool,
 }
 
 /// Runs the evaluation of `scene` (named `name`) and writes the report.
 pub fn run(gpu: &GpuContext, name: &str, scene: SceneDescription, options: &EvalOptions) -> Result<Vec<EvalRow>, String> {
-    let EvalOptions { width, height, reference_spp, ref out, ref cache } = *options;
+    let EvalOptions { width, height, reference_spp, ref out, ref cache, experiments } = *options;
     std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
     let scene = still(scene);
     let reference = reference(gpu, name, &scene, width, height, reference_spp, cache)?;
     let reference_ldr = tonemap_to_srgb8(&reference, EXPOSURE);
     let mut rows = Vec::new();
     let mut direct_ldr: Option<Vec<u8>> = None;
-    for config in Config::still_list() {
+    for config in Config::still_list(name, experiments) {
         let frame = render(gpu, &scene, &config, width, height, pathtrace::PathTraceSettings::default().seed)?;
         let error = compare(&reference, &frame.hdr, width, height, EXPOSURE);
         let (per_frame, total) = gpu_ms(&frame);

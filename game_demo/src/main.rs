@@ -47,6 +47,11 @@ enum Command {
         /// Frames after the change (with --time-series).
         #[arg(long, default_value_t = 60, requires = "time_series", value_parser = clap::value_parser!(u32).range(1..))]
         frames: u32,
+        /// Also DDGI's experiments: quality for probe densities 8×4×8, 16×8×16, 32×16×32 × irradiance
+        /// maps of 4, 8, 16 texels, and the ablation of the visibility weights (none → back-face →
+        /// Chebyshev → normal bias).
+        #[arg(long, conflicts_with = "time_series")]
+        experiments: bool,
         /// Output folder (default: out/eval/<scene>, or out/eval/<scene>/time_series).
         #[arg(long)]
         out: Option<PathBuf>,
@@ -81,6 +86,27 @@ enum BenchCommand {
         /// Skip the GPU throughput table.
         #[arg(long)]
         cpu_only: bool,
+    },
+    /// Full DDGI update throughput (rays per second of generation, trace, shading, map updates,
+    /// borders, relocation and classification; every probe active) for grids 16×8×16 … 32×32×32
+    /// and 32 … 256 rays per probe, the per-pass times, and the final gather at the camera's size.
+    Ddgi {
+        #[arg(long, default_value = "cathedral")]
+        scene: String,
+        /// Timed frames per cell (after 3 warm-up frames); medians are reported.
+        #[arg(long, default_value_t = 10)]
+        iterations: u32,
+        /// Camera resolution (the final gather's cost).
+        #[arg(long, default_value_t = 1920)]
+        width: u32,
+        #[arg(long, default_value_t = 1080)]
+        height: u32,
+        /// Probe grids `X,Y,Z` to measure instead of the published four (repeatable).
+        #[arg(long, value_parser = parse_uvec3)]
+        grid: Vec<glam::UVec3>,
+        /// Rays per probe to measure instead of 32, 64, 128, 256 (repeatable).
+        #[arg(long)]
+        rays: Vec<u32>,
     },
 }
 
@@ -277,8 +303,50 @@ fn render(args: RenderArgs) -> Result<(), String> {
     Ok(())
 }
 
+fn bench_ddgi(name: &str, iterations: u32, size: engine::render::RenderSize, grids: &[glam::UVec3], rays: &[u32]) -> Result<(), String> {
+    let grids: Vec<[u32; 3]> = if grids.is_empty() { bench::GRIDS.to_vec() } else { grids.iter().map(|g| g.to_array()).collect() };
+    let ray_counts: Vec<u32> = if rays.is_empty() { bench::RAYS.to_vec() } else { rays.to_vec() };
+    let scene = load(name)?;
+    let triangles = scene.instanced_triangle_count();
+    let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
+    println!("# bench ddgi: {name} ({triangles} triangles) on {}, camera {}×{}", gpu.adapter_name(), size.width, size.height);
+    let cells = bench::ddgi_throughput(&gpu, scene, size, iterations.max(1), &grids, &ray_counts)?;
+    let grid_name = |g: &[u32; 3]| format!("{}×{}×{}", g[0], g[1], g[2]);
+    let cell = |g: &[u32; 3], rays: u32| cells.iter().find(|c| c.grid == *g && c.rays_per_probe == rays);
+    println!("\n## Full probe update, MRays/s (median of {iterations} frames; every probe active)\n");
+    println!("| rays/probe | {} |", grids.iter().map(grid_name).collect::<Vec<_>>().join(" | "));
+    println!("|---|{}", "---:|".repeat(grids.len()));
+    for &rays in &ray_counts {
+        let row: Vec<String> = grids
+            .iter()
+            .map(|g| cell(g, rays).map_or("-".into(), |c| format!("{:.0} ({:.3} ms)", c.mrays_per_second(), c.update_ms)))
+            .collect();
+        println!("| {rays} | {} |", row.join(" | "));
+    }
+    let grid = if grids.contains(&[32, 8, 32]) { [32, 8, 32] } else { grids[0] };
+    println!("\n## GPU ms per pass at {} probes (median)\n", grid_name(&grid));
+    let mut labels: Vec<String> = bench::DDGI_UPDATE_PASSES.iter().map(|s| s.to_string()).collect();
+    labels.extend(["ddgi_gather".to_string(), "ddgi_composite".to_string(), "gbuffer".to_string(), "direct_lighting".to_string()]);
+    println!("| pass | {} |", ray_counts.iter().map(|r| format!("{r} rays")).collect::<Vec<_>>().join(" | "));
+    println!("|---|{}", "---:|".repeat(ray_counts.len()));
+    for label in &labels {
+        let row: Vec<String> =
+            ray_counts.iter().map(|&r| cell(&grid, r).and_then(|c| c.pass_ms(label)).map_or("-".into(), |ms| format!("{ms:.3}"))).collect();
+        println!("| {label} | {} |", row.join(" | "));
+    }
+    let non_trace = |c: &bench::DdgiCell| c.update_ms - c.pass_ms("ddgi_trace").unwrap_or(0.0);
+    let row: Vec<String> = ray_counts.iter().map(|&r| cell(&grid, r).map_or("-".into(), |c| format!("{:.3}", non_trace(c)))).collect();
+    println!("| all update passes but the trace | {} |", row.join(" | "));
+    Ok(())
+}
+
 fn bench(command: BenchCommand) -> Result<(), String> {
-    let BenchCommand::Trace { scene: name, iterations, no_flat_rebuild, cpu_only } = command;
+    let (name, iterations, no_flat_rebuild, cpu_only) = match command {
+        BenchCommand::Trace { scene, iterations, no_flat_rebuild, cpu_only } => (scene, iterations, no_flat_rebuild, cpu_only),
+        BenchCommand::Ddgi { scene, iterations, width, height, grid, rays } => {
+            return bench_ddgi(&scene, iterations, engine::render::RenderSize { width, height }, &grid, &rays);
+        }
+    };
     let scene = load(&name)?;
     let bounds = scene.bounds().ok_or("the scene has no geometry")?;
     let triangles = scene.instanced_triangle_count();
@@ -341,11 +409,11 @@ fn main() -> ExitCode {
     let result = match Cli::parse().command {
         Command::Render(args) => render(args),
         Command::Bench(command) => bench(command),
-        Command::Eval { scene, width, height, reference_spp, time_series, frames, out, cache } => load(&scene).and_then(|description| {
+        Command::Eval { scene, width, height, reference_spp, time_series, frames, experiments, out, cache } => load(&scene).and_then(|description| {
             let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
             let default_out = PathBuf::from("out/eval").join(scene.replace(['/', '\\', '.'], "_"));
             let out = out.unwrap_or_else(|| if time_series { default_out.join("time_series") } else { default_out });
-            let options = eval::EvalOptions { width, height, reference_spp, out, cache };
+            let options = eval::EvalOptions { width, height, reference_spp, out, cache, experiments };
             if time_series {
                 eval::time_series::run(&gpu, &scene, description, &options, frames)?;
             } else {

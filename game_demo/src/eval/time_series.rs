@@ -159,7 +159,7 @@ pub fn run(
     options: &EvalOptions,
     frames: u32,
 ) -> Result<Vec<SeriesRow>, String> {
-    let EvalOptions { width, height, reference_spp, ref out, ref cache } = *options;
+    let EvalOptions { width, height, reference_spp, ref out, ref cache, .. } = *options;
     std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
     let change = scene_change(name, &mut scene)?;
     println!("change: {}", change.description);
@@ -168,7 +168,7 @@ pub fn run(
     let changed = before.nodes[change.node].name.clone();
     let seed = pathtrace::PathTraceSettings::default().seed;
     let mut rows = Vec::new();
-    for config in Config::time_series_list() {
+    for config in Config::time_series_list(name) {
         let settle = config.frames();
         let settings = HeadlessSettings { width, height, frames: settle + frames, ..Default::default() };
         let mut app = scene_app(gpu, before.clone(), &settings, |app| config.configure(app, seed)).map_err(|e| e.to_string())?;
@@ -251,7 +251,7 @@ fn write_report(
     rows: &[SeriesRow],
     plot_note: &str,
 ) -> Result<(), String> {
-    let settle: Vec<String> = Config::time_series_list().iter().map(|c| format!("{} {}", c.name(), c.frames())).collect();
+    let settle: Vec<String> = Config::time_series_list(name).iter().map(|c| format!("{} {}", c.name(), c.frames())).collect();
     let mut md = format!(
         "# Time series: {name}\n\nBefore frame 0, {}.\n\n{}×{} on {adapter}, {frames} frames after the change. Reference: the scene after the change, \
          path traced at {} paths per pixel (another seed). Every frame is compared with it (mean FLIP on sRGB at exposure 1, RMSE on \
