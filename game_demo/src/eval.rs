@@ -356,13 +356,15 @@ fn plot_error_vs_time(path: &Path, rows: &[EvalRow]) -> Result<String, String> {
     let series = |ms: fn(&EvalRow) -> Option<f64>| -> Vec<plot::Series> {
         methods
             .iter()
-            .map(|&method| plot::Series {
-                name: method.to_string(),
-                points: rows
+            .map(|&method| {
+                let mut points: Vec<(f64, f64)> = rows
                     .iter()
                     .filter(|r| r.method == method)
                     .filter_map(|r| Some((plot::floor_for_log(ms(r)?), plot::floor_for_log(f64::from(r.error.mean_flip)))))
-                    .collect(),
+                    .collect();
+                // A method's configurations in order of cost, so that its line reads left to right.
+                points.sort_by(|a, b| a.0.total_cmp(&b.0));
+                plot::Series { name: method.to_string(), points }
             })
             .collect()
     };

@@ -52,6 +52,8 @@ fn eval_writes_a_report_whose_path_tracer_errors_fall_with_more_samples() {
     assert!(ladder.windows(2).all(|w| w[1] < w[0]), "FLIP must fall as paths per pixel grow: {ladder:?}");
     // Direct light alone misses all indirect light: worse than 64 paths per pixel of the reference.
     assert!(flip("direct") > ladder[3], "direct {} vs 64 spp {}", flip("direct"), ladder[3]);
+    // DDGI adds the indirect light direct light lacks.
+    assert!(flip("ddgi_8x8x8") < 0.75 * flip("direct"), "DDGI {} vs direct {}", flip("ddgi_8x8x8"), flip("direct"));
     for name in ["direct", "pathtrace_1spp", "pathtrace_64spp"] {
         let strip = image::open(out.join(format!("{name}.png"))).expect("strip");
         assert_eq!((strip.width(), strip.height()), (4 * 48, 48));

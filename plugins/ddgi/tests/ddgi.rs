@@ -452,9 +452,10 @@ fn cornell_box_matches_the_path_traced_reference() {
 /// Bounds on the mean FLIP against 4096-path-per-pixel references (whose own noise is far below
 /// these), measured on lavapipe on 2026-11-30: `cornell` DDGI 0.180 where direct light alone scores
 /// 0.509. The bound leaves 10% for drivers' float differences; what DDGI cannot represent (contact
-/// shadows finer than the probe spacing) makes up most of what remains.
+/// shadows finer than the probe spacing) makes up most of what remains. `door_room`: DDGI 0.072,
+/// direct light alone 0.217.
 const CORNELL_FLIP_BOUND: f32 = 0.2;
-const DOOR_ROOM_FLIP_BOUND: f32 = 0.2;
+const DOOR_ROOM_FLIP_BOUND: f32 = 0.08;
 
 #[test]
 fn door_room_matches_the_reference_and_its_dark_corner_does_not_leak() {
@@ -469,7 +470,10 @@ fn door_room_matches_the_reference_and_its_dark_corner_does_not_leak() {
     let expected = centre_luminance(&reference_linear, REFERENCE_SIZE, 3) / 1.5;
     eprintln!("door_room: mean FLIP {flip:.4}; interior corner luminance DDGI {ddgi:.4}, reference {expected:.4}");
     assert!(flip < DOOR_ROOM_FLIP_BOUND, "mean FLIP {flip} ≥ {DOOR_ROOM_FLIP_BOUND}");
-    assert!(ddgi < 2.0 * expected + 0.005, "the dark corner leaks: {ddgi} against {expected}");
+    // Light leaking through the walls would brighten the corner; over-eager visibility weights
+    // would black it out. Measured: 0.0100 against 0.0150.
+    assert!(ddgi < 1.5 * expected, "the dark corner leaks: {ddgi} against {expected}");
+    assert!(ddgi > 0.5 * expected, "the dark corner lost its indirect light: {ddgi} against {expected}");
 }
 
 #[test]

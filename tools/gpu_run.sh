@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# Runs the DDGI benchmarks and evaluations on the GPU machine (the workplace's `device` tool), from
+# a release binary built here and carried as dist/game_demo with the Vulkan loader packages in .gl/
+# (see BENCHMARKS.md). Everything lands in $OUT/results.tgz.
+set -u
+for f in .gl/*.deb; do dpkg -x "$f" /; done
+ldconfig
+if ! ls /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json >/dev/null 2>&1; then
+    export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
+fi
+export WGPU_BACKEND=vulkan RUST_LOG=warn
+B=dist/game_demo
+R=$OUT/r
+mkdir -p "$R"
+nvidia-smi --query-gpu=name,driver_version --format=csv > "$R/gpu.txt" 2>&1
+date -u > "$R/date.txt"
+run() { # name, command...
+    local name=$1
+    shift
+    local t0=$(date +%s)
+    timeout 300 "$@" > "$R/$name.txt" 2>&1
+    echo "$name: exit $? in $(( $(date +%s) - t0 )) s" | tee -a "$R/summary.txt"
+}
+for step in "$@"; do
+    case $step in
+    bench_*) scene=${step#bench_}; run "$step" $B bench ddgi --scene "$scene" --iterations 10 ;;
+    eval_*) scene=${step#eval_}; run "$step" $B eval --scene "$scene" --width 256 --height 256 --reference-spp 4096 --experiments --out "$R/$step" --cache /tmp/cache ;;
+    series_*) scene=${step#series_}; run "$step" $B eval --scene "$scene" --time-series --width 256 --height 256 --reference-spp 4096 --out "$R/$step" --cache /tmp/cache ;;
+    reference_*) scene=${step#reference_}; run "$step" $B render --scene "$scene" --mode pathtrace --spp 4096 --width 96 --height 96 --out "$R/$step" ;;
+    esac
+done
+tar czf "$OUT/results.tgz" -C "$OUT" r && rm -rf "$R"
