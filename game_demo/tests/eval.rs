@@ -91,11 +91,15 @@ fn time_series_measures_every_frame_and_the_path_tracer_converges_after_the_chan
         })
         .collect();
     let series = |config: &str| -> Vec<(i64, f64, f64)> { rows.iter().filter(|r| r.1 == config).map(|r| (r.0, r.2, r.3)).collect() };
-    for config in ["direct", "pathtrace_4spp"] {
+    let configs = ["direct", "pathtrace_4spp", "ddgi_8x8x8"];
+    for config in configs {
         let frames_seen: Vec<i64> = series(config).iter().map(|r| r.0).collect();
         assert_eq!(frames_seen, (-1..frames).collect::<Vec<_>>(), "{config}: one row per frame, from the last before the change");
     }
-    assert_eq!(rows.len(), 2 * (frames as usize + 1), "no rows of other configurations");
+    assert_eq!(rows.len(), configs.len() * (frames as usize + 1), "no rows of other configurations");
+    // DDGI's probes follow the moved lamp over the frames after the change (its hysteresis).
+    let ddgi = series("ddgi_8x8x8");
+    assert!(ddgi.last().expect("rows").2 < ddgi[1].2, "DDGI's error must fall as its probes follow the change: {ddgi:?}");
 
     // The path tracer starts over at the change and converges towards the changed scene.
     let pt = series("pathtrace_4spp");
