@@ -409,19 +409,21 @@ fn main() -> ExitCode {
     let result = match Cli::parse().command {
         Command::Render(args) => render(args),
         Command::Bench(command) => bench(command),
-        Command::Eval { scene, width, height, reference_spp, time_series, frames, experiments, out, cache } => load(&scene).and_then(|description| {
-            let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
-            let default_out = PathBuf::from("out/eval").join(scene.replace(['/', '\\', '.'], "_"));
-            let out = out.unwrap_or_else(|| if time_series { default_out.join("time_series") } else { default_out });
-            let options = eval::EvalOptions { width, height, reference_spp, out, cache, experiments };
-            if time_series {
-                eval::time_series::run(&gpu, &scene, description, &options, frames)?;
-            } else {
-                eval::run(&gpu, &scene, description, &options)?;
-            }
-            println!("report: {}", options.out.join("report.md").display());
-            Ok(())
-        }),
+        Command::Eval { scene, width, height, reference_spp, time_series, frames, experiments, out, cache } => {
+            load(&scene).and_then(|description| {
+                let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
+                let default_out = PathBuf::from("out/eval").join(scene.replace(['/', '\\', '.'], "_"));
+                let out = out.unwrap_or_else(|| if time_series { default_out.join("time_series") } else { default_out });
+                let options = eval::EvalOptions { width, height, reference_spp, out, cache, experiments };
+                if time_series {
+                    eval::time_series::run(&gpu, &scene, description, &options, frames)?;
+                } else {
+                    eval::run(&gpu, &scene, description, &options)?;
+                }
+                println!("report: {}", options.out.join("report.md").display());
+                Ok(())
+            })
+        }
         Command::Play { scene } => load(&scene).and_then(|s| engine::window::run_windowed(s).map_err(|e| e.to_string())),
     };
     match result {

@@ -23,10 +23,8 @@ impl<T: Copy> Atlas<T> {
 
 fn read_half4(gpu: &GpuContext, texture: &engine::wgpu::Texture) -> Atlas<[f32; 4]> {
     let bytes = read_texture(gpu, texture);
-    let texels = bytes
-        .chunks_exact(8)
-        .map(|t| std::array::from_fn(|i| half::f16::from_le_bytes([t[2 * i], t[2 * i + 1]]).to_f32()))
-        .collect();
+    let texels =
+        bytes.chunks_exact(8).map(|t| std::array::from_fn(|i| half::f16::from_le_bytes([t[2 * i], t[2 * i + 1]]).to_f32())).collect();
     Atlas { size: UVec2::new(texture.width(), texture.height()), texels }
 }
 
@@ -101,11 +99,7 @@ pub fn write_atlas_images(gpu: &GpuContext, volume: &VolumeGpu, dir: &Path) -> R
         .iter()
         .take((m * probes) as usize)
         .flat_map(|r| {
-            if r.probe & crate::gpu::RAY_SKIP != 0 {
-                [0; 3]
-            } else {
-                r.direction.map(|c| ((c * 0.5 + 0.5).clamp(0.0, 1.0) * 255.0) as u8)
-            }
+            if r.probe & crate::gpu::RAY_SKIP != 0 { [0; 3] } else { r.direction.map(|c| ((c * 0.5 + 0.5).clamp(0.0, 1.0) * 255.0) as u8) }
         })
         .collect();
     save_rgb(&rpath, UVec2::new(m, probes), &rgb)?;

@@ -103,7 +103,8 @@ impl DdgiPipelines {
         if let Some(p) = self.specialized.get(&s) {
             return Ok(p.clone());
         }
-        let constants = [("SCENE_HAS_SPOT_LIGHTS", f64::from(u8::from(s.spot_lights))), ("SCENE_HAS_EMISSIVE", f64::from(u8::from(s.emissive)))];
+        let constants =
+            [("SCENE_HAS_SPOT_LIGHTS", f64::from(u8::from(s.spot_lights))), ("SCENE_HAS_EMISSIVE", f64::from(u8::from(s.emissive)))];
         let build = |entry: &str| compute_program_with_constants(&gpu.device, "ddgi_rays.wgsl", entry, entry, &constants).map(Arc::new);
         let programs = (build("trace_rays")?, build("shade_rays")?);
         self.specialized.insert(s, programs.clone());
@@ -189,7 +190,11 @@ impl VolumeGpu {
     }
 
     /// Group 1 resources by WGSL name; `atlas_out` is the atlas the border pass writes.
-    fn bindings<'a>(&'a self, sampler: &'a wgpu::Sampler, atlas_out: &'a wgpu::TextureView) -> Vec<(&'static str, wgpu::BindingResource<'a>)> {
+    fn bindings<'a>(
+        &'a self,
+        sampler: &'a wgpu::Sampler,
+        atlas_out: &'a wgpu::TextureView,
+    ) -> Vec<(&'static str, wgpu::BindingResource<'a>)> {
         let [irradiance, distance] = &self.views;
         vec![
             ("ddgi_volume", self.uniform.as_entire_binding()),

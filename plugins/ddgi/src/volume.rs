@@ -263,7 +263,7 @@ impl DdgiLimits {
         let l = device.limits();
         Self {
             max_texture_dimension: l.max_texture_dimension_2d,
-            max_storage_buffer_bytes: u64::from(l.max_storage_buffer_binding_size).min(l.max_buffer_size),
+            max_storage_buffer_bytes: l.max_storage_buffer_binding_size.min(l.max_buffer_size),
         }
     }
 }

@@ -94,14 +94,16 @@ fn run_selftest(gpu: &GpuContext, entry: &str, input: &[[f32; 4]]) -> Vec<[f32; 
         empty(0),
         empty(1),
         empty(2),
-        program.bind_group(
-            device,
-            3,
-            &[("selftest_in", input_buffer.as_entire_binding()), ("selftest_out", output.as_entire_binding())],
-        ),
+        program.bind_group(device, 3, &[("selftest_in", input_buffer.as_entire_binding()), ("selftest_out", output.as_entire_binding())]),
     ];
     let mut encoder = device.create_command_encoder(&Default::default());
-    engine::render::dispatch(&mut encoder, entry, &program.pipeline, &groups.iter().collect::<Vec<_>>(), ((input.len() as u32).div_ceil(64), 1));
+    engine::render::dispatch(
+        &mut encoder,
+        entry,
+        &program.pipeline,
+        &groups.iter().collect::<Vec<_>>(),
+        ((input.len() as u32).div_ceil(64), 1),
+    );
     gpu.queue.submit([encoder.finish()]);
     bytemuck::pod_collect_to_vec(&engine::render::readback::read_buffer(gpu, &output))
 }
@@ -124,7 +126,8 @@ fn octahedral_mapping_round_trips_and_fibonacci_directions_cover_the_sphere() {
     // Spherical Fibonacci: unit length, mean near zero, and no direction of the sphere far from a
     // point (covering radius ~ 2/√n for an even cover; a clumped set would leave holes).
     for n in [32usize, 128, 256] {
-        let points: Vec<Vec3> = run_selftest(&gpu, "fibonacci_directions", &vec![[0.0; 4]; n]).iter().map(|p| Vec3::new(p[0], p[1], p[2])).collect();
+        let points: Vec<Vec3> =
+            run_selftest(&gpu, "fibonacci_directions", &vec![[0.0; 4]; n]).iter().map(|p| Vec3::new(p[0], p[1], p[2])).collect();
         let expected = workspace_free_fibonacci(n);
         for (p, e) in points.iter().zip(&expected) {
             assert!((p.length() - 1.0).abs() < 1e-5 && p.distance(*e) < 1e-4, "n = {n}: {p} vs CPU {e}");
@@ -290,7 +293,8 @@ fn furnace_probes_converge_to_the_analytic_irradiance() {
     let (albedo, emission) = (0.5f32, 0.3f32);
     let (lo, hi) = (Vec3::new(-1.0, 0.0, -1.5), Vec3::new(1.0, 1.5, 1.5));
     let material = Material { base_color: Vec3::splat(albedo).extend(1.0), emissive: Vec3::splat(emission), ..Default::default() };
-    let volume = DdgiVolume { bounds: Some((lo, hi)), probe_counts: UVec3::new(3, 2, 3), rays_per_probe: 96, hysteresis: 0.8, ..Default::default() };
+    let volume =
+        DdgiVolume { bounds: Some((lo, hi)), probe_counts: UVec3::new(3, 2, 3), rays_per_probe: 96, hysteresis: 0.8, ..Default::default() };
     let (frame, app) = run_ddgi(&gpu, closed_room(lo, hi, material), volume, 24, 90);
     let expected = std::f32::consts::PI * emission / (1.0 - albedo);
     let v = first_volume(&app);
@@ -361,7 +365,12 @@ fn switch_emission_off(app: &mut bevy_app::App) {
 fn atlases_stay_finite_over_hundreds_of_frames_with_a_moving_light() {
     let Some(gpu) = gpu("atlases_stay_finite_over_hundreds_of_frames") else { return };
     let scene = engine::builtin::builtin_scene("color_bleed").expect("color_bleed");
-    let volume = DdgiVolume { bounds: engine::builtin::builtin_gi_bounds("color_bleed"), probe_counts: UVec3::new(4, 3, 4), rays_per_probe: 32, ..Default::default() };
+    let volume = DdgiVolume {
+        bounds: engine::builtin::builtin_gi_bounds("color_bleed"),
+        probe_counts: UVec3::new(4, 3, 4),
+        rays_per_probe: 32,
+        ..Default::default()
+    };
     let (frame, app) = run_ddgi(&gpu, scene, volume, 16, 300);
     assert!(frame.hdr.iter().all(|v| v.is_finite()), "non-finite pixel");
     assert_finite_atlases(&gpu, first_volume(&app), "color_bleed after 300 frames");
@@ -412,10 +421,11 @@ fn srgb_to_linear(v: u8) -> f32 {
 /// and the reference.
 fn against_reference(gpu: &GpuContext, scene: &str, probes: UVec3, frames: u32) -> (f32, f32, RenderedFrame, image::RgbaImage) {
     let description = engine::builtin::builtin_scene(scene).expect("scene");
-    let volume = DdgiVolume { bounds: engine::builtin::builtin_gi_bounds(scene), probe_counts: probes, rays_per_probe: 128, ..Default::default() };
+    let volume =
+        DdgiVolume { bounds: engine::builtin::builtin_gi_bounds(scene), probe_counts: probes, rays_per_probe: 128, ..Default::default() };
     let settings = HeadlessSettings { width: REFERENCE_SIZE, height: REFERENCE_SIZE, frames, ..Default::default() };
-    let frame =
-        render_scene_and_inspect(gpu, description.clone(), &settings, |app| use_ddgi(app, volume, DdgiOutput::Full), |_| {}).expect("render");
+    let frame = render_scene_and_inspect(gpu, description.clone(), &settings, |app| use_ddgi(app, volume, DdgiOutput::Full), |_| {})
+        .expect("render");
     assert!(frame.hdr.iter().all(|v| v.is_finite()));
     let direct = engine::headless::render_scene(gpu, description, &HeadlessSettings { frames: 1, ..settings }).expect("render");
     let path = workspace_golden(&format!("{scene}_pathtrace_reference.png"));
@@ -497,7 +507,11 @@ fn two_volumes_light_the_scene_like_one() {
         &HeadlessSettings { width: 48, height: 48, frames: 40, ..Default::default() },
         |app| {
             let half = UVec3::new(2, 4, 4);
-            use_ddgi(app, DdgiVolume { bounds: Some((lo, Vec3::new(mid, hi.y, hi.z))), probe_counts: half, ..base.clone() }, DdgiOutput::Indirect);
+            use_ddgi(
+                app,
+                DdgiVolume { bounds: Some((lo, Vec3::new(mid, hi.y, hi.z))), probe_counts: half, ..base.clone() },
+                DdgiOutput::Indirect,
+            );
             app.world_mut().spawn(DdgiVolume { bounds: Some((Vec3::new(mid, lo.y, lo.z), hi)), probe_counts: half, ..base.clone() });
         },
         |world| assert_eq!(world.resource::<DdgiGpuVolumes>().volumes.len(), 2),
