@@ -45,14 +45,51 @@ struct DdgiVolumeGpu {
     // Atlas sizes in texels.
     irradiance_atlas_size: vec2<f32>,
     distance_atlas_size: vec2<f32>,
+    // Adaptive budgets (DDGI_ADAPTIVE): rays of a quiet probe, rays of an inactive probe on
+    // re-check frames, the smoothed error at which a probe gets the full budget, the factor by
+    // which a quiet probe's budget shrinks per frame, the error's temporal smoothing, the floor of
+    // SMAPE's denominator (W/m²), the share of the brightest probe's luma under which a probe and
+    // its neighbours count as dark, and the total rays per frame (0: no limit).
+    min_rays: u32,
+    recheck_rays: u32,
+    error_target: f32,
+    error_decay: f32,
+    error_smoothing: f32,
+    error_floor: f32,
+    dark_fraction: f32,
+    frame_budget: u32,
 }
 
-// Per-probe state written by relocation and classification.
+// Per-probe state: relocation and classification write offset and state, the irradiance update
+// the error, the budget pass the rays; the pins come from the application.
 struct DdgiProbeData {
     // Relocation offset from the grid position, in world units (within ±0.45 of a cell).
     offset: vec3<f32>,
     // DDGI_PROBE_* bits.
     state: u32,
+    // Temporal error: SMAPE in YCoCg between each frame's estimate and the maps, smoothed.
+    error: f32,
+    // Rays this frame, and where they start among the frame's packed rays.
+    ray_count: u32,
+    ray_offset: u32,
+    // Mean luma (YCoCg Y) of the irradiance the probe's rays last saw (W/m²).
+    luma: f32,
+    // Pinned by the application: a ray count (DDGI_NO_PIN: none) and a state (DDGI_PIN_*).
+    pinned_rays: u32,
+    pinned_state: u32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+// What the budget pass leaves for the rest of the frame: the indirect dispatch of the ray passes,
+// the number of rays and the brightest probe's luma.
+struct DdgiCounters {
+    dispatch: vec3<u32>,
+    total_rays: u32,
+    max_luma: f32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 // One probe ray: its direction and probe (DDGI_RAY_SKIP set when the probe traces nothing).
@@ -68,6 +105,11 @@ const DDGI_WEIGHT_CRUSH: u32 = 8u;
 const DDGI_WEIGHT_TRILINEAR: u32 = 16u;
 const DDGI_RELOCATION: u32 = 32u;
 const DDGI_CLASSIFICATION: u32 = 64u;
+const DDGI_ADAPTIVE: u32 = 128u;
+
+const DDGI_NO_PIN: u32 = 0xffffffffu;
+const DDGI_PIN_ACTIVE: u32 = 1u;
+const DDGI_PIN_INACTIVE: u32 = 2u;
 
 const DDGI_PROBE_INACTIVE: u32 = 1u;
 // The probe's maps hold nothing worth keeping: its next update takes the new value at once.
@@ -100,6 +142,10 @@ const DDGI_IRRADIANCE_GAMMA: f32 = 5.0;
 @group(1) @binding(8) var<storage, read_write> ddgi_irradiance_history: array<vec4<f32>>;
 @group(1) @binding(9) var<storage, read_write> ddgi_distance_history: array<vec2<f32>>;
 @group(1) @binding(10) var ddgi_atlas_out: texture_storage_2d<rgba16float, write>;
+@group(1) @binding(11) var<storage, read_write> ddgi_counters: DdgiCounters;
+// The same buffer read-only, for the ray passes, which also take their indirect dispatch from it
+// (a dispatch may not write a buffer it reads its arguments from).
+@group(1) @binding(12) var<storage, read> ddgi_counters_in: DdgiCounters;
 
 fn ddgi_has(flag: u32) -> bool {
     return (ddgi_volume.flags & flag) != 0u;
@@ -166,9 +212,21 @@ fn ddgi_probe_active(p: u32) -> bool {
     return (ddgi_probes[p].state & DDGI_PROBE_INACTIVE) == 0u;
 }
 
-// Whether probe p traces rays this frame: active probes always, inactive ones on re-check frames.
-fn ddgi_probe_traces(p: u32) -> bool {
-    return ddgi_probe_active(p) || ddgi_volume.recheck != 0u;
+// YCoCg luma of a linear RGB colour.
+fn ddgi_luma(c: vec3<f32>) -> f32 {
+    return dot(c, vec3<f32>(0.25, 0.5, 0.25));
+}
+
+// Symmetric mean absolute percentage error between two colours in YCoCg (Vardis et al.): per
+// channel |a − b| / ((|a| + |b|) / 2 + floor), luma weighted 2:1:1 against the two chroma channels.
+// 0 for identical colours, symmetric, and bounded by 2 however dark they are (the floor keeps
+// near-black texels from exploding the ratio).
+fn ddgi_smape_ycocg(a: vec3<f32>, b: vec3<f32>, floor_value: f32) -> f32 {
+    let to_ycocg = mat3x3<f32>(vec3<f32>(0.25, 0.5, -0.25), vec3<f32>(0.5, 0.0, 0.5), vec3<f32>(0.25, -0.5, -0.25));
+    let x = to_ycocg * a;
+    let y = to_ycocg * b;
+    let e = abs(x - y) / ((abs(x) + abs(y)) * 0.5 + max(floor_value, 0.0) + 1e-30);
+    return clamp(dot(e, vec3<f32>(0.5, 0.25, 0.25)), 0.0, 2.0);
 }
 
 // Top-left texel of probe p's tile (border included) in an atlas of tiles (n + 2)².

@@ -7,29 +7,45 @@ const DDGI_GROUP: u32 = 64u;
 
 var<workgroup> wg_direction: array<vec3<f32>, 64>;
 var<workgroup> wg_value: array<vec4<f32>, 64>;
-var<workgroup> wg_state: u32;
+var<workgroup> wg_probe: DdgiProbeData;
+var<workgroup> wg_error: array<vec2<f32>, 64>;
 
 // Probe of a workgroup (two-dimensional dispatches for more than 65,535 probes).
 fn ddgi_group_probe(group: vec3<u32>) -> u32 {
     return group.x + group.y * 65535u;
 }
 
-// The probe's state, the same in every thread of the workgroup (so barriers stay in uniform flow).
-fn ddgi_uniform_state(probe: u32, local: u32) -> u32 {
+// The probe's data, the same in every thread of the workgroup (so barriers stay in uniform flow).
+fn ddgi_uniform_probe(probe: u32, local: u32) -> DdgiProbeData {
     if local == 0u {
-        wg_state = ddgi_probes[probe].state;
+        wg_probe = ddgi_probes[probe];
     }
-    return workgroupUniformLoad(&wg_state);
+    return workgroupUniformLoad(&wg_probe);
 }
 
-// Loads rays [base, base + 64) of `probe` into workgroup memory: direction and (radiance, stored t).
-fn ddgi_load_rays(probe: u32, base: u32, local: u32) {
+// Loads rays [base, base + 64) of the probe `data` into workgroup memory: direction and
+// (radiance, stored t).
+fn ddgi_load_rays(data: DdgiProbeData, base: u32, local: u32) {
     let r = base + local;
-    if r < ddgi_volume.rays_per_probe {
-        let i = probe * ddgi_volume.rays_per_probe + r;
+    if r < data.ray_count {
+        let i = data.ray_offset + r;
         wg_direction[local] = ddgi_rays[i].direction;
         wg_value[local] = ddgi_radiance[i];
     }
+}
+
+// The hysteresis of a probe this frame: with adaptive budgets a probe with fewer rays than the
+// full budget weighs its (noisier) estimate less, so that a small budget does not mean flicker.
+fn ddgi_hysteresis(data: DdgiProbeData) -> f32 {
+    if (data.state & DDGI_PROBE_FRESH) != 0u {
+        return 0.0;
+    }
+    let h = clamp(ddgi_volume.hysteresis, 0.0, 1.0);
+    if !ddgi_has(DDGI_ADAPTIVE) {
+        return h;
+    }
+    let share = f32(data.ray_count) / f32(max(ddgi_volume.rays_per_probe, 1u));
+    return 1.0 - (1.0 - h) * clamp(share, 0.0, 1.0);
 }
 
 fn ddgi_texel_coords(texel: u32, n: u32) -> vec2<u32> {
@@ -44,19 +60,24 @@ fn update_irradiance(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_inv
     if probe >= ddgi_volume.probe_count {
         return;
     }
-    let state = ddgi_uniform_state(probe, local);
-    if (state & DDGI_PROBE_INACTIVE) != 0u {
+    let data = ddgi_uniform_probe(probe, local);
+    let state = data.state;
+    if (state & DDGI_PROBE_INACTIVE) != 0u || data.ray_count == 0u {
         return;
     }
     let n = ddgi_volume.irradiance_texels;
-    let m = ddgi_volume.rays_per_probe;
+    let m = data.ray_count;
+    let h = ddgi_hysteresis(data);
+    let fresh = (state & DDGI_PROBE_FRESH) != 0u;
+    // (Σ SMAPE, texels measured) of this thread's texels.
+    var error = vec2<f32>(0.0);
     for (var first = 0u; first < n * n; first += DDGI_GROUP) {
         let texel = first + local;
         let valid = texel < n * n;
         let direction = ddgi_texel_direction(ddgi_texel_coords(texel, n), n);
         var sum = vec4<f32>(0.0);
         for (var base = 0u; base < m; base += DDGI_GROUP) {
-            ddgi_load_rays(probe, base, local);
+            ddgi_load_rays(data, base, local);
             workgroupBarrier();
             let count = min(DDGI_GROUP, m - base);
             for (var j = 0u; j < count; j++) {
@@ -69,22 +90,38 @@ fn update_irradiance(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_inv
             let slot = probe * n * n + texel;
             let old = ddgi_irradiance_history[slot].rgb;
             var result = old;
-            let fresh = (state & DDGI_PROBE_FRESH) != 0u;
             // A texel no ray reached this frame keeps its value.
             if sum.w > 1e-6 {
                 var sample = PI * sum.rgb / sum.w;
                 if fresh {
                     result = sample;
                 } else {
+                    error += vec2<f32>(ddgi_smape_ycocg(sample, old, ddgi_volume.error_floor), 1.0);
                     let threshold = ddgi_volume.firefly_threshold;
-                    if threshold > 0.0 && luminance(sample) > (1.0 + threshold) * luminance(old) {
+                    if threshold > 0.0 && luminance(old) > 0.0 && luminance(sample) > (1.0 + threshold) * luminance(old) {
                         sample = old + (sample - old) * 0.25;
                     }
-                    result = mix(sample, old, clamp(ddgi_volume.hysteresis, 0.0, 1.0));
+                    result = mix(sample, old, h);
                 }
             }
             ddgi_irradiance_history[slot] = vec4<f32>(min(sanitize_radiance(result), vec3<f32>(1e24)), 1.0);
         }
+    }
+    // The probe's temporal error: the mean SMAPE over the texels that got rays, smoothed over
+    // frames. A fresh probe starts at the target (its maps hold nothing to compare with).
+    wg_error[local] = error;
+    workgroupBarrier();
+    if local == 0u {
+        var total = vec2<f32>(0.0);
+        for (var k = 0u; k < DDGI_GROUP; k++) {
+            total += wg_error[k];
+        }
+        var smoothed = ddgi_volume.error_target;
+        if !fresh {
+            let mean = select(data.error, total.x / total.y, total.y > 0.0);
+            smoothed = mix(mean, data.error, clamp(ddgi_volume.error_smoothing, 0.0, 1.0));
+        }
+        ddgi_probes[probe].error = select(0.0, smoothed, smoothed == smoothed);
     }
 }
 
@@ -96,12 +133,13 @@ fn update_distance(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invoc
     if probe >= ddgi_volume.probe_count {
         return;
     }
-    let state = ddgi_uniform_state(probe, local);
-    if (state & DDGI_PROBE_INACTIVE) != 0u {
+    let data = ddgi_uniform_probe(probe, local);
+    if (data.state & DDGI_PROBE_INACTIVE) != 0u || data.ray_count == 0u {
         return;
     }
     let n = ddgi_volume.distance_texels;
-    let m = ddgi_volume.rays_per_probe;
+    let m = data.ray_count;
+    let h = ddgi_hysteresis(data);
     let scale = max(ddgi_volume.distance_scale, 1e-30);
     let sharpness = max(ddgi_volume.distance_sharpness, 1e-3);
     // Rays whose weight cos^sharpness would be under 2^-20 are skipped (most of them at the usual
@@ -113,7 +151,7 @@ fn update_distance(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invoc
         let direction = ddgi_texel_direction(ddgi_texel_coords(texel, n), n);
         var sum = vec3<f32>(0.0);
         for (var base = 0u; base < m; base += DDGI_GROUP) {
-            ddgi_load_rays(probe, base, local);
+            ddgi_load_rays(data, base, local);
             workgroupBarrier();
             let count = min(DDGI_GROUP, m - base);
             for (var j = 0u; j < count; j++) {
@@ -132,7 +170,6 @@ fn update_distance(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invoc
             var result = old;
             if sum.z > 1e-6 {
                 let sample = sum.xy / sum.z;
-                let h = select(clamp(ddgi_volume.hysteresis, 0.0, 1.0), 0.0, (state & DDGI_PROBE_FRESH) != 0u);
                 result = mix(sample, old, h);
             }
             ddgi_distance_history[slot] = clamp(result, vec2<f32>(0.0), vec2<f32>(1.0));
@@ -210,18 +247,21 @@ struct DdgiRayStatistics {
     farthest_frontface: vec4<f32>,
     // A front face within one cell of the probe on every axis.
     frontface_in_cell: u32,
+    // Σ YCoCg luma of the rays' radiance.
+    luma_sum: f32,
 }
 
 var<workgroup> wg_statistics: array<DdgiRayStatistics, 64>;
 var<workgroup> wg_result: DdgiRayStatistics;
 
-fn ddgi_ray_statistics(probe: u32, local: u32) -> DdgiRayStatistics {
-    let m = ddgi_volume.rays_per_probe;
-    var s = DdgiRayStatistics(0u, vec4<f32>(0.0, 0.0, 1.0, DDGI_MISS), vec4<f32>(0.0, 0.0, 1.0, DDGI_MISS), vec4<f32>(0.0, 0.0, 1.0, -1.0), 0u);
-    for (var r = local; r < m; r += DDGI_GROUP) {
-        let i = probe * m + r;
+fn ddgi_ray_statistics(data: DdgiProbeData, local: u32) -> DdgiRayStatistics {
+    var s = DdgiRayStatistics(0u, vec4<f32>(0.0, 0.0, 1.0, DDGI_MISS), vec4<f32>(0.0, 0.0, 1.0, DDGI_MISS), vec4<f32>(0.0, 0.0, 1.0, -1.0), 0u, 0.0);
+    for (var r = local; r < data.ray_count; r += DDGI_GROUP) {
+        let i = data.ray_offset + r;
         let direction = ddgi_rays[i].direction;
-        let stored = ddgi_radiance[i].w;
+        let shaded = ddgi_radiance[i];
+        s.luma_sum += ddgi_luma(shaded.rgb);
+        let stored = shaded.w;
         if stored < 0.0 {
             s.backface_count += 1u;
             let d = -stored / DDGI_BACKFACE_SCALE;
@@ -250,6 +290,7 @@ fn ddgi_ray_statistics(probe: u32, local: u32) -> DdgiRayStatistics {
         for (var k = 1u; k < DDGI_GROUP; k++) {
             let o = wg_statistics[k];
             total.backface_count += o.backface_count;
+            total.luma_sum += o.luma_sum;
             total.frontface_in_cell = max(total.frontface_in_cell, o.frontface_in_cell);
             if o.closest_backface.w < total.closest_backface.w {
                 total.closest_backface = o.closest_backface;
@@ -267,8 +308,8 @@ fn ddgi_ray_statistics(probe: u32, local: u32) -> DdgiRayStatistics {
     return wg_result;
 }
 
-fn ddgi_inside_geometry(s: DdgiRayStatistics) -> bool {
-    return f32(s.backface_count) > ddgi_volume.backface_threshold * f32(ddgi_volume.rays_per_probe);
+fn ddgi_inside_geometry(s: DdgiRayStatistics, rays: u32) -> bool {
+    return f32(s.backface_count) > ddgi_volume.backface_threshold * f32(rays);
 }
 
 // Relocation (Majercik et al. 2021): a probe inside geometry moves through the nearest back face;
@@ -280,18 +321,18 @@ fn relocate_probes(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invoc
     if probe >= ddgi_volume.probe_count {
         return;
     }
-    let state = ddgi_uniform_state(probe, local);
-    if (state & DDGI_PROBE_INACTIVE) != 0u && ddgi_volume.recheck == 0u {
+    let data = ddgi_uniform_probe(probe, local);
+    if data.ray_count == 0u {
         return;
     }
-    let s = ddgi_ray_statistics(probe, local);
+    let s = ddgi_ray_statistics(data, local);
     if local != 0u {
         return;
     }
-    let offset = ddgi_probes[probe].offset;
+    let offset = data.offset;
     let min_distance = ddgi_volume.min_frontface_distance;
     var moved = offset;
-    if ddgi_inside_geometry(s) && s.closest_backface.w < DDGI_MISS {
+    if ddgi_inside_geometry(s, data.ray_count) && s.closest_backface.w < DDGI_MISS {
         moved = offset + s.closest_backface.xyz * (s.closest_backface.w + min_distance * 0.5);
     } else if s.closest_frontface.w < min_distance {
         if dot(s.closest_frontface.xyz, s.farthest_frontface.xyz) <= 0.0 {
@@ -310,27 +351,57 @@ fn relocate_probes(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invoc
     }
 }
 
+// Whether probe p and its six neighbours saw less than `threshold` of luma.
+fn ddgi_dark_around(p: u32, own_luma: f32, threshold: f32) -> bool {
+    if own_luma >= threshold {
+        return false;
+    }
+    let c = vec3<i32>(ddgi_probe_coords(p));
+    let counts = vec3<i32>(ddgi_volume.counts);
+    for (var k = 0u; k < 6u; k++) {
+        var step = vec3<i32>(0);
+        step[k / 2u] = select(-1, 1, (k & 1u) == 1u);
+        let q = c + step;
+        if all(q >= vec3<i32>(0)) && all(q < counts) && ddgi_probes[ddgi_probe_index(vec3<u32>(q))].luma >= threshold {
+            return false;
+        }
+    }
+    return true;
+}
+
 // Classification (Majercik et al. 2021): a probe inside geometry, or with no front face within a
-// cell of it (so no surface samples it), is switched off; it traces again only on re-check frames.
-// Probes switched back on are marked fresh, so their maps restart from the new samples.
+// cell of it (so no surface samples it), is switched off; with adaptive budgets, so is a probe
+// that, like its six neighbours, sees next to no light (luma under dark_fraction of the brightest
+// probe's). Off, it traces only a few rays on re-check frames, which wake it when the scene
+// changes. Probes switched back on are marked fresh, so their maps restart from the new samples.
+// Pinned states win.
 @compute @workgroup_size(64)
 fn classify_probes(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) local: u32) {
     let probe = ddgi_group_probe(group);
     if probe >= ddgi_volume.probe_count {
         return;
     }
-    let state = ddgi_uniform_state(probe, local);
-    let traced = (state & DDGI_PROBE_INACTIVE) == 0u || ddgi_volume.recheck != 0u;
-    if !traced {
+    let data = ddgi_uniform_probe(probe, local);
+    let state = data.state;
+    if data.ray_count == 0u {
         return;
     }
-    let s = ddgi_ray_statistics(probe, local);
+    let s = ddgi_ray_statistics(data, local);
     if local != 0u {
         return;
     }
+    // The mean irradiance-like luma the rays saw (π × their mean radiance over the sphere).
+    let luma = PI * s.luma_sum / f32(data.ray_count);
+    ddgi_probes[probe].luma = select(0.0, luma, luma == luma);
     var is_active = true;
     if ddgi_has(DDGI_CLASSIFICATION) {
-        is_active = !ddgi_inside_geometry(s) && s.frontface_in_cell != 0u;
+        is_active = !ddgi_inside_geometry(s, data.ray_count) && s.frontface_in_cell != 0u;
+    }
+    if is_active && ddgi_has(DDGI_ADAPTIVE) {
+        is_active = !ddgi_dark_around(probe, luma, ddgi_volume.dark_fraction * ddgi_counters.max_luma);
+    }
+    if data.pinned_state == DDGI_PIN_ACTIVE || data.pinned_state == DDGI_PIN_INACTIVE {
+        is_active = data.pinned_state == DDGI_PIN_ACTIVE;
     }
     var next = 0u;
     if !is_active {

@@ -12,6 +12,7 @@ pub mod gpu_types;
 pub mod readback;
 
 use std::collections::VecDeque;
+use std::ops::Not;
 use std::sync::Arc;
 
 use bevy_app::{App, Plugin};
@@ -150,12 +151,17 @@ pub struct FrameTimings {
     /// Keep at most this many frames (0: all).
     pub keep: usize,
     pending: VecDeque<(u64, FrameReport)>,
+    /// Counters that arrived before their frame's timings.
+    pending_counters: Vec<(u64, String, f64)>,
 }
 
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct FrameTiming {
     pub frame: u64,
     pub passes: Vec<PassTiming>,
+    /// Per-frame counts that plugins report (e.g. `ddgi_rays`: rays traced), by name.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub counters: Vec<(String, f64)>,
 }
 
 #[derive(Clone, Debug, Serialize, PartialEq)]
@@ -212,7 +218,30 @@ impl FrameTimings {
                 gpu_ms: times.as_ref().and_then(|t| t.iter().find(|(l, _)| *l == p.label).map(|(_, ms)| *ms)),
             })
             .collect();
-        self.frames.push(FrameTiming { frame, passes });
+        let mut counters = Vec::new();
+        self.pending_counters.retain(|(f, name, value)| {
+            let mine = *f == frame;
+            if mine {
+                counters.push((name.clone(), *value));
+            }
+            mine.not()
+        });
+        self.frames.push(FrameTiming { frame, passes, counters });
+    }
+
+    /// Records a per-frame count of frame `frame` (it may arrive before or after the frame's
+    /// timings; a readback a few frames late is fine).
+    pub fn record_counter(&mut self, frame: u64, name: &str, value: f64) {
+        if let Some(f) = self.frames.iter_mut().rev().find(|f| f.frame == frame) {
+            f.counters.push((name.into(), value));
+        } else if self.frames.last().is_none_or(|f| f.frame < frame) {
+            self.pending_counters.push((frame, name.into(), value));
+        }
+    }
+
+    /// The value of counter `name` of each recorded frame that has one.
+    pub fn counter(&self, name: &str) -> Vec<(u64, f64)> {
+        self.frames.iter().filter_map(|f| f.counters.iter().find(|(n, _)| n == name).map(|(_, v)| (f.frame, *v))).collect()
     }
 
     /// Mean GPU milliseconds of each pass over the recorded frames, in pass order.

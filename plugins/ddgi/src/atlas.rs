@@ -73,7 +73,8 @@ fn save_rgb(path: &Path, size: UVec2, rgb: &[u8]) -> Result<(), String> {
 
 /// Writes `irradiance.png` (radiance E/π of a white surface, sRGB) and `irradiance.exr` (linear
 /// E), `distance.png` (mean distance over the distance scale, grey) and `ray_directions.png` (one
-/// row per probe, one column per ray, direction × 0.5 + 0.5; skipped probes black) into `dir`.
+/// row per probe, one column per ray, direction × 0.5 + 0.5; rays a probe did not trace black,
+/// as of the last probe readback) into `dir`.
 pub fn write_atlas_images(gpu: &GpuContext, volume: &VolumeGpu, dir: &Path) -> Result<Vec<PathBuf>, String> {
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let irradiance = read_irradiance(gpu, volume);
@@ -95,13 +96,15 @@ pub fn write_atlas_images(gpu: &GpuContext, volume: &VolumeGpu, dir: &Path) -> R
     let m = volume.settings.rays_per_probe;
     let probes = volume.layout.probe_count;
     let rpath = dir.join("ray_directions.png");
-    let rgb: Vec<u8> = rays
-        .iter()
-        .take((m * probes) as usize)
-        .flat_map(|r| {
-            if r.probe & crate::gpu::RAY_SKIP != 0 { [0; 3] } else { r.direction.map(|c| ((c * 0.5 + 0.5).clamp(0.0, 1.0) * 255.0) as u8) }
-        })
-        .collect();
+    // Row p: probe p's rays of the last frame (packed: they start at its ray offset), black after.
+    let mut rgb = vec![0u8; (m * probes * 3) as usize];
+    for (p, data) in volume.probe_data.iter().enumerate().take(probes as usize) {
+        for r in 0..data.ray_count.min(m) {
+            let Some(ray) = rays.get((data.ray_offset + r) as usize) else { break };
+            let texel = (p * m as usize + r as usize) * 3;
+            rgb[texel..texel + 3].copy_from_slice(&ray.direction.map(|c| ((c * 0.5 + 0.5).clamp(0.0, 1.0) * 255.0) as u8));
+        }
+    }
     save_rgb(&rpath, UVec2::new(m, probes), &rgb)?;
     Ok(vec![path, exr, dpath, rpath])
 }

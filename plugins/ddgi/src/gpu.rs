@@ -32,6 +32,14 @@ pub struct DdgiVolumeGpu {
     pub recheck: u32,
     pub irradiance_atlas_size: [f32; 2],
     pub distance_atlas_size: [f32; 2],
+    pub min_rays: u32,
+    pub recheck_rays: u32,
+    pub error_target: f32,
+    pub error_decay: f32,
+    pub error_smoothing: f32,
+    pub error_floor: f32,
+    pub dark_fraction: f32,
+    pub frame_budget: u32,
 }
 
 #[repr(C)]
@@ -39,6 +47,42 @@ pub struct DdgiVolumeGpu {
 pub struct DdgiProbeData {
     pub offset: [f32; 3],
     pub state: u32,
+    pub error: f32,
+    pub ray_count: u32,
+    pub ray_offset: u32,
+    pub luma: f32,
+    /// [`NO_PIN`] or a ray count.
+    pub pinned_rays: u32,
+    /// 0, [`PIN_ACTIVE`] or [`PIN_INACTIVE`].
+    pub pinned_state: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+}
+
+impl DdgiProbeData {
+    /// A new probe: no offset, fresh (its first update takes the new value), not pinned.
+    pub const NEW: Self = Self {
+        offset: [0.0; 3],
+        state: PROBE_FRESH,
+        error: 0.0,
+        ray_count: 0,
+        ray_offset: 0,
+        luma: 0.0,
+        pinned_rays: NO_PIN,
+        pinned_state: 0,
+        _pad0: 0,
+        _pad1: 0,
+    };
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct DdgiCounters {
+    /// Workgroups of the indirect dispatch of the ray passes.
+    pub dispatch: [u32; 3],
+    pub total_rays: u32,
+    pub max_luma: f32,
+    pub _pad: [u32; 3],
 }
 
 #[repr(C)]
@@ -64,10 +108,14 @@ pub const WEIGHT_CRUSH: u32 = 8;
 pub const WEIGHT_TRILINEAR: u32 = 16;
 pub const RELOCATION: u32 = 32;
 pub const CLASSIFICATION: u32 = 64;
+pub const ADAPTIVE: u32 = 128;
+
+pub const NO_PIN: u32 = u32::MAX;
+pub const PIN_ACTIVE: u32 = 1;
+pub const PIN_INACTIVE: u32 = 2;
 
 pub const PROBE_INACTIVE: u32 = 1;
 pub const PROBE_FRESH: u32 = 2;
-pub const RAY_SKIP: u32 = 0x8000_0000;
 /// Hit distance of a miss in the shaded-ray buffer.
 pub const MISS: f32 = 3.0e38;
 /// Irradiance is stored as `E^(1/gamma)`.
@@ -80,6 +128,7 @@ impl DdgiVolumeGpu {
     /// The uniform of one frame: `rotation` turns the ray directions, `sky` is the miss radiance.
     pub fn new(volume: &DdgiVolume, layout: &DdgiLayout, rotation: glam::Mat3, sky: glam::Vec3, recheck: bool) -> Self {
         let w = volume.weights;
+        let a = &volume.adaptive;
         let flags = [
             (w.backface, WEIGHT_BACKFACE),
             (w.chebyshev, WEIGHT_CHEBYSHEV),
@@ -88,6 +137,7 @@ impl DdgiVolumeGpu {
             (w.trilinear, WEIGHT_TRILINEAR),
             (volume.relocation, RELOCATION),
             (volume.classification, CLASSIFICATION),
+            (volume.adaptive.enabled, ADAPTIVE),
         ]
         .iter()
         .filter(|(on, _)| *on)
@@ -119,6 +169,14 @@ impl DdgiVolumeGpu {
             recheck: u32::from(recheck),
             irradiance_atlas_size: layout.irradiance_atlas.as_vec2().to_array(),
             distance_atlas_size: layout.distance_atlas.as_vec2().to_array(),
+            min_rays: a.min_rays.clamp(1, volume.rays_per_probe),
+            recheck_rays: volume.recheck_rays.clamp(1, volume.rays_per_probe),
+            error_target: a.error_target,
+            error_decay: a.decay,
+            error_smoothing: a.error_smoothing,
+            error_floor: a.error_floor,
+            dark_fraction: if a.enabled { a.dark_fraction } else { 0.0 },
+            frame_budget: if a.enabled { a.frame_budget.unwrap_or(0) } else { 0 },
         }
     }
 }
@@ -128,5 +186,6 @@ pub const GPU_STRUCTS: &[(&str, usize, &str)] = &[
     ("DdgiVolumeGpu", size_of::<DdgiVolumeGpu>(), "ddgi.inc.wgsl"),
     ("DdgiProbeData", size_of::<DdgiProbeData>(), "ddgi.inc.wgsl"),
     ("DdgiRay", size_of::<DdgiRay>(), "ddgi.inc.wgsl"),
+    ("DdgiCounters", size_of::<DdgiCounters>(), "ddgi.inc.wgsl"),
     ("DdgiGatherParams", size_of::<DdgiGatherParams>(), "ddgi_gather.wgsl"),
 ];

@@ -55,7 +55,7 @@ use engine::render::gpu_scene::{flush_uploads, prepare_gpu_scene};
 use engine::render::{FrameScript, frame_script_is};
 
 pub use render::{DdgiGpuVolumes, DdgiOutput, DdgiPipelines, VolumeGpu};
-pub use volume::{DdgiLayout, DdgiProbe, DdgiProbeState, DdgiSettingsError, DdgiVolume, DdgiWeights};
+pub use volume::{DdgiAdaptive, DdgiLayout, DdgiProbe, DdgiProbePin, DdgiProbeState, DdgiSettingsError, DdgiVolume, DdgiWeights};
 
 /// The name of the DDGI frame script.
 pub const FRAME_SCRIPT: &str = "ddgi";
@@ -83,7 +83,7 @@ impl Plugin for DdgiPlugin {
             .init_resource::<DdgiOutput>()
             .add_systems(
                 engine::app::Prepare,
-                (render::read_back_ddgi_probes, render::prepare_ddgi_volumes).chain().after(prepare_gpu_scene),
+                (render::read_back_ddgi_probes, render::prepare_ddgi_volumes, render::upload_ddgi_probe_pins).chain().after(prepare_gpu_scene),
             )
             .add_systems(engine::app::Render, render::render_ddgi_frame.run_if(frame_script_is(FRAME_SCRIPT)).after(flush_uploads));
     }

@@ -16,8 +16,8 @@ use engine::shader::{Program, ShaderError, compute_program, compute_program_with
 use engine::wgpu;
 use glam::{Mat3, Quat, Vec3};
 
-use crate::gpu::{DdgiGatherParams, DdgiProbeData, DdgiVolumeGpu, PROBE_FRESH, PROBE_INACTIVE};
-use crate::volume::{DdgiLayout, DdgiLimits, DdgiProbe, DdgiProbeState, DdgiVolume};
+use crate::gpu::{DdgiCounters, DdgiGatherParams, DdgiProbeData, DdgiVolumeGpu, NO_PIN, PIN_ACTIVE, PIN_INACTIVE, PROBE_INACTIVE};
+use crate::volume::{DdgiLayout, DdgiLimits, DdgiProbe, DdgiProbePin, DdgiProbeState, DdgiVolume};
 
 /// Format of both atlases (irradiance perceptually encoded; distances
 /// divided by the volume's distance scale, so half floats neither overflow nor lose precision at
@@ -60,6 +60,7 @@ impl Specialization {
 /// Pipelines of the DDGI passes.
 #[derive(Resource)]
 pub struct DdgiPipelines {
+    plan: ComputeProgram,
     generate: ComputeProgram,
     specialized: HashMap<Specialization, (ComputeProgram, ComputeProgram)>,
     update_irradiance: ComputeProgram,
@@ -78,6 +79,7 @@ impl DdgiPipelines {
     pub fn new(gpu: &GpuContext) -> Result<Self, ShaderError> {
         let p = |file: &str, entry: &str| compute_program(&gpu.device, file, entry, entry).map(Arc::new);
         Ok(Self {
+            plan: p("ddgi_rays.wgsl", "plan_rays")?,
             generate: p("ddgi_rays.wgsl", "generate_rays")?,
             specialized: HashMap::new(),
             update_irradiance: p("ddgi_update.wgsl", "update_irradiance")?,
@@ -119,6 +121,8 @@ pub struct VolumeGpu {
     pub settings: DdgiVolume,
     pub uniform: wgpu::Buffer,
     pub probes: wgpu::Buffer,
+    /// The budget pass's results: the indirect dispatch of the ray passes and the ray count.
+    pub counters: wgpu::Buffer,
     pub rays: wgpu::Buffer,
     pub surfels: wgpu::Buffer,
     pub radiance: wgpu::Buffer,
@@ -135,7 +139,8 @@ pub struct VolumeGpu {
     rng: SplitMix64,
     /// The probe entities, by probe index.
     pub probe_entities: Vec<Entity>,
-    readback: ProbeReadback,
+    readback: ReadbackRing,
+    counter_readback: ReadbackRing,
     /// The last probe data read back (offsets and states), by probe index.
     pub probe_data: Vec<DdgiProbeData>,
 }
@@ -148,8 +153,9 @@ impl VolumeGpu {
             device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size: size.max(16), usage, mapped_at_creation: false })
         };
         let rays = u64::from(layout.probe_count) * u64::from(settings.rays_per_probe) * crate::volume::BYTES_PER_RAY;
-        let probes = buffer("ddgi_probes", u64::from(layout.probe_count) * 16, B::STORAGE | B::COPY_SRC | B::COPY_DST);
-        let initial = vec![DdgiProbeData { offset: [0.0; 3], state: PROBE_FRESH }; layout.probe_count as usize];
+        let probe_bytes = size_of::<DdgiProbeData>() as u64;
+        let probes = buffer("ddgi_probes", u64::from(layout.probe_count) * probe_bytes, B::STORAGE | B::COPY_SRC | B::COPY_DST);
+        let initial = vec![DdgiProbeData::NEW; layout.probe_count as usize];
         gpu.queue.write_buffer(&probes, 0, bytemuck::cast_slice(&initial));
         let texture = |label: &str, size: glam::UVec2| {
             device.create_texture(&wgpu::TextureDescriptor {
@@ -171,6 +177,7 @@ impl VolumeGpu {
         Self {
             uniform: buffer("ddgi_volume", size_of::<DdgiVolumeGpu>() as u64, B::UNIFORM | B::COPY_DST),
             probes,
+            counters: buffer("ddgi_counters", size_of::<DdgiCounters>() as u64, B::STORAGE | B::INDIRECT | B::COPY_SRC),
             rays: buffer("ddgi_rays", rays, B::STORAGE | B::COPY_SRC),
             surfels: buffer("ddgi_surfels", rays, B::STORAGE),
             radiance: buffer("ddgi_radiance", rays, B::STORAGE | B::COPY_SRC),
@@ -182,7 +189,8 @@ impl VolumeGpu {
             frames: 0,
             rng: SplitMix64::new(settings.seed),
             probe_entities: Vec::new(),
-            readback: ProbeReadback::default(),
+            readback: ReadbackRing::new(3),
+            counter_readback: ReadbackRing::new(8),
             probe_data: initial,
             settings: settings.clone(),
             layout,
@@ -208,6 +216,8 @@ impl VolumeGpu {
             ("ddgi_irradiance_history", self.irradiance_history.as_entire_binding()),
             ("ddgi_distance_history", self.distance_history.as_entire_binding()),
             ("ddgi_atlas_out", wgpu::BindingResource::TextureView(atlas_out)),
+            ("ddgi_counters", self.counters.as_entire_binding()),
+            ("ddgi_counters_in", self.counters.as_entire_binding()),
         ]
     }
 
@@ -360,6 +370,7 @@ pub fn prepare_ddgi_volumes(
                             position: v.layout.grid_position(i),
                             state: DdgiProbeState::Active,
                             ray_count: volume.rays_per_probe,
+                            error: 0.0,
                         })
                         .id()
                 })
@@ -403,6 +414,7 @@ fn add_volume_update(
     let device = &gpu.device;
     let label = |name: &str| format!("{name}{suffix}");
     let mut probes = graph.import_buffer(&label("ddgi_probes"), &volume.probes);
+    let mut counters = graph.import_buffer(&label("ddgi_counters"), &volume.counters);
     let mut rays = graph.import_buffer(&label("ddgi_rays"), &volume.rays);
     let mut surfels = graph.import_buffer(&label("ddgi_surfels"), &volume.surfels);
     let mut radiance = graph.import_buffer(&label("ddgi_radiance"), &volume.radiance);
@@ -410,7 +422,6 @@ fn add_volume_update(
     let mut distance = graph.import_texture(&label("ddgi_distance"), &volume.distance);
     let mut irradiance_history = graph.import_buffer(&label("ddgi_irradiance_history"), &volume.irradiance_history);
     let mut distance_history = graph.import_buffer(&label("ddgi_distance_history"), &volume.distance_history);
-    let ray_groups = engine::rt::ray_workgroups(volume.layout.probe_count * volume.settings.rays_per_probe);
     let probe_groups = per_probe_groups(volume.layout.probe_count);
     let (trace, shade) = pipelines.ray_programs(gpu, specialization)?;
     let sampler = &pipelines.sampler;
@@ -438,26 +449,51 @@ fn add_volume_update(
         }
     };
     let common = volume.common_bindings(sampler);
+    // The ray passes run as many threads as the budget pass packed rays (indirect dispatch).
+    let record_rays = |program: ComputeProgram, bind: Vec<wgpu::BindGroup>| {
+        let args = volume.counters.clone();
+        move |ctx: &mut engine::graph::PassContext<'_>| {
+            let mut cp = ctx.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(ctx.label), timestamp_writes: None });
+            cp.set_pipeline(&program.pipeline);
+            for (i, g) in bind.iter().enumerate() {
+                cp.set_bind_group(i as u32, g, &[]);
+            }
+            cp.dispatch_workgroups_indirect(&args, 0);
+        }
+    };
 
+    {
+        let mut pass = graph.add_pass(&label("ddgi_budget"));
+        pass.read(&probes);
+        pass.write(&mut probes);
+        pass.write(&mut counters);
+        if volume.settings.adaptive.enabled {
+            pass.note("adaptive: rays by each probe's temporal error");
+        }
+        let g = groups(&pipelines.plan, &common);
+        pass.render(record(pipelines.plan.clone(), g, (1, 1)));
+    }
     {
         let mut pass = graph.add_pass(&label("ddgi_ray_generation"));
         pass.read(&probes);
+        pass.read(&counters);
         pass.write(&mut rays);
         let g = groups(&pipelines.generate, &common);
-        pass.render(record(pipelines.generate.clone(), g, ray_groups));
+        pass.render(record_rays(pipelines.generate.clone(), g));
     }
     {
         let mut pass = graph.add_pass(&label("ddgi_trace"));
         pass.read(&probes);
+        pass.read(&counters);
         pass.read(&rays);
         pass.write(&mut surfels);
         pass.note(&specialization.note());
         let g = groups(&trace, &common);
-        pass.render(record(trace, g, ray_groups));
+        pass.render(record_rays(trace, g));
     }
     {
         let mut pass = graph.add_pass(&label("ddgi_ray_shading"));
-        for r in [&probes, &rays, &surfels] {
+        for r in [&probes, &counters, &rays, &surfels] {
             pass.read(r);
         }
         pass.read(&irradiance);
@@ -465,7 +501,7 @@ fn add_volume_update(
         pass.write(&mut radiance);
         pass.note(&specialization.note());
         let g = groups(&shade, &common);
-        pass.render(record(shade, g, ray_groups));
+        pass.render(record_rays(shade, g));
     }
     {
         let mut pass = graph.add_pass(&label("ddgi_irradiance_update"));
@@ -526,6 +562,7 @@ fn add_volume_update(
         let mut pass = graph.add_pass(&label("ddgi_classification"));
         pass.read(&rays);
         pass.read(&radiance);
+        pass.read(&counters);
         pass.read(&probes);
         pass.write(&mut probes);
         if !volume.settings.classification {
@@ -663,16 +700,17 @@ pub fn render_ddgi_frame(
     }
     drop(scene_bindings);
     frame.finish(script);
+    let frame_index = frame.time.frame;
     for (_, v) in volumes.volumes.iter_mut() {
         v.frames += 1;
-        v.readback.request(&gpu, &v.probes, v.frames);
+        v.readback.request(&gpu, &v.probes, frame_index);
+        v.counter_readback.request(&gpu, &v.counters, frame_index);
     }
 }
 
 // ---------------------------------------------------------------------------------------------
-// Asynchronous readback of the probe states into the ECS.
+// Asynchronous readback of the probe states and the ray counts into the ECS.
 
-const READBACK_SLOTS: usize = 3;
 const SLOT_IDLE: u8 = 0;
 const SLOT_PENDING: u8 = 1;
 const SLOT_READY: u8 = 2;
@@ -683,20 +721,24 @@ struct ReadbackSlot {
     frame: u64,
 }
 
-/// A ring of mappable copies of the probe buffer: one is requested per frame while a slot is free,
-/// and read when the GPU has filled it. Nothing waits.
-#[derive(Default)]
-struct ProbeReadback {
+/// A ring of mappable copies of a buffer: a copy is requested per frame while a slot is free, and
+/// read when the GPU has filled it. Nothing waits.
+struct ReadbackRing {
+    capacity: usize,
     slots: Vec<ReadbackSlot>,
 }
 
-impl ProbeReadback {
+impl ReadbackRing {
+    fn new(capacity: usize) -> Self {
+        Self { capacity, slots: Vec::new() }
+    }
+
     fn request(&mut self, gpu: &GpuContext, source: &wgpu::Buffer, frame: u64) {
         if self.slots.is_empty() {
-            self.slots = (0..READBACK_SLOTS)
+            self.slots = (0..self.capacity)
                 .map(|_| ReadbackSlot {
                     buffer: gpu.device.create_buffer(&wgpu::BufferDescriptor {
-                        label: Some("ddgi_probes_readback"),
+                        label: Some("ddgi_readback"),
                         size: source.size(),
                         usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
                         mapped_at_creation: false,
@@ -707,7 +749,7 @@ impl ProbeReadback {
                 .collect();
         }
         let Some(slot) = self.slots.iter_mut().find(|s| s.state.load(Ordering::Acquire) == SLOT_IDLE) else { return };
-        let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("ddgi_probes_readback") });
+        let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("ddgi_readback") });
         encoder.copy_buffer_to_buffer(source, 0, &slot.buffer, 0, source.size());
         gpu.queue.submit([encoder.finish()]);
         slot.frame = frame;
@@ -718,49 +760,94 @@ impl ProbeReadback {
         });
     }
 
-    /// The newest probe data that has arrived, if any (older arrivals are dropped).
-    fn poll(&mut self, gpu: &GpuContext) -> Option<Vec<DdgiProbeData>> {
+    /// Every copy that has arrived, as (frame, bytes), oldest first.
+    fn poll(&mut self, gpu: &GpuContext) -> Vec<(u64, Vec<u8>)> {
         let _ = gpu.device.poll(wgpu::PollType::Poll);
-        let mut newest: Option<(u64, Vec<DdgiProbeData>)> = None;
+        let mut out = Vec::new();
         for slot in &mut self.slots {
             if slot.state.load(Ordering::Acquire) != SLOT_READY {
                 continue;
             }
-            let data: Vec<DdgiProbeData> = match slot.buffer.slice(..).get_mapped_range() {
-                Ok(view) => bytemuck::pod_collect_to_vec(&view),
-                Err(_) => Vec::new(),
-            };
+            if let Ok(view) = slot.buffer.slice(..).get_mapped_range() {
+                out.push((slot.frame, view.to_vec()));
+            }
             slot.buffer.unmap();
             slot.state.store(SLOT_IDLE, Ordering::Release);
-            if newest.as_ref().is_none_or(|(f, _)| slot.frame > *f) && !data.is_empty() {
-                newest = Some((slot.frame, data));
-            }
         }
-        newest.map(|(_, d)| d)
+        out.sort_by_key(|(f, _)| *f);
+        out
     }
 }
 
 /// Prepare stage: copies the probe states that have come back from the GPU into the
-/// [`DdgiProbe`] components (only those that changed, so change detection stays meaningful).
-pub fn read_back_ddgi_probes(gpu: Res<GpuContext>, mut volumes: ResMut<DdgiGpuVolumes>, mut probes: Query<&mut DdgiProbe>) {
-    for (_, v) in volumes.volumes.iter_mut() {
-        let Some(data) = v.readback.poll(&gpu) else { continue };
+/// [`DdgiProbe`] components (only those that changed, so change detection stays meaningful), and
+/// the rays traced per frame into the frame timings (`ddgi_rays`).
+pub fn read_back_ddgi_probes(
+    gpu: Res<GpuContext>,
+    mut volumes: ResMut<DdgiGpuVolumes>,
+    mut probes: Query<&mut DdgiProbe>,
+    mut timings: ResMut<engine::render::FrameTimings>,
+) {
+    let several = volumes.volumes.len() > 1;
+    for (k, (_, v)) in volumes.volumes.iter_mut().enumerate() {
+        for (frame, bytes) in v.counter_readback.poll(&gpu) {
+            if let Some(c) = bytemuck::try_pod_read_unaligned::<DdgiCounters>(&bytes[..size_of::<DdgiCounters>().min(bytes.len())]).ok() {
+                let name = if several { format!("ddgi_rays_{k}") } else { "ddgi_rays".to_string() };
+                timings.record_counter(frame, &name, f64::from(c.total_rays));
+            }
+        }
+        let Some((_, bytes)) = v.readback.poll(&gpu).pop() else { continue };
+        let data: Vec<DdgiProbeData> = bytemuck::pod_collect_to_vec(&bytes);
         if data.len() < v.layout.probe_count as usize {
             continue;
         }
         v.probe_data = data;
         for (i, &entity) in v.probe_entities.iter().enumerate() {
             let Ok(mut probe) = probes.get_mut(entity) else { continue };
-            let offset = Vec3::from_array(v.probe_data[i].offset);
-            let state = v.probe_state(i);
+            let d = v.probe_data[i];
+            let offset = Vec3::from_array(d.offset);
             let next = DdgiProbe {
                 offset,
                 position: v.layout.grid_position(i as u32) + offset,
-                state,
-                ray_count: if state == DdgiProbeState::Active { v.settings.rays_per_probe } else { 0 },
+                state: v.probe_state(i),
+                ray_count: d.ray_count,
+                error: d.error,
                 ..probe.clone()
             };
             probe.set_if_neq(next);
+        }
+    }
+}
+
+/// Prepare stage: writes the pins of probes whose [`DdgiProbePin`] was added, changed or removed
+/// into the GPU's probe data.
+pub fn upload_ddgi_probe_pins(
+    gpu: Res<GpuContext>,
+    volumes: Res<DdgiGpuVolumes>,
+    pins: Query<(&DdgiProbe, &DdgiProbePin), Changed<DdgiProbePin>>,
+    mut unpinned: RemovedComponents<DdgiProbePin>,
+    probes: Query<&DdgiProbe>,
+) {
+    let write = |probe: &DdgiProbe, pin: Option<&DdgiProbePin>| {
+        let Some(v) = volumes.get(probe.volume) else { return };
+        if probe.index >= v.layout.probe_count {
+            return;
+        }
+        let rays = pin.and_then(|p| p.rays).unwrap_or(NO_PIN);
+        let state = match pin.and_then(|p| p.state) {
+            Some(DdgiProbeState::Active) => PIN_ACTIVE,
+            Some(DdgiProbeState::Inactive) => PIN_INACTIVE,
+            None => 0,
+        };
+        let offset = u64::from(probe.index) * size_of::<DdgiProbeData>() as u64 + std::mem::offset_of!(DdgiProbeData, pinned_rays) as u64;
+        gpu.queue.write_buffer(&v.probes, offset, bytemuck::cast_slice(&[rays, state]));
+    };
+    for (probe, pin) in &pins {
+        write(probe, Some(pin));
+    }
+    for entity in unpinned.read() {
+        if let Ok(probe) = probes.get(entity) {
+            write(probe, None);
         }
     }
 }

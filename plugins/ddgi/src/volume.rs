@@ -37,6 +37,59 @@ impl Default for DdgiWeights {
     }
 }
 
+/// Adaptive ray budgets (off by default): rays go where the lighting changes, and probes that
+/// contribute nothing stop costing anything.
+///
+/// Each probe's *temporal error* is the SMAPE, in YCoCg, between each frame's estimate of its
+/// irradiance map and the map itself, averaged over its texels and smoothed over frames. A probe
+/// gets `min_rays + (rays_per_probe − min_rays) · min(error / error_target, 1)` rays: at once when
+/// its error rises, shrinking by `decay` per frame when it falls. With fewer rays its hysteresis
+/// rises in proportion, so a small budget does not flicker. Probes that, like their six neighbours,
+/// see almost no light are switched off (and woken by the re-checks).
+#[derive(Clone, Debug, PartialEq)]
+pub struct DdgiAdaptive {
+    pub enabled: bool,
+    /// Fewest rays of an active probe (≥ 1).
+    pub min_rays: u32,
+    /// Smoothed error at which a probe gets the volume's full `rays_per_probe`. Lower: more rays
+    /// everywhere (closer to a fixed budget).
+    pub error_target: f32,
+    /// Factor by which a quiet probe's budget shrinks per frame, in [0, 1].
+    pub decay: f32,
+    /// Weight of the old error in the smoothed one, in [0, 1].
+    pub error_smoothing: f32,
+    /// Added to SMAPE's denominator (W/m²), so near-black texels do not explode the ratio.
+    pub error_floor: f32,
+    /// A probe is dark, and switched off, when it and its six neighbours see less luma than this
+    /// share of the brightest probe's.
+    pub dark_fraction: f32,
+    /// Largest total of rays per frame; over it, every probe's share shrinks in proportion (so
+    /// the budget goes where the error asked for it). `None`: no limit.
+    pub frame_budget: Option<u32>,
+}
+
+impl Default for DdgiAdaptive {
+    fn default() -> Self {
+        Self {
+            enabled: false,
+            min_rays: 16,
+            error_target: 0.1,
+            decay: 0.9,
+            error_smoothing: 0.8,
+            error_floor: 1e-3,
+            dark_fraction: 1e-3,
+            frame_budget: None,
+        }
+    }
+}
+
+impl DdgiAdaptive {
+    /// Adaptive budgets on, with the default parameters.
+    pub fn on() -> Self {
+        Self { enabled: true, ..Default::default() }
+    }
+}
+
 /// A volume of irradiance probes. Add it to an entity to light the scene inside its bounds with
 /// dynamic diffuse global illumination; several volumes may coexist (each pixel blends the volumes
 /// that contain it; a volume's probe rays read only its own probes).
@@ -94,6 +147,10 @@ pub struct DdgiVolume {
     /// Inactive probes trace again every this many frames (and whenever instances move) so that
     /// they wake when the scene changes. 0: only when instances move.
     pub recheck_interval: u32,
+    /// Rays of an inactive probe on a re-check frame.
+    pub recheck_rays: u32,
+    /// Adaptive per-probe ray budgets and the switching off of dark probes.
+    pub adaptive: DdgiAdaptive,
     /// Seed of the per-frame random rotation of the ray directions.
     pub seed: u64,
 }
@@ -119,6 +176,8 @@ impl Default for DdgiVolume {
             backface_threshold: 0.25,
             min_frontface_distance: 0.1,
             recheck_interval: 16,
+            recheck_rays: 16,
+            adaptive: DdgiAdaptive::default(),
             seed: 0xdd61,
         }
     }
@@ -180,6 +239,32 @@ impl DdgiVolume {
                 return Err(invalid(field, value, "must be finite and not negative"));
             }
         }
+        let a = &self.adaptive;
+        let fractions = [
+            ("adaptive.decay", a.decay),
+            ("adaptive.error_smoothing", a.error_smoothing),
+            ("adaptive.dark_fraction", a.dark_fraction),
+        ];
+        for (field, value) in fractions {
+            if !(0.0..=1.0).contains(&value) {
+                return Err(invalid(field, value, "must be between 0 and 1"));
+            }
+        }
+        if !(a.error_target.is_finite() && a.error_target > 0.0) {
+            return Err(invalid("adaptive.error_target", a.error_target, "must be finite and positive"));
+        }
+        if !(a.error_floor.is_finite() && a.error_floor >= 0.0) {
+            return Err(invalid("adaptive.error_floor", a.error_floor, "must be finite and not negative"));
+        }
+        if a.min_rays == 0 || a.min_rays > self.rays_per_probe {
+            return Err(invalid("adaptive.min_rays", a.min_rays, "must be between 1 and rays_per_probe"));
+        }
+        if a.frame_budget == Some(0) {
+            return Err(invalid("adaptive.frame_budget", 0, "must be positive (None: no limit)"));
+        }
+        if self.recheck_rays == 0 {
+            return Err(invalid("recheck_rays", 0, "must be at least 1"));
+        }
         if !(self.distance_sharpness.is_finite() && self.distance_sharpness > 0.0) {
             return Err(invalid("distance_sharpness", self.distance_sharpness, "must be finite and positive"));
         }
@@ -230,8 +315,18 @@ pub struct DdgiProbe {
     /// World position (grid position + offset).
     pub position: Vec3,
     pub state: DdgiProbeState,
-    /// Rays traced per frame.
+    /// Rays traced in the frame read back.
     pub ray_count: u32,
+    /// Temporal error (smoothed SMAPE in YCoCg between each frame's estimate and the maps).
+    pub error: f32,
+}
+
+/// Insert beside a [`DdgiProbe`] to pin the probe: a fixed ray count and/or a state, whatever its
+/// error and classification say. Remove it to unpin.
+#[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
+pub struct DdgiProbePin {
+    pub rays: Option<u32>,
+    pub state: Option<DdgiProbeState>,
 }
 
 /// A volume's settings resolved against its bounds and the adapter: where every probe and tile is.
