@@ -791,7 +791,7 @@ pub fn read_back_ddgi_probes(
     let several = volumes.volumes.len() > 1;
     for (k, (_, v)) in volumes.volumes.iter_mut().enumerate() {
         for (frame, bytes) in v.counter_readback.poll(&gpu) {
-            if let Some(c) = bytemuck::try_pod_read_unaligned::<DdgiCounters>(&bytes[..size_of::<DdgiCounters>().min(bytes.len())]).ok() {
+            if let Ok(c) = bytemuck::try_pod_read_unaligned::<DdgiCounters>(&bytes[..size_of::<DdgiCounters>().min(bytes.len())]) {
                 let name = if several { format!("ddgi_rays_{k}") } else { "ddgi_rays".to_string() };
                 timings.record_counter(frame, &name, f64::from(c.total_rays));
             }
