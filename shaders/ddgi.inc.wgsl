@@ -67,7 +67,8 @@ struct DdgiProbeData {
     offset: vec3<f32>,
     // DDGI_PROBE_* bits.
     state: u32,
-    // Temporal error: SMAPE in YCoCg between each frame's estimate and the maps, smoothed.
+    // Temporal error: the mean over the map's texels of the SMAPE, in YCoCg, between the map and
+    // the map plus the smoothed change that each frame's estimate asks of it.
     error: f32,
     // Rays this frame, and where they start among the frame's packed rays.
     ray_count: u32,
@@ -135,11 +136,18 @@ const DDGI_IRRADIANCE_GAMMA: f32 = 5.0;
 @group(1) @binding(6) var<storage, read_write> ddgi_surfels: array<vec4<u32>>;
 // Shaded rays: (radiance, stored distance: t, -DDGI_BACKFACE_SCALE·t or DDGI_MISS).
 @group(1) @binding(7) var<storage, read_write> ddgi_radiance: array<vec4<f32>>;
+// One irradiance texel at full precision: the irradiance (rgb) and the exponential moving average
+// of each frame's estimate minus the map (rgb), from which the probe's temporal error comes.
+struct DdgiTexel {
+    irradiance: vec4<f32>,
+    change: vec4<f32>,
+}
+
 // The maps at full float precision, texel t of probe p at p · n² + t: the updates blend into these
 // (a half-float atlas would stall once a frame's change falls under half a unit in the last place,
 // up to several percent short of the target at hysteresis 0.97), and the border pass encodes them
 // into the atlases that sampling reads. Irradiance linear (rgb); distance moments over distance_scale.
-@group(1) @binding(8) var<storage, read_write> ddgi_irradiance_history: array<vec4<f32>>;
+@group(1) @binding(8) var<storage, read_write> ddgi_irradiance_history: array<DdgiTexel>;
 @group(1) @binding(9) var<storage, read_write> ddgi_distance_history: array<vec2<f32>>;
 @group(1) @binding(10) var ddgi_atlas_out: texture_storage_2d<rgba16float, write>;
 @group(1) @binding(11) var<storage, read_write> ddgi_counters: DdgiCounters;

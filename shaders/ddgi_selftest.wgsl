@@ -32,3 +32,15 @@ fn rgb9e5_round_trip(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     selftest_out[id.x] = vec4<f32>(ddgi_unpack_rgb9e5(ddgi_pack_rgb9e5(selftest_in[id.x].xyz)), 0.0);
 }
+
+// SMAPE in YCoCg of the pairs (selftest_in[2i].rgb, selftest_in[2i + 1].rgb) with the floor
+// selftest_in[2i].w, into selftest_out[i].x (the second half of the output is unused).
+@compute @workgroup_size(64)
+fn smape_pairs(@builtin(global_invocation_id) id: vec3<u32>) {
+    if 2u * id.x + 1u >= arrayLength(&selftest_in) {
+        return;
+    }
+    let a = selftest_in[2u * id.x];
+    let b = selftest_in[2u * id.x + 1u];
+    selftest_out[id.x] = vec4<f32>(ddgi_smape_ycocg(a.rgb, b.rgb, a.w), 0.0, 0.0, 0.0);
+}

@@ -44,6 +44,8 @@ fn ddgi_hysteresis(data: DdgiProbeData) -> f32 {
     if !ddgi_has(DDGI_ADAPTIVE) {
         return h;
     }
+    // 1 − h in proportion to the share of rays keeps the variance of the maps, (1 − h) / r; a
+    // quiet probe converges slower, and a change gives it its rays (and its hysteresis) back.
     let share = f32(data.ray_count) / f32(max(ddgi_volume.rays_per_probe, 1u));
     return 1.0 - (1.0 - h) * clamp(share, 0.0, 1.0);
 }
@@ -88,7 +90,8 @@ fn update_irradiance(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_inv
         }
         if valid {
             let slot = probe * n * n + texel;
-            let old = ddgi_irradiance_history[slot].rgb;
+            let old = ddgi_irradiance_history[slot].irradiance.rgb;
+            var change = vec3<f32>(0.0);
             var result = old;
             // A texel no ray reached this frame keeps its value.
             if sum.w > 1e-6 {
@@ -96,7 +99,11 @@ fn update_irradiance(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_inv
                 if fresh {
                     result = sample;
                 } else {
-                    error += vec2<f32>(ddgi_smape_ycocg(sample, old, ddgi_volume.error_floor), 1.0);
+                    // What this frame's estimate asks of the map, smoothed over frames so that
+                    // noise averages out and a lasting change stands out.
+                    let smoothing = clamp(ddgi_volume.error_smoothing, 0.0, 1.0);
+                    change = mix(sample - old, ddgi_irradiance_history[slot].change.rgb, smoothing);
+                    error += vec2<f32>(ddgi_smape_ycocg(old + change, old, ddgi_volume.error_floor), 1.0);
                     let threshold = ddgi_volume.firefly_threshold;
                     if threshold > 0.0 && luminance(old) > 0.0 && luminance(sample) > (1.0 + threshold) * luminance(old) {
                         sample = old + (sample - old) * 0.25;
@@ -104,11 +111,12 @@ fn update_irradiance(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_inv
                     result = mix(sample, old, h);
                 }
             }
-            ddgi_irradiance_history[slot] = vec4<f32>(min(sanitize_radiance(result), vec3<f32>(1e24)), 1.0);
+            let finite_change = select(vec3<f32>(0.0), change, change == change);
+            ddgi_irradiance_history[slot] = DdgiTexel(vec4<f32>(min(sanitize_radiance(result), vec3<f32>(1e24)), 1.0), vec4<f32>(finite_change, 0.0));
         }
     }
-    // The probe's temporal error: the mean SMAPE over the texels that got rays, smoothed over
-    // frames. A fresh probe starts at the target (its maps hold nothing to compare with).
+    // The probe's temporal error: the mean over the texels that got rays. A fresh probe starts at
+    // the target (its maps hold nothing to compare with).
     wg_error[local] = error;
     workgroupBarrier();
     if local == 0u {
@@ -116,12 +124,11 @@ fn update_irradiance(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_inv
         for (var k = 0u; k < DDGI_GROUP; k++) {
             total += wg_error[k];
         }
-        var smoothed = ddgi_volume.error_target;
+        var e = ddgi_volume.error_target;
         if !fresh {
-            let mean = select(data.error, total.x / total.y, total.y > 0.0);
-            smoothed = mix(mean, data.error, clamp(ddgi_volume.error_smoothing, 0.0, 1.0));
+            e = select(data.error, total.x / total.y, total.y > 0.0);
         }
-        ddgi_probes[probe].error = select(0.0, smoothed, smoothed == smoothed);
+        ddgi_probes[probe].error = select(0.0, e, e == e);
     }
 }
 
@@ -220,7 +227,7 @@ fn copy_irradiance_borders(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let source = ddgi_atlas_texel_source(id.xy, ddgi_volume.irradiance_texels);
     if source.x != 0u {
-        textureStore(ddgi_atlas_out, id.xy, vec4<f32>(ddgi_encode_irradiance(ddgi_irradiance_history[source.y].rgb), 1.0));
+        textureStore(ddgi_atlas_out, id.xy, vec4<f32>(ddgi_encode_irradiance(ddgi_irradiance_history[source.y].irradiance.rgb), 1.0));
     }
 }
 
@@ -351,7 +358,8 @@ fn relocate_probes(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invoc
     }
 }
 
-// Whether probe p and its six neighbours saw less than `threshold` of luma.
+// Whether probe p and those of its six neighbours that can light what it lights (active, not behind
+// a wall) saw less than `threshold` of luma.
 fn ddgi_dark_around(p: u32, own_luma: f32, threshold: f32) -> bool {
     if own_luma >= threshold {
         return false;
@@ -362,8 +370,17 @@ fn ddgi_dark_around(p: u32, own_luma: f32, threshold: f32) -> bool {
         var step = vec3<i32>(0);
         step[k / 2u] = select(-1, 1, (k & 1u) == 1u);
         let q = c + step;
-        if all(q >= vec3<i32>(0)) && all(q < counts) && ddgi_probes[ddgi_probe_index(vec3<u32>(q))].luma >= threshold {
-            return false;
+        if all(q >= vec3<i32>(0)) && all(q < counts) {
+            // A neighbour behind a wall (the probe's mean distance towards it is shorter than the
+            // step) lights nothing this probe does; one switched off lights nothing at all.
+            let axis = k / 2u;
+            let towards = vec3<f32>(step);
+            let uv = ddgi_atlas_uv(p, towards, ddgi_volume.distance_texels, ddgi_volume.distance_atlas_size);
+            let mean = textureSampleLevel(ddgi_distance, ddgi_sampler, uv, 0.0).x * ddgi_volume.distance_scale;
+            let n = ddgi_probes[ddgi_probe_index(vec3<u32>(q))];
+            if mean >= ddgi_volume.spacing[axis] && (n.state & DDGI_PROBE_INACTIVE) == 0u && n.luma >= threshold {
+                return false;
+            }
         }
     }
     return true;

@@ -81,6 +81,13 @@ impl Config {
         Config::ddgi(format!("ddgi_{}x{}x{}", probes[0], probes[1], probes[2]), scene, volume)
     }
 
+    /// [`Config::ddgi_default`] with adaptive ray budgets.
+    pub fn ddgi_adaptive(scene: &str) -> Config {
+        let probes = ddgi_paper_grid(scene);
+        let volume = ddgi::DdgiVolume { probe_counts: probes.into(), adaptive: ddgi::DdgiAdaptive::on(), ..Default::default() };
+        Config::ddgi(format!("ddgi_{}x{}x{}_adaptive", probes[0], probes[1], probes[2]), scene, volume)
+    }
+
     /// The quality table (every density × resolution) and the ablation of the visibility weights
     /// (none → back-face → Chebyshev → normal bias), in report order.
     pub fn ddgi_experiments(scene: &str) -> Vec<Config> {
@@ -119,6 +126,7 @@ impl Config {
         let mut list = vec![Config::Direct];
         list.extend(PATH_TRACE_LADDER.iter().map(|&spp| Config::PathTrace { spp }));
         list.push(Config::ddgi_default(scene));
+        list.push(Config::ddgi_adaptive(scene));
         if experiments {
             list.extend(Config::ddgi_experiments(scene));
         }
@@ -127,7 +135,7 @@ impl Config {
 
     /// The methods of the time series: each renders frame after frame and every frame is measured.
     pub fn time_series_list(scene: &str) -> Vec<Config> {
-        vec![Config::Direct, Config::PathTrace { spp: TIME_SERIES_SPP }, Config::ddgi_default(scene)]
+        vec![Config::Direct, Config::PathTrace { spp: TIME_SERIES_SPP }, Config::ddgi_default(scene), Config::ddgi_adaptive(scene)]
     }
 
     pub fn name(&self) -> String {

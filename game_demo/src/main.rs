@@ -174,6 +174,10 @@ struct DdgiArgs {
     /// Write the irradiance and distance atlases and the ray directions as images beside the output.
     #[arg(long)]
     dump_atlases: bool,
+    /// Adaptive ray budgets: each probe's rays follow its temporal error (between 16 and --rays),
+    /// and dark probes are switched off. `timings.json` records the rays traced per frame.
+    #[arg(long)]
+    adaptive: bool,
 }
 
 impl DdgiArgs {
@@ -184,6 +188,7 @@ impl DdgiArgs {
             irradiance_texels: self.irradiance_texels,
             distance_texels: self.distance_texels,
             hysteresis: self.hysteresis,
+            adaptive: ddgi::DdgiAdaptive { enabled: self.adaptive, min_rays: 16.min(self.rays.max(1)), ..Default::default() },
             ..Default::default()
         }
     }

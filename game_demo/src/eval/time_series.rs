@@ -136,6 +136,21 @@ pub struct SeriesRow {
     pub flip: f32,
     pub rmse: f64,
     pub gpu_ms: Option<f64>,
+    /// GPU milliseconds of DDGI's probe update (its passes but the camera's gather and composite).
+    pub update_ms: Option<f64>,
+    /// Rays DDGI traced (read back a few frames late: absent for the last frames of a run).
+    pub rays: Option<f64>,
+}
+
+/// GPU milliseconds of DDGI's probe update in one frame, if it ran.
+fn probe_update_ms(frame: &engine::render::FrameTiming) -> Option<f64> {
+    let update: Vec<f64> = frame
+        .passes
+        .iter()
+        .filter(|p| p.ran && p.label.starts_with("ddgi_") && !p.label.starts_with("ddgi_gather") && !p.label.starts_with("ddgi_composite"))
+        .filter_map(|p| p.gpu_ms)
+        .collect();
+    (!update.is_empty()).then(|| update.iter().sum())
 }
 
 /// The settled error of a series of errors (frames 0, 1, … after the change): the mean of its last
@@ -185,14 +200,21 @@ pub fn run(
                 return;
             }
             let error = compare(&reference, &read_hdr(gpu, world), width, height, EXPOSURE);
-            let gpu_ms = world.resource::<FrameTimings>().frames.last().and_then(frame_gpu_ms);
-            rows.push(SeriesRow { frame, config: config.name(), flip: error.mean_flip, rmse: error.rmse, gpu_ms });
+            let last = world.resource::<FrameTimings>().frames.last();
+            let (gpu_ms, update_ms) = (last.and_then(frame_gpu_ms), last.and_then(probe_update_ms));
+            rows.push(SeriesRow { frame, config: config.name(), flip: error.mean_flip, rmse: error.rmse, gpu_ms, update_ms, rays: None });
             if frame == -1
                 && let Some(mut transform) = world.get_mut::<Transform>(entity)
             {
                 *transform = change.after;
             }
         });
+        // Rays per frame come back a few frames late: match them to their rows now.
+        let rays = app.world().resource::<FrameTimings>().counter("ddgi_rays");
+        for row in rows.iter_mut().filter(|r| r.config == config.name()) {
+            let app_frame = (row.frame + i64::from(settle)) as u64;
+            row.rays = rays.iter().find(|(f, _)| *f == app_frame).map(|(_, v)| *v);
+        }
         let flips: Vec<f32> = rows.iter().filter(|r| r.config == config.name()).map(|r| r.flip).collect();
         println!(
             "{:>18}: FLIP before the change {:.4}, first frame after {:.4}, last {:.4}",
@@ -209,10 +231,19 @@ pub fn run(
 }
 
 fn write_csv(path: &Path, rows: &[SeriesRow]) -> Result<(), String> {
-    let mut csv = String::from("frame,config,flip,rmse,gpu_ms\n");
+    let mut csv = String::from("frame,config,flip,rmse,gpu_ms,update_ms,rays\n");
+    let opt = |v: Option<f64>, digits: usize| v.map_or(String::new(), |v| format!("{v:.digits$}"));
     for r in rows {
-        let ms = r.gpu_ms.map_or(String::new(), |ms| format!("{ms:.4}"));
-        csv += &format!("{},{},{:.6},{:.6},{ms}\n", r.frame, r.config, r.flip, r.rmse);
+        csv += &format!(
+            "{},{},{:.6},{:.6},{},{},{}\n",
+            r.frame,
+            r.config,
+            r.flip,
+            r.rmse,
+            opt(r.gpu_ms, 4),
+            opt(r.update_ms, 4),
+            opt(r.rays, 0)
+        );
     }
     write(path, &csv)
 }
@@ -257,7 +288,7 @@ fn write_report(
          path traced at {} paths per pixel (another seed). Every frame is compared with it (mean FLIP on sRGB at exposure 1, RMSE on \
          linear radiance); frame -1 is the last one before the change, once the method has settled (frames before the change: {}). \
          A path tracer configuration adds its paths per pixel every frame and starts over when the scene changes.\n\n\
-         | configuration | FLIP before (frame -1) | FLIP at frame 0 | settled FLIP | frames to within 10% of it |\n|---|---:|---:|---:|---:|\n",
+         | configuration | FLIP before (frame -1) | FLIP at frame 0 | settled FLIP | frames to within 10% of it | rays/frame before | probe update ms before | rays/frame after |\n|---|---:|---:|---:|---:|---:|---:|---:|\n",
         change.description,
         options.width,
         options.height,
@@ -270,14 +301,26 @@ fn write_report(
         let (settled, from) = settling(&after);
         let at = |frame: i64| series.iter().find(|r| r.frame == frame).map_or("n/a".into(), |r| format!("{:.4}", r.flip));
         let from = from.map_or(format!("not within {frames} frames"), |f| f.to_string());
-        md += &format!("| {config} | {} | {} | {settled:.4} | {from} |\n", at(-1), at(0));
+        // The static phase: the last 10 frames before the change; after: every frame after it.
+        let mean = |rows: Vec<f64>| {
+            if rows.is_empty() { "n/a".to_string() } else { format!("{:.0}", rows.iter().sum::<f64>() / rows.len() as f64) }
+        };
+        let mean_ms = |rows: Vec<f64>| {
+            if rows.is_empty() { "n/a".to_string() } else { format!("{:.3}", rows.iter().sum::<f64>() / rows.len() as f64) }
+        };
+        let before = |r: &&&SeriesRow| (-10..0).contains(&r.frame);
+        let rays_before = mean(series.iter().filter(before).filter_map(|r| r.rays).collect());
+        let ms_before = mean_ms(series.iter().filter(before).filter_map(|r| r.update_ms).collect());
+        let rays_after = mean(series.iter().filter(|r| r.frame >= 0).filter_map(|r| r.rays).collect());
+        md += &format!("| {config} | {} | {} | {settled:.4} | {from} | {rays_before} | {ms_before} | {rays_after} |\n", at(-1), at(0));
     }
     md += &format!(
         "\nSettled FLIP: the mean over the last tenth of the frames (at least one); the path tracer keeps converging, so its \
          settled value and frame count depend on `--frames`. Frames to within 10%: the first frame after the change from which \
          every frame's FLIP is within 10% of the settled value.\n\n\
          Mean FLIP per frame, one series per configuration, log scale{plot_note}:\n\n![mean FLIP per frame](time_series.png)\n\n\
-         Every frame: [time_series.csv](time_series.csv) (frame, config, flip, rmse, gpu_ms).\n"
+         Every frame: [time_series.csv](time_series.csv) (frame, config, flip, rmse, gpu_ms, update_ms: DDGI's probe update, rays: \
+         DDGI's rays traced).\n"
     );
     write(&out.join("report.md"), &md)
 }

@@ -83,7 +83,9 @@ impl Plugin for DdgiPlugin {
             .init_resource::<DdgiOutput>()
             .add_systems(
                 engine::app::Prepare,
-                (render::read_back_ddgi_probes, render::prepare_ddgi_volumes, render::upload_ddgi_probe_pins).chain().after(prepare_gpu_scene),
+                (render::read_back_ddgi_probes, render::prepare_ddgi_volumes, render::upload_ddgi_probe_pins)
+                    .chain()
+                    .after(prepare_gpu_scene),
             )
             .add_systems(engine::app::Render, render::render_ddgi_frame.run_if(frame_script_is(FRAME_SCRIPT)).after(flush_uploads));
     }

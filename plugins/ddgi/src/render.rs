@@ -126,8 +126,8 @@ pub struct VolumeGpu {
     pub rays: wgpu::Buffer,
     pub surfels: wgpu::Buffer,
     pub radiance: wgpu::Buffer,
-    /// The maps at full precision (see `ddgi.inc.wgsl`): irradiance (vec4 per texel) and distance
-    /// moments (vec2 per texel), in probe order.
+    /// The maps at full precision (see `ddgi.inc.wgsl`): irradiance and its smoothed change (two
+    /// vec4 per texel) and distance moments (vec2 per texel), in probe order.
     pub irradiance_history: wgpu::Buffer,
     pub distance_history: wgpu::Buffer,
     /// The atlases that sampling reads (half floats, irradiance perceptually encoded).
@@ -181,7 +181,7 @@ impl VolumeGpu {
             rays: buffer("ddgi_rays", rays, B::STORAGE | B::COPY_SRC),
             surfels: buffer("ddgi_surfels", rays, B::STORAGE),
             radiance: buffer("ddgi_radiance", rays, B::STORAGE | B::COPY_SRC),
-            irradiance_history: buffer("ddgi_irradiance_history", texels(layout.irradiance_texels) * 16, B::STORAGE),
+            irradiance_history: buffer("ddgi_irradiance_history", texels(layout.irradiance_texels) * 32, B::STORAGE),
             distance_history: buffer("ddgi_distance_history", texels(layout.distance_texels) * 8, B::STORAGE),
             irradiance,
             distance,

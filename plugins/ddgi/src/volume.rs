@@ -40,11 +40,14 @@ impl Default for DdgiWeights {
 /// Adaptive ray budgets (off by default): rays go where the lighting changes, and probes that
 /// contribute nothing stop costing anything.
 ///
-/// Each probe's *temporal error* is the SMAPE, in YCoCg, between each frame's estimate of its
-/// irradiance map and the map itself, averaged over its texels and smoothed over frames. A probe
+/// Each probe's *temporal error*: per texel of its irradiance map, the change each frame's estimate
+/// asks of the texel, smoothed over frames (so that noise averages out and a lasting change stands
+/// out), measured as the SMAPE in YCoCg between the texel and the texel plus that change; averaged
+/// over the map. A probe
 /// gets `min_rays + (rays_per_probe − min_rays) · min(error / error_target, 1)` rays: at once when
 /// its error rises, shrinking by `decay` per frame when it falls. With fewer rays its hysteresis
-/// rises in proportion, so a small budget does not flicker. Probes that, like their six neighbours,
+/// rises in proportion (1 − h scales with the share of rays, which keeps the noise of its maps), so
+/// a small budget does not flicker. Probes that, like their six neighbours,
 /// see almost no light are switched off (and woken by the re-checks).
 #[derive(Clone, Debug, PartialEq)]
 pub struct DdgiAdaptive {
@@ -56,7 +59,8 @@ pub struct DdgiAdaptive {
     pub error_target: f32,
     /// Factor by which a quiet probe's budget shrinks per frame, in [0, 1].
     pub decay: f32,
-    /// Weight of the old error in the smoothed one, in [0, 1].
+    /// Weight of the old value in the exponential moving average of each texel's change, in
+    /// [0, 1]: higher averages the noise of small budgets out better but sees a change later.
     pub error_smoothing: f32,
     /// Added to SMAPE's denominator (W/m²), so near-black texels do not explode the ratio.
     pub error_floor: f32,
@@ -75,7 +79,7 @@ impl Default for DdgiAdaptive {
             min_rays: 16,
             error_target: 0.1,
             decay: 0.9,
-            error_smoothing: 0.8,
+            error_smoothing: 0.9,
             error_floor: 1e-3,
             dark_fraction: 1e-3,
             frame_budget: None,
@@ -240,11 +244,8 @@ impl DdgiVolume {
             }
         }
         let a = &self.adaptive;
-        let fractions = [
-            ("adaptive.decay", a.decay),
-            ("adaptive.error_smoothing", a.error_smoothing),
-            ("adaptive.dark_fraction", a.dark_fraction),
-        ];
+        let fractions =
+            [("adaptive.decay", a.decay), ("adaptive.error_smoothing", a.error_smoothing), ("adaptive.dark_fraction", a.dark_fraction)];
         for (field, value) in fractions {
             if !(0.0..=1.0).contains(&value) {
                 return Err(invalid(field, value, "must be between 0 and 1"));
@@ -400,7 +401,7 @@ impl DdgiLayout {
         let probes = u64::from(probe_count);
         let buffers = [
             ("per-ray buffer (probes × rays_per_probe × 16 bytes)", probes * u64::from(volume.rays_per_probe) * BYTES_PER_RAY),
-            ("irradiance map buffer (probes × irradiance_texels² × 16 bytes)", probes * u64::from(volume.irradiance_texels.pow(2)) * 16),
+            ("irradiance map buffer (probes × irradiance_texels² × 32 bytes)", probes * u64::from(volume.irradiance_texels.pow(2)) * 32),
             ("distance map buffer (probes × distance_texels² × 8 bytes)", probes * u64::from(volume.distance_texels.pow(2)) * 8),
         ];
         for (what, needed) in buffers {

@@ -218,7 +218,7 @@ fn read_frame(gpu: &GpuContext, app: &mut bevy_app::App) -> RenderedFrame {
     let hdr = engine::render::readback::read_rgba32f(gpu, &outputs.hdr);
     let ldr = engine::render::readback::read_texture(gpu, &outputs.ldr);
     let size = outputs.size;
-    let timings = std::mem::take(&mut world.resource_mut::<engine::render::FrameTimings>().frames);
+    let timings = world.resource::<engine::render::FrameTimings>().frames.clone();
     RenderedFrame { width: size.width, height: size.height, hdr, ldr, timings, adapter: gpu.adapter_name() }
 }
 
@@ -520,4 +520,228 @@ fn two_volumes_light_the_scene_like_one() {
     let flip = flip_rgba(&one.ldr, &two.ldr, 48);
     assert!(two.timings.last().expect("timings").passes.iter().any(|p| p.label == "ddgi_trace_1" && p.ran));
     assert!(flip < 0.12, "two half volumes differ from one whole volume by FLIP {flip}");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Adaptive ray budgets
+
+/// The CPU mirror of `ddgi_smape_ycocg`.
+fn smape_ycocg(a: Vec3, b: Vec3, floor: f32) -> f32 {
+    let ycocg = |c: Vec3| Vec3::new(0.25 * c.x + 0.5 * c.y + 0.25 * c.z, 0.5 * c.x - 0.5 * c.z, -0.25 * c.x + 0.5 * c.y - 0.25 * c.z);
+    let (x, y) = (ycocg(a), ycocg(b));
+    let e = (x - y).abs() / ((x.abs() + y.abs()) * 0.5 + Vec3::splat(floor) + Vec3::splat(1e-30));
+    e.dot(Vec3::new(0.5, 0.25, 0.25)).clamp(0.0, 2.0)
+}
+
+#[test]
+fn smape_in_ycocg_is_zero_for_equal_colours_symmetric_and_bounded_near_black() {
+    let Some(gpu) = gpu("smape_in_ycocg") else { return };
+    let floor = 1e-3;
+    let mut rng = engine::rng::SplitMix64::new(3);
+    let mut pairs: Vec<(Vec3, Vec3, f32)> = vec![
+        (Vec3::new(0.3, 0.2, 0.9), Vec3::new(0.3, 0.2, 0.9), floor),
+        (Vec3::ONE, Vec3::splat(0.5), 0.0),
+        (Vec3::ZERO, Vec3::splat(1e-7), floor),
+        (Vec3::ZERO, Vec3::ZERO, 0.0),
+        (Vec3::new(5.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 5.0), floor),
+    ];
+    for _ in 0..200 {
+        let mut c = || Vec3::new(rng.unit(), rng.unit(), rng.unit()) * 10f32.powf(rng.range(-4.0, 3.0));
+        let (a, b) = (c(), c());
+        pairs.push((a, b, floor));
+        pairs.push((b, a, floor));
+    }
+    let input: Vec<[f32; 4]> = pairs.iter().flat_map(|(a, b, f)| [a.extend(*f).to_array(), b.extend(0.0).to_array()]).collect();
+    let out = run_selftest(&gpu, "smape_pairs", &input);
+    let gpu_values: Vec<f32> = out.iter().take(pairs.len()).map(|o| o[0]).collect();
+    for ((a, b, f), g) in pairs.iter().zip(&gpu_values) {
+        let cpu = smape_ycocg(*a, *b, *f);
+        assert!((g - cpu).abs() <= 1e-5 + 1e-4 * cpu, "SMAPE({a}, {b}): GPU {g}, CPU {cpu}");
+        assert!((0.0..=2.0).contains(g), "SMAPE({a}, {b}) = {g} outside [0, 2]");
+    }
+    assert_eq!(gpu_values[0], 0.0, "identical colours");
+    // Grey 1 against grey 0.5: luma differs by 0.5 over a mean of 0.75, chroma is zero.
+    assert!((gpu_values[1] - 0.5 * 0.5 / 0.75).abs() < 1e-6, "{}", gpu_values[1]);
+    assert!(gpu_values[2] < 1e-3, "near black, the floor keeps the ratio small: {}", gpu_values[2]);
+    assert_eq!(gpu_values[3], 0.0, "black against black");
+    for k in 0..200 {
+        let (ab, ba) = (gpu_values[5 + 2 * k], gpu_values[6 + 2 * k]);
+        assert!((ab - ba).abs() <= 1e-6 * ab.max(1.0), "not symmetric: {ab} vs {ba}");
+    }
+}
+
+/// Rays traced per frame (read back asynchronously) of the last `n` frames that have a count.
+fn last_ray_counts(app: &bevy_app::App, n: usize) -> Vec<f64> {
+    let counts = app.world().resource::<engine::render::FrameTimings>().counter("ddgi_rays");
+    counts.iter().rev().take(n).map(|(_, v)| *v).collect()
+}
+
+fn mean(v: &[f64]) -> f64 {
+    v.iter().sum::<f64>() / v.len().max(1) as f64
+}
+
+#[test]
+fn adaptive_budgets_trace_fewer_rays_in_a_static_scene_at_the_same_error() {
+    let Some(gpu) = gpu("adaptive_budgets_trace_fewer_rays") else { return };
+    let reference = image::open(workspace_golden("cornell_pathtrace_reference.png")).expect("reference").to_rgba8();
+    let run = |adaptive: bool| {
+        let volume = DdgiVolume {
+            bounds: engine::builtin::builtin_gi_bounds("cornell"),
+            probe_counts: UVec3::new(6, 6, 6),
+            rays_per_probe: 128,
+            adaptive: ddgi::DdgiAdaptive { enabled: adaptive, ..Default::default() },
+            ..Default::default()
+        };
+        let settings = HeadlessSettings { width: REFERENCE_SIZE, height: REFERENCE_SIZE, frames: 200, ..Default::default() };
+        let scene = engine::builtin::builtin_scene("cornell").expect("cornell");
+        let frame =
+            render_scene_and_inspect(&gpu, scene, &settings, |app| use_ddgi(app, volume, DdgiOutput::Full), |_| {}).expect("render");
+        assert!(frame.hdr.iter().all(|v| v.is_finite()));
+        let rays: Vec<f64> = frame
+            .timings
+            .iter()
+            .rev()
+            .filter_map(|f| f.counters.iter().find(|(n, _)| n == "ddgi_rays").map(|(_, v)| *v))
+            .take(20)
+            .collect();
+        assert!(!rays.is_empty(), "rays per frame were read back");
+        (flip_rgba(reference.as_raw(), &frame.ldr, REFERENCE_SIZE), mean(&rays))
+    };
+    let (fixed_flip, fixed_rays) = run(false);
+    let (adaptive_flip, adaptive_rays) = run(true);
+    eprintln!(
+        "static cornell: fixed {fixed_rays:.0} rays per frame, FLIP {fixed_flip:.4}; adaptive {adaptive_rays:.0}, FLIP {adaptive_flip:.4}"
+    );
+    // Measured on lavapipe (2026-11-30): 25,652 rays and FLIP 0.1476 fixed, 14,463 and 0.1573
+    // adaptive (defaults). The error lost grows as the budget shrinks (error_target 0.25: 10,083
+    // rays, FLIP 0.166), so the bound on it is what the defaults are for.
+    assert!(adaptive_rays < 0.6 * fixed_rays, "adaptive budgets traced {adaptive_rays} rays per frame against {fixed_rays}");
+    // The rays it saved did not cost the image (no black holes where probes were switched off).
+    assert!(adaptive_flip <= 1.05 * fixed_flip + 0.005, "FLIP against the reference: adaptive {adaptive_flip}, fixed {fixed_flip}");
+}
+
+#[test]
+fn switching_a_light_on_raises_the_rays_within_a_few_frames() {
+    let Some(gpu) = gpu("switching_a_light_on_raises_the_rays") else { return };
+    // The Cornell box in the dark: its lamp's light off and its panel not glowing. Every probe
+    // sees black, its error is zero and it drops to the fewest rays.
+    let mut scene = engine::builtin::builtin_scene("cornell").expect("cornell");
+    let mut intensity = 0.0;
+    for node in &mut scene.nodes {
+        for c in &mut node.content {
+            if let NodeContent::PointLight(light) = c {
+                intensity = light.intensity;
+                light.intensity = 0.0;
+            }
+        }
+    }
+    for m in &mut scene.materials {
+        m.emissive = Vec3::ZERO;
+    }
+    let volume = DdgiVolume {
+        bounds: engine::builtin::builtin_gi_bounds("cornell"),
+        probe_counts: UVec3::new(6, 6, 6),
+        adaptive: ddgi::DdgiAdaptive::on(),
+        ..Default::default()
+    };
+    let (_, mut app) = run_ddgi(&gpu, scene, volume, 16, 120);
+    let settled = mean(&last_ray_counts(&app, 10));
+    assert!(settled > 0.0, "rays per frame were read back");
+    {
+        let world = app.world_mut();
+        let mut lights = world.query::<&mut engine::scene::PointLight>();
+        for mut light in lights.iter_mut(world) {
+            light.intensity = intensity;
+        }
+    }
+    run_headless(&mut app, 8);
+    let after = last_ray_counts(&app, 6);
+    let peak = after.iter().cloned().fold(0.0, f64::max);
+    eprintln!("rays per frame: settled {settled:.0}, after the light came on {after:?}");
+    assert!(peak > 3.0 * settled, "the rays did not follow the light: settled {settled}, then {after:?}");
+}
+
+/// A closed room (interior −1.5…1.5 × 0…3 × −1.5…1.5) with a doorway in its +Z wall closed by a
+/// door of its own, and a sun outside shining in through the doorway when the door is open.
+fn room_with_door() -> SceneDescription {
+    let mut s = SceneDescription { name: "room_with_door".into(), ..Default::default() };
+    let (lo, hi, t) = (Vec3::new(-1.5, 0.0, -1.5), Vec3::new(1.5, 3.0, 1.5), 0.2);
+    let (door_lo, door_hi) = (Vec3::new(-0.5, 0.0, hi.z), Vec3::new(0.5, 2.0, hi.z + t));
+    let mut parts = Vec::new();
+    for axis in 0..3 {
+        for positive in [false, true] {
+            let (mut a, mut b) = (lo - t, hi + t);
+            if positive {
+                a[axis] = hi[axis];
+            } else {
+                b[axis] = lo[axis];
+            }
+            if axis == 2 && positive {
+                parts.extend(engine::builtin::box_with_hole(a, b, door_lo, door_hi));
+            } else {
+                parts.push(engine::builtin::box_part(a, b));
+            }
+        }
+    }
+    let white = s.add_material(Material::diffuse("white", Vec3::splat(0.7)));
+    let room = s.add_mesh(engine::builtin::merge("room", &parts));
+    s.add_node("room", Transform::IDENTITY, None, vec![NodeContent::Meshes(vec![(room, white)])]);
+    // The door overlaps the doorway's edges, so that no ray slips through a crack.
+    let door = s.add_mesh(engine::builtin::cuboid("door", (door_hi - door_lo) * 0.5 + Vec3::new(0.1, 0.1, 0.0)));
+    s.add_node("door", Transform::from_translation((door_lo + door_hi) * 0.5), None, vec![NodeContent::Meshes(vec![(door, white)])]);
+    let ground = s.add_mesh(engine::builtin::quad("ground", glam::Vec2::splat(12.0)));
+    s.add_node("ground", Transform::from_xyz(0.0, -0.2, 0.0), None, vec![NodeContent::Meshes(vec![(ground, white)])]);
+    let sun = engine::scene::DirectionalLight { color: Vec3::ONE, intensity: 5.0 };
+    let sun_transform = Transform::IDENTITY.looking_at(Vec3::new(0.0, -0.5, -1.0), Vec3::Y);
+    s.add_node("sun", sun_transform, None, vec![NodeContent::DirectionalLight(sun)]);
+    s
+}
+
+#[test]
+fn dark_probes_switch_off_and_an_opening_door_wakes_them() {
+    let Some(gpu) = gpu("dark_probes_switch_off_and_an_opening_door_wakes_them") else { return };
+    // 1 m cells: the 2 × 2 × 2 probes at x, z = ±0.5 and y ≈ 1.1, 2.2 are inside the room.
+    let volume = DdgiVolume {
+        bounds: Some((Vec3::new(-3.0, -0.5, -3.0), Vec3::new(3.0, 4.0, 5.0))),
+        probe_counts: UVec3::new(6, 4, 8),
+        rays_per_probe: 64,
+        // The walls are thin against the 1 m cells, so DDGI's own leaking lights the closed room
+        // at about 1% of the sunlit probes' luma (measured: 0.2–1%): call that dark here.
+        adaptive: ddgi::DdgiAdaptive { dark_fraction: 0.02, ..ddgi::DdgiAdaptive::on() },
+        ..Default::default()
+    };
+    let (_, mut app) = run_ddgi(&gpu, room_with_door(), volume, 16, 40);
+    let inside = |app: &mut bevy_app::App| -> Vec<DdgiProbe> {
+        let world = app.world_mut();
+        world
+            .query::<&DdgiProbe>()
+            .iter(world)
+            .filter(|p| p.position.x.abs() < 1.4 && p.position.z.abs() < 1.4 && p.position.y > 0.2 && p.position.y < 2.8)
+            .cloned()
+            .collect()
+    };
+    let before = inside(&mut app);
+    assert_eq!(before.len(), 8, "{before:?}");
+
+    // A probe may be awake for a few frames after a noisy re-check (16 rays) finds it lit.
+    let asleep = before.iter().filter(|p| p.state == DdgiProbeState::Inactive).count();
+    assert!(asleep >= 6, "the closed room's probes are dark, but only {asleep} of 8 are off: {before:?}");
+    assert!(
+        before.iter().filter(|p| p.state == DdgiProbeState::Inactive).all(|p| p.ray_count <= 16),
+        "off probes trace at most the re-check rays"
+    );
+    // Open the door: move it out of the doorway.
+    {
+        let world = app.world_mut();
+        let mut doors = world.query::<(&engine::scene::Name, &mut Transform)>();
+        for (name, mut t) in doors.iter_mut(world) {
+            if name.0 == "door" {
+                t.translation.x += 3.0;
+            }
+        }
+    }
+    run_headless(&mut app, 12);
+    let after = inside(&mut app);
+    let awake = after.iter().filter(|p| p.state == DdgiProbeState::Active).count();
+    assert!(awake >= 6, "only {awake} of 8 probes woke after the door opened: {after:?}");
 }
