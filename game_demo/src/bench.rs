@@ -260,7 +260,8 @@ pub fn flat_rebuild_cost(app: &mut App) -> (Duration, usize) {
 }
 
 /// The passes of DDGI's probe update (everything but the camera's gather and composite).
-pub const DDGI_UPDATE_PASSES: [&str; 8] = [
+pub const DDGI_UPDATE_PASSES: [&str; 9] = [
+    "ddgi_budget",
     "ddgi_ray_generation",
     "ddgi_trace",
     "ddgi_ray_shading",
@@ -282,8 +283,8 @@ pub struct DdgiCell {
 }
 
 impl DdgiCell {
-    /// Rays per second of the full probe update (generation, trace, shading, map updates, borders,
-    /// relocation, classification).
+    /// Rays per second of the full probe update (budget, generation, trace, shading, map updates,
+    /// borders, relocation, classification).
     pub fn mrays_per_second(&self) -> f64 {
         self.rays as f64 / (self.update_ms * 1e-3) / 1e6
     }

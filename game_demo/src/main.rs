@@ -87,8 +87,8 @@ enum BenchCommand {
         #[arg(long)]
         cpu_only: bool,
     },
-    /// Full DDGI update throughput (rays per second of generation, trace, shading, map updates,
-    /// borders, relocation and classification; every probe active) for grids 16×8×16 … 32×32×32
+    /// Full DDGI update throughput (rays per second of the budget, generation, trace, shading, map
+    /// updates, borders, relocation and classification; every probe active) for grids 16×8×16 … 32×32×32
     /// and 32 … 256 rays per probe, the per-pass times, and the final gather at the camera's size.
     Ddgi {
         #[arg(long, default_value = "cathedral")]

@@ -82,16 +82,18 @@ fn time_series_measures_every_frame_and_the_path_tracer_converges_after_the_chan
 
     let csv = std::fs::read_to_string(out.join("time_series.csv")).expect("time_series.csv");
     let mut lines = csv.lines();
-    assert_eq!(lines.next(), Some("frame,config,flip,rmse,gpu_ms"));
+    assert_eq!(lines.next(), Some("frame,config,flip,rmse,gpu_ms,update_ms,rays"));
+    let mut rays: Vec<(String, Option<f64>)> = Vec::new();
     let rows: Vec<(i64, String, f64, f64)> = lines
         .map(|line| {
             let f: Vec<&str> = line.split(',').collect();
-            assert_eq!(f.len(), 5, "{line}");
+            assert_eq!(f.len(), 7, "{line}");
+            rays.push((f[1].to_string(), f[6].parse().ok()));
             (f[0].parse().expect("frame"), f[1].to_string(), f[2].parse().expect("flip"), f[3].parse().expect("rmse"))
         })
         .collect();
     let series = |config: &str| -> Vec<(i64, f64, f64)> { rows.iter().filter(|r| r.1 == config).map(|r| (r.0, r.2, r.3)).collect() };
-    let configs = ["direct", "pathtrace_4spp", "ddgi_8x8x8"];
+    let configs = ["direct", "pathtrace_4spp", "ddgi_8x8x8", "ddgi_8x8x8_adaptive"];
     for config in configs {
         let frames_seen: Vec<i64> = series(config).iter().map(|r| r.0).collect();
         assert_eq!(frames_seen, (-1..frames).collect::<Vec<_>>(), "{config}: one row per frame, from the last before the change");
@@ -100,6 +102,12 @@ fn time_series_measures_every_frame_and_the_path_tracer_converges_after_the_chan
     // DDGI's probes follow the moved lamp over the frames after the change (its hysteresis).
     let ddgi = series("ddgi_8x8x8");
     assert!(ddgi.last().expect("rows").2 < ddgi[1].2, "DDGI's error must fall as its probes follow the change: {ddgi:?}");
+    // DDGI's rows carry the rays it traced (read back a few frames late: the last ones may lack them).
+    for config in ["ddgi_8x8x8", "ddgi_8x8x8_adaptive"] {
+        let counted = rays.iter().filter(|(c, r)| c == config && r.is_some_and(|r| r > 0.0)).count();
+        assert!(counted >= frames as usize - 3, "{config}: rays on only {counted} rows");
+    }
+    assert!(rays.iter().filter(|(c, _)| c == "direct").all(|(_, r)| r.is_none()), "direct light traces no probe rays");
 
     // The path tracer starts over at the change and converges towards the changed scene.
     let pt = series("pathtrace_4spp");
