@@ -88,9 +88,19 @@ struct DdgiCounters {
     dispatch: vec3<u32>,
     total_rays: u32,
     max_luma: f32,
+    // The share of each probe's rays kept this frame under the frame budget.
+    budget_scale: f32,
     _pad0: u32,
     _pad1: u32,
-    _pad2: u32,
+}
+
+// One block of 256 probes in the budget's prefix sum: its rays (after and before the frame
+// budget), its brightest probe and where its rays start.
+struct DdgiBlock {
+    rays: u32,
+    unscaled_rays: u32,
+    max_luma: f32,
+    offset: u32,
 }
 
 // One probe ray: its direction and probe (DDGI_RAY_SKIP set when the probe traces nothing).
@@ -154,6 +164,7 @@ struct DdgiTexel {
 // The same buffer read-only, for the ray passes, which also take their indirect dispatch from it
 // (a dispatch may not write a buffer it reads its arguments from).
 @group(1) @binding(12) var<storage, read> ddgi_counters_in: DdgiCounters;
+@group(1) @binding(13) var<storage, read_write> ddgi_blocks: array<DdgiBlock>;
 
 fn ddgi_has(flag: u32) -> bool {
     return (ddgi_volume.flags & flag) != 0u;

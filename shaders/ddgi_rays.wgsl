@@ -65,41 +65,97 @@ fn ddgi_scan(value: u32, local: u32) -> vec2<u32> {
     return vec2<u32>(inclusive - value, total);
 }
 
-// One workgroup: every probe's ray count (scaled down to the frame budget if there is one), their
-// offsets in the packed ray array, the indirect dispatch of the ray passes, and the brightest
-// probe's luma (for the dark test of classification).
+// The budget pass, in five dispatches (a prefix sum over blocks of 256 probes):
+// 1. plan_rays: each probe's rays as its state and error ask (ray_count), and each block's sum and
+//    brightest probe;
+// 2. plan_budget_scale: one workgroup sums the blocks: the share of its rays each probe keeps under
+//    the frame budget;
+// 3. scale_rays: each probe's rays under that share, their offsets within the block, the block's sum;
+// 4. plan_ray_blocks: one workgroup scans the blocks' sums, writes the indirect dispatch of the ray
+//    passes and the brightest probe's luma;
+// 5. place_rays: each probe's offset plus its block's.
 @compute @workgroup_size(256)
-fn plan_rays(@builtin(local_invocation_index) local: u32) {
-    let n = ddgi_volume.probe_count;
-    var total = 0u;
-    var brightest = 0.0;
-    for (var first = 0u; first < n; first += DDGI_SCAN) {
-        let p = first + local;
-        var count = 0u;
-        if p < n {
-            count = ddgi_probe_budget(p);
-            brightest = max(brightest, ddgi_probes[p].luma);
-        }
-        total += ddgi_scan(count, local).y;
+fn plan_rays(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) local: u32) {
+    let p = group.x * DDGI_SCAN + local;
+    var count = 0u;
+    var luma = 0.0;
+    if p < ddgi_volume.probe_count {
+        count = ddgi_probe_budget(p);
+        ddgi_probes[p].ray_count = count;
+        luma = ddgi_probes[p].luma;
     }
-    // Over the frame budget: every probe's share shrinks in proportion (keeping one ray for
-    // probes that had any), so the budget goes where the error asked for it.
-    let budget = ddgi_volume.frame_budget;
-    let scale = select(1.0, f32(budget) / f32(max(total, 1u)), budget != 0u && total > budget);
-    var offset = 0u;
-    for (var first = 0u; first < n; first += DDGI_SCAN) {
-        let p = first + local;
-        var count = 0u;
-        if p < n {
-            count = ddgi_probe_budget(p);
-            if scale < 1.0 && count > 0u {
-                count = max(1u, u32(f32(count) * scale));
-            }
+    let total = ddgi_scan(count, local).y;
+    wg_max[local] = luma;
+    workgroupBarrier();
+    if local == 0u {
+        var m = 0.0;
+        for (var k = 0u; k < DDGI_SCAN; k++) {
+            m = max(m, wg_max[k]);
         }
-        let scan = ddgi_scan(count, local);
-        if p < n {
-            ddgi_probes[p].ray_count = count;
-            ddgi_probes[p].ray_offset = offset + scan.x;
+        ddgi_blocks[group.x] = DdgiBlock(0u, total, m, 0u);
+    }
+}
+
+fn ddgi_block_count() -> u32 {
+    return (ddgi_volume.probe_count + DDGI_SCAN - 1u) / DDGI_SCAN;
+}
+
+@compute @workgroup_size(256)
+fn plan_budget_scale(@builtin(local_invocation_index) local: u32) {
+    let blocks = ddgi_block_count();
+    var wanted = 0u;
+    for (var first = 0u; first < blocks; first += DDGI_SCAN) {
+        let b = first + local;
+        var rays = 0u;
+        if b < blocks {
+            rays = ddgi_blocks[b].unscaled_rays;
+        }
+        wanted += ddgi_scan(rays, local).y;
+    }
+    if local == 0u {
+        let budget = ddgi_volume.frame_budget;
+        ddgi_counters.budget_scale = select(1.0, f32(budget) / f32(max(wanted, 1u)), budget != 0u && wanted > budget);
+    }
+}
+
+@compute @workgroup_size(256)
+fn scale_rays(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) local: u32) {
+    let p = group.x * DDGI_SCAN + local;
+    let scale = ddgi_counters.budget_scale;
+    var count = 0u;
+    if p < ddgi_volume.probe_count {
+        count = ddgi_probes[p].ray_count;
+        if scale < 1.0 && count > 0u {
+            // Over the frame budget: every probe's share shrinks in proportion (keeping one ray for
+            // probes that had any), so the budget goes where the error asked for it.
+            count = max(1u, u32(f32(count) * scale));
+        }
+    }
+    let scan = ddgi_scan(count, local);
+    if p < ddgi_volume.probe_count {
+        ddgi_probes[p].ray_count = count;
+        ddgi_probes[p].ray_offset = scan.x;
+    }
+    if local == 0u {
+        ddgi_blocks[group.x].rays = scan.y;
+    }
+}
+
+@compute @workgroup_size(256)
+fn plan_ray_blocks(@builtin(local_invocation_index) local: u32) {
+    let blocks = ddgi_block_count();
+    var offset = 0u;
+    var brightest = 0.0;
+    for (var first = 0u; first < blocks; first += DDGI_SCAN) {
+        let b = first + local;
+        var block = DdgiBlock(0u, 0u, 0.0, 0u);
+        if b < blocks {
+            block = ddgi_blocks[b];
+        }
+        brightest = max(brightest, block.max_luma);
+        let scan = ddgi_scan(block.rays, local);
+        if b < blocks {
+            ddgi_blocks[b].offset = offset + scan.x;
         }
         offset += scan.y;
     }
@@ -114,6 +170,14 @@ fn plan_rays(@builtin(local_invocation_index) local: u32) {
         ddgi_counters.dispatch = vec3<u32>(min(groups, 65535u), max((groups + 65534u) / 65535u, 1u), 1u);
         ddgi_counters.total_rays = offset;
         ddgi_counters.max_luma = m;
+    }
+}
+
+@compute @workgroup_size(256)
+fn place_rays(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) local: u32) {
+    let p = group.x * DDGI_SCAN + local;
+    if p < ddgi_volume.probe_count {
+        ddgi_probes[p].ray_offset += ddgi_blocks[group.x].offset;
     }
 }
 

@@ -82,7 +82,8 @@ pub struct DdgiCounters {
     pub dispatch: [u32; 3],
     pub total_rays: u32,
     pub max_luma: f32,
-    pub _pad: [u32; 3],
+    pub budget_scale: f32,
+    pub _pad: [u32; 2],
 }
 
 #[repr(C)]

@@ -24,6 +24,9 @@ use crate::volume::{DdgiLayout, DdgiLimits, DdgiProbe, DdgiProbePin, DdgiProbeSt
 /// any scene scale).
 pub const ATLAS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 
+/// Probes per block of the budget pass's prefix sum (its workgroup size).
+const BUDGET_BLOCK: u32 = 256;
+
 /// What the `"ddgi"` frame script writes into the image.
 #[derive(Resource, Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum DdgiOutput {
@@ -61,6 +64,10 @@ impl Specialization {
 #[derive(Resource)]
 pub struct DdgiPipelines {
     plan: ComputeProgram,
+    plan_scale: ComputeProgram,
+    scale: ComputeProgram,
+    plan_blocks: ComputeProgram,
+    place: ComputeProgram,
     generate: ComputeProgram,
     specialized: HashMap<Specialization, (ComputeProgram, ComputeProgram)>,
     update_irradiance: ComputeProgram,
@@ -80,6 +87,10 @@ impl DdgiPipelines {
         let p = |file: &str, entry: &str| compute_program(&gpu.device, file, entry, entry).map(Arc::new);
         Ok(Self {
             plan: p("ddgi_rays.wgsl", "plan_rays")?,
+            plan_scale: p("ddgi_rays.wgsl", "plan_budget_scale")?,
+            scale: p("ddgi_rays.wgsl", "scale_rays")?,
+            plan_blocks: p("ddgi_rays.wgsl", "plan_ray_blocks")?,
+            place: p("ddgi_rays.wgsl", "place_rays")?,
             generate: p("ddgi_rays.wgsl", "generate_rays")?,
             specialized: HashMap::new(),
             update_irradiance: p("ddgi_update.wgsl", "update_irradiance")?,
@@ -123,6 +134,8 @@ pub struct VolumeGpu {
     pub probes: wgpu::Buffer,
     /// The budget pass's results: the indirect dispatch of the ray passes and the ray count.
     pub counters: wgpu::Buffer,
+    /// The budget pass's per-block sums (16 bytes per 256 probes).
+    blocks: wgpu::Buffer,
     pub rays: wgpu::Buffer,
     pub surfels: wgpu::Buffer,
     pub radiance: wgpu::Buffer,
@@ -178,6 +191,7 @@ impl VolumeGpu {
             uniform: buffer("ddgi_volume", size_of::<DdgiVolumeGpu>() as u64, B::UNIFORM | B::COPY_DST),
             probes,
             counters: buffer("ddgi_counters", size_of::<DdgiCounters>() as u64, B::STORAGE | B::INDIRECT | B::COPY_SRC),
+            blocks: buffer("ddgi_blocks", u64::from(layout.probe_count.div_ceil(BUDGET_BLOCK)) * 16, B::STORAGE),
             rays: buffer("ddgi_rays", rays, B::STORAGE | B::COPY_SRC),
             surfels: buffer("ddgi_surfels", rays, B::STORAGE),
             radiance: buffer("ddgi_radiance", rays, B::STORAGE | B::COPY_SRC),
@@ -218,6 +232,7 @@ impl VolumeGpu {
             ("ddgi_atlas_out", wgpu::BindingResource::TextureView(atlas_out)),
             ("ddgi_counters", self.counters.as_entire_binding()),
             ("ddgi_counters_in", self.counters.as_entire_binding()),
+            ("ddgi_blocks", self.blocks.as_entire_binding()),
         ]
     }
 
@@ -470,8 +485,27 @@ fn add_volume_update(
         if volume.settings.adaptive.enabled {
             pass.note("adaptive: rays by each probe's temporal error");
         }
-        let g = groups(&pipelines.plan, &common);
-        pass.render(record(pipelines.plan.clone(), g, (1, 1)));
+        let blocks = volume.layout.probe_count.div_ceil(BUDGET_BLOCK);
+        let steps: Vec<(ComputeProgram, Vec<wgpu::BindGroup>, u32)> = [
+            (&pipelines.plan, blocks),
+            (&pipelines.plan_scale, 1),
+            (&pipelines.scale, blocks),
+            (&pipelines.plan_blocks, 1),
+            (&pipelines.place, blocks),
+        ]
+        .into_iter()
+        .map(|(p, n)| (p.clone(), groups(p, &common), n))
+        .collect();
+        pass.render(move |ctx| {
+            let mut cp = ctx.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(ctx.label), timestamp_writes: None });
+            for (program, bind, n) in &steps {
+                cp.set_pipeline(&program.pipeline);
+                for (i, g) in bind.iter().enumerate() {
+                    cp.set_bind_group(i as u32, g, &[]);
+                }
+                cp.dispatch_workgroups(*n, 1, 1);
+            }
+        });
     }
     {
         let mut pass = graph.add_pass(&label("ddgi_ray_generation"));

@@ -745,3 +745,24 @@ fn dark_probes_switch_off_and_an_opening_door_wakes_them() {
     let awake = after.iter().filter(|p| p.state == DdgiProbeState::Active).count();
     assert!(awake >= 6, "only {awake} of 8 probes woke after the door opened: {after:?}");
 }
+
+#[test]
+fn a_frame_budget_caps_the_rays_of_every_frame() {
+    let Some(gpu) = gpu("a_frame_budget_caps_the_rays_of_every_frame") else { return };
+    let budget = 6000u32;
+    let volume = DdgiVolume {
+        bounds: engine::builtin::builtin_gi_bounds("cornell"),
+        probe_counts: UVec3::new(6, 6, 6),
+        rays_per_probe: 128,
+        adaptive: ddgi::DdgiAdaptive { frame_budget: Some(budget), ..ddgi::DdgiAdaptive::on() },
+        ..Default::default()
+    };
+    let (frame, app) = run_ddgi(&gpu, engine::builtin::builtin_scene("cornell").expect("cornell"), volume, 16, 30);
+    assert!(frame.hdr.iter().all(|v| v.is_finite()));
+    // The scale applies from the frame after the one that went over; each probe keeps a ray.
+    let rays = last_ray_counts(&app, 20);
+    assert!(rays.len() >= 15, "{rays:?}");
+    let probes = 6.0 * 6.0 * 6.0;
+    assert!(rays.iter().all(|&r| r <= f64::from(budget) + probes), "over the budget of {budget}: {rays:?}");
+    assert!(rays.iter().all(|&r| r > 0.5 * f64::from(budget)), "the budget is used: {rays:?}");
+}
