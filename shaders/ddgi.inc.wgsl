@@ -103,7 +103,7 @@ struct DdgiBlock {
     offset: u32,
 }
 
-// One probe ray: its direction and probe (DDGI_RAY_SKIP set when the probe traces nothing).
+// One probe ray of the frame's packed rays: its direction and its probe.
 struct DdgiRay {
     direction: vec3<f32>,
     probe: u32,
@@ -126,7 +126,6 @@ const DDGI_PROBE_INACTIVE: u32 = 1u;
 // The probe's maps hold nothing worth keeping: its next update takes the new value at once.
 const DDGI_PROBE_FRESH: u32 = 2u;
 
-const DDGI_RAY_SKIP: u32 = 0x80000000u;
 // Hit distance of a miss in the surfel and radiance buffers.
 const DDGI_MISS: f32 = 3.0e38;
 // Back-face hits are stored as -DDGI_BACKFACE_SCALE · t: the distance maps see the wall closer, so

@@ -252,7 +252,7 @@ struct DdgiRayStatistics {
     closest_frontface: vec4<f32>,
     // Misses count as front faces at the maximum ray distance.
     farthest_frontface: vec4<f32>,
-    // A front face within one cell of the probe on every axis.
+    // A front face in the region whose shading reads the probe (see ddgi_ray_statistics).
     frontface_in_cell: u32,
     // Σ YCoCg luma of the rays' radiance.
     luma_sum: f32,
@@ -261,7 +261,15 @@ struct DdgiRayStatistics {
 var<workgroup> wg_statistics: array<DdgiRayStatistics, 64>;
 var<workgroup> wg_result: DdgiRayStatistics;
 
-fn ddgi_ray_statistics(data: DdgiProbeData, local: u32) -> DdgiRayStatistics {
+fn ddgi_ray_statistics(probe: u32, data: DdgiProbeData, local: u32) -> DdgiRayStatistics {
+    // The region whose shading reads this probe: a cell to each side, and a cell and a half towards
+    // the volume's border from the second layer in (points beyond the outer probes clamp to the
+    // outer two layers).
+    let coords = ddgi_probe_coords(probe);
+    let far = vec3<f32>(1.0) + 0.5 * vec3<f32>(coords == vec3<u32>(1u));
+    let near_end = vec3<f32>(1.0) + 0.5 * vec3<f32>(coords + vec3<u32>(2u) == ddgi_volume.counts);
+    let reach_lo = ddgi_volume.spacing * far;
+    let reach_hi = ddgi_volume.spacing * near_end;
     var s = DdgiRayStatistics(0u, vec4<f32>(0.0, 0.0, 1.0, DDGI_MISS), vec4<f32>(0.0, 0.0, 1.0, DDGI_MISS), vec4<f32>(0.0, 0.0, 1.0, -1.0), 0u, 0.0);
     for (var r = local; r < data.ray_count; r += DDGI_GROUP) {
         let i = data.ray_offset + r;
@@ -282,7 +290,8 @@ fn ddgi_ray_statistics(data: DdgiProbeData, local: u32) -> DdgiRayStatistics {
             if d < s.closest_frontface.w {
                 s.closest_frontface = vec4<f32>(direction, d);
             }
-            if all(abs(direction * d) <= ddgi_volume.spacing) {
+            let hit = direction * d;
+            if all(hit >= -reach_lo) && all(hit <= reach_hi) {
                 s.frontface_in_cell = 1u;
             }
         }
@@ -332,7 +341,7 @@ fn relocate_probes(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invoc
     if data.ray_count == 0u {
         return;
     }
-    let s = ddgi_ray_statistics(data, local);
+    let s = ddgi_ray_statistics(probe, data, local);
     if local != 0u {
         return;
     }
@@ -403,7 +412,7 @@ fn classify_probes(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invoc
     if data.ray_count == 0u {
         return;
     }
-    let s = ddgi_ray_statistics(data, local);
+    let s = ddgi_ray_statistics(probe, data, local);
     if local != 0u {
         return;
     }

@@ -26,6 +26,7 @@ for step in "$@"; do
     bench_*) scene=${step#bench_}; run "$step" $B bench ddgi --scene "$scene" --iterations 10 ;;
     eval_*) scene=${step#eval_}; run "$step" $B eval --scene "$scene" --width 256 --height 256 --reference-spp 4096 --experiments --out "$R/$step" --cache /tmp/cache ;;
     series_*) scene=${step#series_}; run "$step" $B eval --scene "$scene" --time-series --width 256 --height 256 --reference-spp 4096 --out "$R/$step" --cache /tmp/cache ;;
+    classify_*) scene=${step#classify_}; run "$step" $B bench classify --scene "$scene" ;;
     reference_*) scene=${step#reference_}; run "$step" $B render --scene "$scene" --mode pathtrace --spp 4096 --width 96 --height 96 --out "$R/$step" ;;
     esac
 done

@@ -108,6 +108,18 @@ enum BenchCommand {
         #[arg(long)]
         rays: Vec<u32>,
     },
+    /// DDGI's classification (adaptive budgets on) against an independent test with GPU rays: how
+    /// many probes inside solid geometry are switched off, and how many probes that a visible
+    /// surface depends on are.
+    Classify {
+        #[arg(long, default_value = "cathedral")]
+        scene: String,
+        /// Probes along x, y and z (default: the published grid of the scene).
+        #[arg(long, value_parser = parse_uvec3)]
+        grid: Option<glam::UVec3>,
+        #[arg(long, default_value_t = 60)]
+        frames: u32,
+    },
 }
 
 #[derive(clap::Args)]
@@ -348,6 +360,25 @@ fn bench_ddgi(name: &str, iterations: u32, size: engine::render::RenderSize, gri
 fn bench(command: BenchCommand) -> Result<(), String> {
     let (name, iterations, no_flat_rebuild, cpu_only) = match command {
         BenchCommand::Trace { scene, iterations, no_flat_rebuild, cpu_only } => (scene, iterations, no_flat_rebuild, cpu_only),
+        BenchCommand::Classify { scene, grid, frames } => {
+            let description = load(&scene)?;
+            let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
+            let grid = grid.map_or(eval::ddgi_paper_grid(&scene), |g| g.to_array());
+            let c = bench::classification_check(&gpu, description, grid, frames)?;
+            println!("# bench classify: {scene}, {}×{}×{} probes, {frames} frames, on {}", grid[0], grid[1], grid[2], gpu.adapter_name());
+            let share = |a: usize, b: usize| if b == 0 { "n/a".to_string() } else { format!("{:.1}%", 100.0 * a as f64 / b as f64) };
+            println!("probes: {}", c.probes);
+            println!("inside solid geometry: {} — switched off: {} ({})", c.inside, c.inside_off, share(c.inside_off, c.inside));
+            println!(
+                "needed by a visible surface: {} — switched off: {} ({}), of which not dark: {} ({})",
+                c.needed,
+                c.needed_off,
+                share(c.needed_off, c.needed),
+                c.needed_off_lit,
+                share(c.needed_off_lit, c.needed)
+            );
+            return Ok(());
+        }
         BenchCommand::Ddgi { scene, iterations, width, height, grid, rays } => {
             return bench_ddgi(&scene, iterations, engine::render::RenderSize { width, height }, &grid, &rays);
         }

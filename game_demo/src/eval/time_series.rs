@@ -142,6 +142,26 @@ pub struct SeriesRow {
     pub rays: Option<f64>,
 }
 
+/// Frames of the static phase: before the last frame before the change.
+const STATIC_FRAMES: i64 = 30;
+
+/// What a configuration costs once settled, before the change: mean rays per frame and median
+/// probe-update GPU ms (the median shrugs off the clock changes of small workloads).
+pub struct StaticPhase {
+    pub config: String,
+    pub rays: Option<f64>,
+    pub update_ms: Option<f64>,
+}
+
+fn mean(v: &[f64]) -> Option<f64> {
+    (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+}
+
+fn median(mut v: Vec<f64>) -> Option<f64> {
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 2).copied()
+}
+
 /// GPU milliseconds of DDGI's probe update in one frame, if it ran.
 fn probe_update_ms(frame: &engine::render::FrameTiming) -> Option<f64> {
     let update: Vec<f64> = frame
@@ -183,7 +203,11 @@ pub fn run(
     let changed = before.nodes[change.node].name.clone();
     let seed = pathtrace::PathTraceSettings::default().seed;
     let mut rows = Vec::new();
+    let mut statics = Vec::new();
     for config in Config::time_series_list(name) {
+        // Probe-update GPU ms of the static phase: the STATIC_FRAMES frames before the last one
+        // before the change.
+        let mut static_ms = Vec::new();
         let settle = config.frames();
         let settings = HeadlessSettings { width, height, frames: settle + frames, ..Default::default() };
         let mut app = scene_app(gpu, before.clone(), &settings, |app| config.configure(app, seed)).map_err(|e| e.to_string())?;
@@ -197,6 +221,11 @@ pub fn run(
         run_frames(&mut app, settings.frames, |frame, world| {
             let frame = i64::from(frame) - i64::from(settle);
             if frame < -1 {
+                if frame >= -1 - STATIC_FRAMES
+                    && let Some(ms) = world.resource::<FrameTimings>().frames.last().and_then(probe_update_ms)
+                {
+                    static_ms.push(ms);
+                }
                 return;
             }
             let error = compare(&reference, &read_hdr(gpu, world), width, height, EXPOSURE);
@@ -211,6 +240,9 @@ pub fn run(
         });
         // Rays per frame come back a few frames late: match them to their rows now.
         let rays = app.world().resource::<FrameTimings>().counter("ddgi_rays");
+        let first_static = u64::from(settle).saturating_sub(1 + STATIC_FRAMES as u64);
+        let static_rays: Vec<f64> = rays.iter().filter(|(f, _)| (first_static..u64::from(settle)).contains(f)).map(|(_, r)| *r).collect();
+        statics.push(StaticPhase { config: config.name(), rays: mean(&static_rays), update_ms: median(static_ms) });
         for row in rows.iter_mut().filter(|r| r.config == config.name()) {
             let app_frame = (row.frame + i64::from(settle)) as u64;
             row.rays = rays.iter().find(|(f, _)| *f == app_frame).map(|(_, v)| *v);
@@ -226,7 +258,7 @@ pub fn run(
     }
     write_csv(&out.join("time_series.csv"), &rows)?;
     let plot_note = plot_series(&out.join("time_series.png"), name, &change, &rows)?;
-    write_report(out, name, &gpu.adapter_name(), options, frames, &change, &rows, &plot_note)?;
+    write_report(out, name, &gpu.adapter_name(), options, frames, &change, &rows, &statics, &plot_note)?;
     Ok(rows)
 }
 
@@ -280,6 +312,7 @@ fn write_report(
     frames: u32,
     change: &SceneChange,
     rows: &[SeriesRow],
+    statics: &[StaticPhase],
     plot_note: &str,
 ) -> Result<(), String> {
     let settle: Vec<String> = Config::time_series_list(name).iter().map(|c| format!("{} {}", c.name(), c.frames())).collect();
@@ -288,7 +321,7 @@ fn write_report(
          path traced at {} paths per pixel (another seed). Every frame is compared with it (mean FLIP on sRGB at exposure 1, RMSE on \
          linear radiance); frame -1 is the last one before the change, once the method has settled (frames before the change: {}). \
          A path tracer configuration adds its paths per pixel every frame and starts over when the scene changes.\n\n\
-         | configuration | FLIP before (frame -1) | FLIP at frame 0 | settled FLIP | frames to within 10% of it | rays/frame before | probe update ms before | rays/frame after |\n|---|---:|---:|---:|---:|---:|---:|---:|\n",
+         | configuration | FLIP before (frame -1) | FLIP at frame 0 | settled FLIP | frames to within 10% of it | rays/frame, static | probe update ms, static | rays/frame after |\n|---|---:|---:|---:|---:|---:|---:|---:|\n",
         change.description,
         options.width,
         options.height,
@@ -301,23 +334,20 @@ fn write_report(
         let (settled, from) = settling(&after);
         let at = |frame: i64| series.iter().find(|r| r.frame == frame).map_or("n/a".into(), |r| format!("{:.4}", r.flip));
         let from = from.map_or(format!("not within {frames} frames"), |f| f.to_string());
-        // The static phase: the last 10 frames before the change; after: every frame after it.
-        let mean = |rows: Vec<f64>| {
-            if rows.is_empty() { "n/a".to_string() } else { format!("{:.0}", rows.iter().sum::<f64>() / rows.len() as f64) }
-        };
-        let mean_ms = |rows: Vec<f64>| {
-            if rows.is_empty() { "n/a".to_string() } else { format!("{:.3}", rows.iter().sum::<f64>() / rows.len() as f64) }
-        };
-        let before = |r: &&&SeriesRow| (-10..0).contains(&r.frame);
-        let rays_before = mean(series.iter().filter(before).filter_map(|r| r.rays).collect());
-        let ms_before = mean_ms(series.iter().filter(before).filter_map(|r| r.update_ms).collect());
-        let rays_after = mean(series.iter().filter(|r| r.frame >= 0).filter_map(|r| r.rays).collect());
+        let shown = |v: Option<f64>, digits: usize| v.map_or("n/a".to_string(), |v| format!("{v:.digits$}"));
+        let phase = statics.iter().find(|p| p.config == config);
+        let rays_before = shown(phase.and_then(|p| p.rays), 0);
+        let ms_before = shown(phase.and_then(|p| p.update_ms), 3);
+        let after: Vec<f64> = series.iter().filter(|r| r.frame >= 0).filter_map(|r| r.rays).collect();
+        let rays_after = shown(mean(&after), 0);
         md += &format!("| {config} | {} | {} | {settled:.4} | {from} | {rays_before} | {ms_before} | {rays_after} |\n", at(-1), at(0));
     }
     md += &format!(
         "\nSettled FLIP: the mean over the last tenth of the frames (at least one); the path tracer keeps converging, so its \
          settled value and frame count depend on `--frames`. Frames to within 10%: the first frame after the change from which \
-         every frame's FLIP is within 10% of the settled value.\n\n\
+         every frame's FLIP is within 10% of the settled value. Static: the 30 frames before the last one before the change \
+         (rays: their mean, as read back from the GPU; DDGI's probe update, every DDGI pass but the gather and composite: \
+         the median GPU ms).\n\n\
          Mean FLIP per frame, one series per configuration, log scale{plot_note}:\n\n![mean FLIP per frame](time_series.png)\n\n\
          Every frame: [time_series.csv](time_series.csv) (frame, config, flip, rmse, gpu_ms, update_ms: DDGI's probe update, rays: \
          DDGI's rays traced).\n"
