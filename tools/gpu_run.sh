@@ -27,7 +27,10 @@ for step in "$@"; do
     eval_*) scene=${step#eval_}; run "$step" $B eval --scene "$scene" --width 256 --height 256 --reference-spp 4096 --experiments --out "$R/$step" --cache /tmp/cache ;;
     series_*) scene=${step#series_}; run "$step" $B eval --scene "$scene" --time-series --width 256 --height 256 --reference-spp 4096 --out "$R/$step" --cache /tmp/cache ;;
     classify_*) scene=${step#classify_}; run "$step" $B bench classify --scene "$scene" ;;
+    classifyfine_*) scene=${step#classifyfine_}; run "$step" $B bench classify --scene "$scene" --grid 32,16,32 ;;
     reference_*) scene=${step#reference_}; run "$step" $B render --scene "$scene" --mode pathtrace --spp 4096 --width 96 --height 96 --out "$R/$step" ;;
     esac
 done
-tar czf "$OUT/results.tgz" -C "$OUT" r && rm -rf "$R"
+# Reports, tables and plots only (the per-configuration strips would pass the 16 MiB a file that
+# comes back).
+(cd "$OUT" && find r -name '*.md' -o -name '*.txt' -o -name '*.csv' -o -name '*.json' -o -name 'error_vs_time.png' -o -name 'time_series.png' -o -name 'image.png' | tar czf results.tgz -T -) && rm -rf "$R"
