@@ -294,9 +294,8 @@ impl DdgiCell {
     }
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+fn median(v: Vec<f64>) -> f64 {
+    crate::eval::median(v).unwrap_or(f64::NAN)
 }
 
 /// Runs DDGI on `scene` at every grid × rays cell of the published table (one app, the volume's
@@ -410,7 +409,7 @@ pub fn classification_check(gpu: &GpuContext, scene: SceneDescription, grid: [u3
     let dark = |i: usize| data[i].luma < v.settings.adaptive.dark_fraction * brightest;
     let (gpu_scene, rt) = (world.resource::<GpuScene>(), world.resource::<RayTracingScene>());
     let tracer = engine::rt::RayTracer::new(gpu).map_err(|e| e.to_string())?;
-    let directions = fibonacci(64);
+    let directions = engine::rt::cpu::fibonacci_directions(64);
     let rays: Vec<GpuRay> = (0..n)
         .flat_map(|i| {
             let origin = position(i).to_array();
@@ -474,16 +473,4 @@ pub fn classification_check(gpu: &GpuContext, scene: SceneDescription, grid: [u3
         needed_off: (0..n).filter(|&i| needed[i] && off(i)).count(),
         needed_off_lit: (0..n).filter(|&i| needed[i] && off(i) && !dark(i)).count(),
     })
-}
-
-/// `count` unit directions covering the sphere evenly (spherical Fibonacci).
-fn fibonacci(count: usize) -> Vec<Vec3> {
-    let golden_angle = std::f32::consts::PI * (3.0 - 5f32.sqrt());
-    (0..count)
-        .map(|i| {
-            let y = 1.0 - 2.0 * (i as f32 + 0.5) / count as f32;
-            let r = (1.0 - y * y).max(0.0).sqrt();
-            Vec3::new(r * (golden_angle * i as f32).cos(), y, r * (golden_angle * i as f32).sin())
-        })
-        .collect()
 }

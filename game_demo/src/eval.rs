@@ -302,6 +302,12 @@ fn save_strip(path: &Path, panels: &[Vec<u8>], width: u32, height: u32) -> Resul
     strip.save(path).map_err(|e| format!("{}: {e}", path.display()))
 }
 
+/// The median of `v` (the upper one of an even count), or `None` when it is empty.
+pub fn median(mut v: Vec<f64>) -> Option<f64> {
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 2).copied()
+}
+
 fn write(path: &Path, text: &str) -> Result<(), String> {
     std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))
 }

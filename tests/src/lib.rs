@@ -90,18 +90,7 @@ pub mod cpu_rays {
         (t > RAY_EPSILON).then_some(t)
     }
 
-    /// `count` unit directions covering the sphere evenly (spherical Fibonacci).
-    pub fn fibonacci_directions(count: usize) -> Vec<Vec3> {
-        let golden_angle = std::f32::consts::PI * (3.0 - 5f32.sqrt());
-        (0..count)
-            .map(|i| {
-                let y = 1.0 - 2.0 * (i as f32 + 0.5) / count as f32;
-                let r = (1.0 - y * y).max(0.0).sqrt();
-                let phi = golden_angle * i as f32;
-                Vec3::new(r * phi.cos(), y, r * phi.sin())
-            })
-            .collect()
-    }
+    pub use engine::rt::cpu::fibonacci_directions;
 }
 
 /// How far from 1 a unit normal's length may be.

@@ -103,3 +103,17 @@ fn intersect(ray: &GpuRay, v: &[Vec3; 3]) -> Option<(f64, f64)> {
     let t = e2.dot(qvec) * inv;
     (u >= 0.0 && w >= 0.0 && u + w <= 1.0 && t >= f64::from(ray.tmin)).then_some((t, det))
 }
+
+/// `count` unit directions covering the sphere evenly (spherical Fibonacci, y up): CPU-side ray
+/// sets for tests and checks.
+pub fn fibonacci_directions(count: usize) -> Vec<Vec3> {
+    let golden_angle = std::f32::consts::PI * (3.0 - 5f32.sqrt());
+    (0..count)
+        .map(|i| {
+            let y = 1.0 - 2.0 * (i as f32 + 0.5) / count as f32;
+            let r = (1.0 - y * y).max(0.0).sqrt();
+            let phi = golden_angle * i as f32;
+            Vec3::new(r * phi.cos(), y, r * phi.sin())
+        })
+        .collect()
+}

@@ -18,7 +18,7 @@ use engine::metrics::compare;
 use engine::render::FrameTimings;
 use engine::scene::{Material, Name, NodeContent, SceneDescription, SceneRoot, Transform};
 
-use super::{Config, EXPOSURE, EvalOptions, frame_gpu_ms, plot, reference, still, write};
+use super::{Config, EXPOSURE, EvalOptions, frame_gpu_ms, median, plot, reference, still, write};
 
 /// What changes: one node of the scene takes another transform (relative to its parent).
 #[derive(Clone, Debug)]
@@ -155,11 +155,6 @@ pub struct StaticPhase {
 
 fn mean(v: &[f64]) -> Option<f64> {
     (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
-}
-
-fn median(mut v: Vec<f64>) -> Option<f64> {
-    v.sort_by(f64::total_cmp);
-    v.get(v.len() / 2).copied()
 }
 
 /// GPU milliseconds of DDGI's probe update in one frame, if it ran.

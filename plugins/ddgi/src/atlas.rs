@@ -38,7 +38,7 @@ pub fn read_irradiance(gpu: &GpuContext, volume: &VolumeGpu) -> Atlas<Vec3> {
 /// The distance atlas in world units: (mean distance, mean squared distance).
 pub fn read_distance(gpu: &GpuContext, volume: &VolumeGpu) -> Atlas<Vec2> {
     let raw = read_half4(gpu, &volume.distance);
-    let scale = (volume.layout.spacing.length() * 1.5).max(f32::MIN_POSITIVE);
+    let scale = volume.layout.distance_scale();
     Atlas { size: raw.size, texels: raw.texels.iter().map(|t| Vec2::new(t[0] * scale, t[1] * scale * scale)).collect() }
 }
 
@@ -88,7 +88,7 @@ pub fn write_atlas_images(gpu: &GpuContext, volume: &VolumeGpu, dir: &Path) -> R
         .save(&exr)
         .map_err(|e| format!("{}: {e}", exr.display()))?;
     let distance = read_distance(gpu, volume);
-    let scale = (volume.layout.spacing.length() * 1.5).max(f32::MIN_POSITIVE);
+    let scale = volume.layout.distance_scale();
     let dpath = dir.join("distance.png");
     let grey: Vec<u8> = distance.texels.iter().flat_map(|d| [((d.x / scale).clamp(0.0, 1.0) * 255.0) as u8; 3]).collect();
     save_rgb(&dpath, distance.size, &grey)?;

@@ -159,8 +159,7 @@ impl DdgiVolumeGpu {
             view_bias: volume.view_bias * min_spacing,
             distance_sharpness: volume.distance_sharpness,
             max_ray_distance: volume.max_ray_distance.unwrap_or(UNBOUNDED_RAY).min(UNBOUNDED_RAY),
-            // Distances beyond 1.5 cell diagonals tell visibility nothing more (Majercik et al.).
-            distance_scale: (layout.spacing.length() * 1.5).max(f32::MIN_POSITIVE),
+            distance_scale: layout.distance_scale(),
             irradiance_texels: layout.irradiance_texels,
             distance_texels: layout.distance_texels,
             tiles_per_row: layout.tiles_per_row,

@@ -428,6 +428,12 @@ impl DdgiLayout {
         UVec3::new(index % c.x, (index / c.x) % c.y, index / (c.x * c.y))
     }
 
+    /// Hit distances are clamped to this for the distance moments, and stored divided by it: 1.5
+    /// cell diagonals (farther tells visibility nothing more, Majercik et al.).
+    pub fn distance_scale(&self) -> f32 {
+        (self.spacing.length() * 1.5).max(f32::MIN_POSITIVE)
+    }
+
     /// World position of a probe before relocation.
     pub fn grid_position(&self, index: u32) -> Vec3 {
         self.origin + self.spacing * self.probe_grid(index).as_vec3()
