@@ -6,6 +6,7 @@ use std::process::ExitCode;
 
 mod bench;
 mod eval;
+mod play;
 
 use clap::{Parser, Subcommand};
 use engine::gpu::{GpuContext, GpuOptions};

@@ -1,0 +1,6 @@
+#[allow(dead_code)]
+pub mod controller;
+#[allow(dead_code)]
+pub mod level;
+#[allow(dead_code)]
+pub mod navmesh;
