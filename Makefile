@@ -8,14 +8,14 @@ SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 # lavapipe's window-system code complains when this is unset, even headless.
 export XDG_RUNTIME_DIR ?= /tmp/xdg-runtime-$(shell id -u)
 
-.PHONY: run test lint vulkan-driver bless
+.PHONY: run test lint vulkan-driver xvfb bless
 
 run: vulkan-driver
 	@mkdir -p $(XDG_RUNTIME_DIR) && chmod 700 $(XDG_RUNTIME_DIR)
 	$(CARGO) run --release -p game_demo -- render --scene $(SCENE) --width 1280 --height 720 --out $(OUT)
 	@echo "images: $(OUT)/image.png (tonemapped sRGB), $(OUT)/image.exr (linear radiance); GPU times: $(OUT)/timings.json"
 
-test: vulkan-driver
+test: vulkan-driver xvfb
 	@mkdir -p $(XDG_RUNTIME_DIR) && chmod 700 $(XDG_RUNTIME_DIR)
 	$(CARGO) test --workspace --no-fail-fast
 
@@ -35,4 +35,13 @@ vulkan-driver:
 	else \
 		echo "no Vulkan driver found: installing mesa-vulkan-drivers and libvulkan1"; \
 		$(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq mesa-vulkan-drivers libvulkan1; \
+	fi
+
+# Installs Xvfb (the windowed demo's test runs under a virtual X server) when it is missing.
+xvfb:
+	@if command -v Xvfb >/dev/null 2>&1; then \
+		: ; \
+	else \
+		echo "no Xvfb found: installing xvfb"; \
+		$(SUDO) apt-get update -qq && DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq xvfb libxkbcommon-x11-0 libxcursor1 libxrandr2 libxi6 libx11-xcb1; \
 	fi

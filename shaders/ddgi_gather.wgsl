@@ -5,7 +5,8 @@
 struct DdgiGatherParams {
     // 1 for the first volume of the frame: the accumulation starts from zero.
     first_volume: u32,
-    _pad0: u32,
+    // composite_debug: 1 direct light only, 2 albedo, 3 normals.
+    debug_view: u32,
     _pad1: u32,
     _pad2: u32,
 }
@@ -82,4 +83,24 @@ fn composite_indirect(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     textureStore(radiance_out, id.xy, vec4<f32>(sanitize_radiance(ddgi_indirect_radiance(id.xy)), 1.0));
+}
+
+// Debug views (`DdgiOutput::Direct`, `Albedo`, `Normals`): direct light alone, or the G-buffer's
+// albedo or normals (0.5 + 0.5 n), the last two display-referred: divided by the exposure, they
+// leave the tonemapper near their own value.
+@compute @workgroup_size(8, 8)
+fn composite_debug(@builtin(global_invocation_id) id: vec3<u32>) {
+    if any(id.xy >= view.size) {
+        return;
+    }
+    let display = 1.0 / max(view.exposure, 1e-6);
+    var radiance = textureLoad(direct_in, id.xy, 0).rgb;
+    let surface = textureLoad(gbuffer_depth, id.xy, 0) > 0.0;
+    if ddgi_gather_params.debug_view == 2u {
+        radiance = select(vec3<f32>(0.0), textureLoad(gbuffer_albedo, id.xy, 0).rgb * display, surface);
+    } else if ddgi_gather_params.debug_view == 3u {
+        let n = safe_normalize(textureLoad(gbuffer_normal, id.xy, 0).xyz, vec3<f32>(0.0, 1.0, 0.0));
+        radiance = select(vec3<f32>(0.0), (n * 0.5 + 0.5) * display, surface);
+    }
+    textureStore(radiance_out, id.xy, vec4<f32>(sanitize_radiance(radiance), 1.0));
 }

@@ -23,6 +23,7 @@ pub const SHADER_FILES: &[(&str, &str)] = &[
     ("ddgi_rays.wgsl", include_str!("../../shaders/ddgi_rays.wgsl")),
     ("ddgi_update.wgsl", include_str!("../../shaders/ddgi_update.wgsl")),
     ("ddgi_gather.wgsl", include_str!("../../shaders/ddgi_gather.wgsl")),
+    ("ddgi_probes.wgsl", include_str!("../../shaders/ddgi_probes.wgsl")),
     ("ddgi_selftest.wgsl", include_str!("../../shaders/ddgi_selftest.wgsl")),
 ];
 
@@ -90,6 +91,17 @@ pub fn parse(name: &str) -> Result<ParsedShader, ShaderError> {
 }
 
 impl ParsedShader {
+    /// The value of the module's `const NAME: u32 = …;` (literal initializers only), so that a
+    /// number the host needs is written once, in the shader.
+    pub fn u32_constant(&self, name: &str) -> Option<u32> {
+        let (_, constant) = self.module.constants.iter().find(|(_, c)| c.name.as_deref() == Some(name))?;
+        match self.module.global_expressions[constant.init] {
+            naga::Expression::Literal(naga::Literal::U32(v)) => Some(v),
+            naga::Expression::Literal(naga::Literal::AbstractInt(v)) => u32::try_from(v).ok(),
+            _ => None,
+        }
+    }
+
     /// Size in bytes of the WGSL struct named `name` as naga lays it out (for host-side mirror checks).
     pub fn struct_size(&self, name: &str) -> Option<u32> {
         let mut layouter = naga::proc::Layouter::default();

@@ -1,5 +1,6 @@
-//! `game_demo`: the project's binary. `render` renders a scene headless to files; `play` opens a
-//! window (later issues add the walkable level, `eval` and `bench`).
+//! `game_demo`: the project's binary. `render` renders a scene headless to files; `play` walks the
+//! demo level (in a window, or headless along a scripted path); `eval` measures error against a
+//! path-traced reference and run time; `bench` times the ray tracing and DDGI passes.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -63,12 +64,79 @@ enum Command {
     /// Benchmarks (results as Markdown tables on standard output).
     #[command(subcommand)]
     Bench(BenchCommand),
-    /// Open a window and show a scene (Esc quits).
-    Play {
-        /// A built-in scene name or a .gltf/.glb/.obj file.
-        #[arg(long, default_value = "cornell")]
-        scene: String,
-    },
+    /// The walkable demo level with DDGI. In a window: click to grab the mouse, WASD walk, Shift
+    /// run, Space jump, E door, F1 probe overlay, F12 screenshot, Esc release/quit. With
+    /// --headless: a scripted walk writing frames and a per-frame timing CSV. With --scene: a
+    /// viewer of any scene (no level, no player).
+    Play(PlayArgs),
+}
+
+#[derive(clap::Args)]
+struct PlayArgs {
+    /// Run the scripted walk without a window.
+    #[arg(long)]
+    headless: bool,
+    /// Frames of the scripted walk (--headless, --script).
+    #[arg(long, default_value_t = 600, value_parser = clap::value_parser!(u32).range(1..))]
+    frames: u32,
+    /// Headless: write a PNG every this many frames (0: only the last).
+    #[arg(long, default_value_t = 60)]
+    every: u32,
+    /// Headless: output folder of the frames and frames.csv.
+    #[arg(long, default_value = "out/play")]
+    out: PathBuf,
+    /// Windowed: run the scripted walk on the fixed clock for --frames frames, save the last
+    /// frame to this PNG and exit (what the Xvfb test compares with --headless).
+    #[arg(long)]
+    script: Option<PathBuf>,
+    #[arg(long, default_value_t = 1280, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    width: u32,
+    #[arg(long, default_value_t = 720, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    height: u32,
+    /// Probe spacing of the level's DDGI volume (metres).
+    #[arg(long, default_value_t = 1.5)]
+    probe_spacing: f32,
+    /// Rays per probe per frame.
+    #[arg(long, default_value_t = 128, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    rays: u32,
+    /// Fixed ray budgets instead of adaptive ones.
+    #[arg(long)]
+    no_adaptive: bool,
+    /// Build the level from procedural geometry only, without the shared Kenney models.
+    #[arg(long)]
+    no_assets: bool,
+    /// Show this scene in a window instead of the level (a built-in name or a scene file).
+    #[arg(long, conflicts_with_all = ["headless", "script"])]
+    scene: Option<String>,
+}
+
+fn play(args: PlayArgs) -> Result<(), String> {
+    if let Some(scene) = &args.scene {
+        return load(scene).and_then(|s| engine::window::run_windowed(s).map_err(|e| e.to_string()));
+    }
+    if !(args.probe_spacing.is_finite() && args.probe_spacing >= 0.1) {
+        return Err(format!("--probe-spacing {} must be at least 0.1 m", args.probe_spacing));
+    }
+    let options = play::PlayOptions {
+        width: args.width,
+        height: args.height,
+        probe_spacing: args.probe_spacing,
+        rays_per_probe: args.rays,
+        adaptive: !args.no_adaptive,
+        use_assets: !args.no_assets,
+    };
+    if args.headless {
+        let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
+        let run = play::headless::HeadlessPlay { frames: args.frames, every: args.every, out: args.out };
+        let report = play::headless::run_headless_play(&gpu, &options, &run)?;
+        println!("frames: {} PNGs in {}; per-frame timings: {}", report.images.len(), run.out.display(), report.csv.display());
+        if let Some(ms) = report.mean_gpu_ms {
+            println!("mean GPU time per frame: {ms:.3} ms ({})", gpu.adapter_name());
+        }
+        return Ok(());
+    }
+    let script = args.script.map(|screenshot| play::window::WindowScript { frames: args.frames, screenshot });
+    play::window::run_window(options, script)
 }
 
 #[derive(Subcommand)]
@@ -461,7 +529,7 @@ fn main() -> ExitCode {
                 Ok(())
             })
         }
-        Command::Play { scene } => load(&scene).and_then(|s| engine::window::run_windowed(s).map_err(|e| e.to_string())),
+        Command::Play(args) => play(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -587,12 +587,8 @@ pub fn prepare_gpu_scene(
 
     // View.
     let (camera, camera_transform) = cameras.iter().next().map_or((Camera::default(), GlobalTransform::default()), |(c, t)| (*c, *t));
-    let aspect = size.width.max(1) as f32 / size.height.max(1) as f32;
-    let proj = glam::camera::rh::proj::directx::perspective_infinite_reverse(camera.yfov.clamp(1e-3, 3.1), aspect, camera.znear.max(1e-6));
-    // Cameras ignore scale: build the view from position and rotation only.
-    let (_, rotation, position) = camera_transform.0.to_scale_rotation_translation();
-    let world_from_view = Mat4::from_rotation_translation(rotation.normalize(), position);
-    let clip_from_world = proj * world_from_view.inverse();
+    let clip_from_world = clip_from_world(&camera, &camera_transform, *size);
+    let position = camera_transform.translation();
     scene.view_uniform = ViewUniform {
         clip_from_world: mat4_cols(clip_from_world),
         world_from_clip: mat4_cols(clip_from_world.inverse()),
@@ -610,3 +606,13 @@ pub fn prepare_gpu_scene(
 }
 
 use bytemuck::Zeroable;
+
+/// The camera's projection and view: reverse-Z, infinite far plane, `size`'s aspect ratio. Cameras
+/// ignore scale: the view is built from position and rotation only.
+pub fn clip_from_world(camera: &Camera, transform: &GlobalTransform, size: RenderSize) -> Mat4 {
+    let aspect = size.width.max(1) as f32 / size.height.max(1) as f32;
+    let proj = glam::camera::rh::proj::directx::perspective_infinite_reverse(camera.yfov.clamp(1e-3, 3.1), aspect, camera.znear.max(1e-6));
+    let (_, rotation, position) = transform.0.to_scale_rotation_translation();
+    let world_from_view = Mat4::from_rotation_translation(rotation.normalize(), position);
+    proj * world_from_view.inverse()
+}

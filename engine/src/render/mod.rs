@@ -122,7 +122,8 @@ impl RenderOutputs {
         use wgpu::TextureUsages as U;
         Self {
             size,
-            hdr: texture("hdr_radiance", HDR_FORMAT, U::STORAGE_BINDING | U::TEXTURE_BINDING | U::COPY_SRC),
+            // Render attachment too: debug overlays (DDGI's probe spheres) rasterize into it.
+            hdr: texture("hdr_radiance", HDR_FORMAT, U::STORAGE_BINDING | U::TEXTURE_BINDING | U::COPY_SRC | U::RENDER_ATTACHMENT),
             ldr: texture("ldr_image", LDR_FORMAT, U::STORAGE_BINDING | U::TEXTURE_BINDING | U::COPY_SRC),
         }
     }
@@ -141,6 +142,19 @@ pub struct SurfaceTarget {
     pub config: wgpu::SurfaceConfiguration,
     pub blit: Arc<Program<wgpu::RenderPipeline>>,
 }
+
+/// Something drawn over the presented image, after the blit (the demo's egui overlay). It records
+/// into the frame's encoder as the graph pass [`SurfaceOverlay::label`].
+pub trait SurfaceOverlay: Send + Sync + 'static {
+    /// The pass label (wgpu label, timing span and overlay name).
+    fn label(&self) -> &'static str;
+    /// Records the overlay's draws into `target` (the surface texture, `size` pixels).
+    fn record(&self, gpu: &GpuContext, encoder: &mut wgpu::CommandEncoder, target: &wgpu::TextureView, size: (u32, u32));
+}
+
+/// The overlay drawn when the frame is presented to a window; absent: nothing is drawn.
+#[derive(Resource, Clone)]
+pub struct SurfaceOverlayHook(pub Arc<dyn SurfaceOverlay>);
 
 /// Per-pass GPU time of each frame, and which passes were left out and why.
 #[derive(Resource, Default)]
@@ -317,6 +331,7 @@ pub struct CameraFrame<'w> {
     timer: ResMut<'w, GpuTimer>,
     timings: ResMut<'w, FrameTimings>,
     surface: Option<Res<'w, SurfaceTarget>>,
+    overlay: Option<Res<'w, SurfaceOverlayHook>>,
 }
 
 impl CameraFrame<'_> {
@@ -471,6 +486,13 @@ impl CameraFrame<'_> {
                 rp.set_bind_group(0, &group0, &[]);
                 rp.draw(0..3, 0..1);
             });
+            if let Some(overlay) = self.overlay.as_ref().map(|o| o.0.clone()) {
+                let mut pass = graph.add_pass(overlay.label());
+                pass.read(&swap);
+                let out = pass.write(&mut swap);
+                let (width, height) = (target.config.width, target.config.height);
+                pass.render(move |ctx| overlay.record(ctx.gpu, ctx.encoder, ctx.view(out), (width, height)));
+            }
             graph.export(&swap);
         }
 

@@ -1,6 +1,94 @@
-#[allow(dead_code)]
+//! `game_demo play`: the walkable demo level with DDGI, in a window (first-person controls and the
+//! probe debug overlay) or headless (a scripted walk writing frames and per-frame GPU times).
+//!
+//! - [`level`]: the level (kit-bashed Kenney models and procedural rooms) and its animations;
+//! - [`navmesh`]: where one can walk (spade's constrained Delaunay triangulation);
+//! - [`controller`]: the first-person controller and the scripted tour;
+//! - [`overlay`]: the egui overlay; [`window`]: the windowed runner; [`headless`]: the scripted
+//!   walk without a window.
+
 pub mod controller;
-#[allow(dead_code)]
+pub mod headless;
 pub mod level;
-#[allow(dead_code)]
 pub mod navmesh;
+pub mod overlay;
+pub mod window;
+
+use std::path::Path;
+
+use bevy_app::App;
+use ddgi::{DdgiOutput, DdgiProbeView, DdgiVolume};
+use engine::gpu::GpuContext;
+use engine::render::RenderOutputs;
+use engine::render::readback::read_texture;
+use glam::UVec3;
+
+use controller::{PlayerPlugin, PlayerSettings, ScriptedTour};
+use level::{DemoLevel, DemoLevelPlugin, demo_level, kenney_assets_dir};
+
+/// The fixed clock of scripted runs (headless, and the windowed run the tests compare with it).
+pub const STEP_SECONDS: f64 = 1.0 / 60.0;
+
+/// What `play` renders and how.
+#[derive(Clone, Debug)]
+pub struct PlayOptions {
+    pub width: u32,
+    pub height: u32,
+    /// Probe spacing of the level's DDGI volume in metres (the grid follows from the level's size).
+    pub probe_spacing: f32,
+    pub rays_per_probe: u32,
+    pub adaptive: bool,
+    /// Load the Kenney models (when the shared assets are present).
+    pub use_assets: bool,
+}
+
+impl Default for PlayOptions {
+    fn default() -> Self {
+        Self { width: 1280, height: 720, probe_spacing: 1.5, rays_per_probe: 128, adaptive: true, use_assets: true }
+    }
+}
+
+/// Builds the level into `app` (which has the engine and render plugins): the scene and its
+/// animations, the player on the navigation mesh, the level's DDGI volume and the overlay's
+/// resources. `scripted`: the player follows the level's tour instead of input.
+pub fn setup_play(app: &mut App, options: &PlayOptions, scripted: bool) -> Result<DemoLevel, String> {
+    let assets = if options.use_assets { kenney_assets_dir() } else { None };
+    if options.use_assets && assets.is_none() {
+        eprintln!("note: ../shared/assets/kenney_fps is absent; the level is built from procedural geometry only");
+    }
+    let level = demo_level(assets.as_deref());
+    let player = PlayerPlugin::new(level.layout.clone(), PlayerSettings::default()).map_err(|e| format!("navigation mesh: {e}"))?;
+    let root = level.scene.clone().spawn(app.world_mut());
+    level.attach_animations(app.world_mut(), root).map_err(|e| e.to_string())?;
+    if scripted {
+        app.insert_resource(ScriptedTour::new(level.layout.tour.clone(), true));
+    }
+    app.add_plugins((DemoLevelPlugin, player));
+
+    let (lo, hi) = level.layout.gi_bounds;
+    let counts = ((hi - lo) / options.probe_spacing.max(0.05)).ceil().as_uvec3().max(UVec3::ONE);
+    let mut volume = DdgiVolume {
+        bounds: Some(level.layout.gi_bounds),
+        probe_counts: counts,
+        rays_per_probe: options.rays_per_probe,
+        ..Default::default()
+    };
+    volume.adaptive.enabled = options.adaptive;
+    volume.validate().map_err(|e| format!("the level's DDGI volume: {e}"))?;
+    ddgi::use_ddgi(app, volume, DdgiOutput::Full);
+    app.init_resource::<DdgiProbeView>();
+    Ok(level)
+}
+
+pub use level::door_is_open as door_open;
+
+/// Writes the last frame's tonemapped image as a PNG.
+pub fn save_screenshot(gpu: &GpuContext, world: &bevy_ecs::world::World, path: &Path) -> Result<(), String> {
+    let outputs = world.resource::<RenderOutputs>();
+    let pixels = read_texture(gpu, &outputs.ldr);
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    }
+    image::save_buffer(path, &pixels, outputs.size.width, outputs.size.height, image::ExtendedColorType::Rgba8)
+        .map_err(|e| format!("{}: {e}", path.display()))
+}

@@ -97,6 +97,26 @@ pub struct DdgiRay {
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct DdgiGatherParams {
     pub first_volume: u32,
+    /// `composite_debug`: 1 direct light only, 2 albedo, 3 normals.
+    pub debug_view: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
+}
+
+/// Parameters of the probe debug view (`ddgi_probes.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct DdgiProbeViewParams {
+    /// 1 irradiance, 2 state, 3 ray budget, 4 temporal error.
+    pub mode: u32,
+    /// The highlighted probe; `u32::MAX`: none.
+    pub selected: u32,
+    /// Sphere radius in world units.
+    pub radius: f32,
+    /// Ray count drawn as the hottest colour.
+    pub max_rays: f32,
+    /// Temporal error drawn as the hottest colour.
+    pub max_error: f32,
     pub _pad0: u32,
     pub _pad1: u32,
     pub _pad2: u32,
@@ -188,4 +208,5 @@ pub const GPU_STRUCTS: &[(&str, usize, &str)] = &[
     ("DdgiRay", size_of::<DdgiRay>(), "ddgi.inc.wgsl"),
     ("DdgiCounters", size_of::<DdgiCounters>(), "ddgi.inc.wgsl"),
     ("DdgiGatherParams", size_of::<DdgiGatherParams>(), "ddgi_gather.wgsl"),
+    ("DdgiProbeViewParams", size_of::<DdgiProbeViewParams>(), "ddgi_probes.wgsl"),
 ];

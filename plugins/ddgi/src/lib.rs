@@ -54,7 +54,7 @@ use engine::gpu::GpuContext;
 use engine::render::gpu_scene::{flush_uploads, prepare_gpu_scene};
 use engine::render::{FrameScript, frame_script_is};
 
-pub use render::{DdgiGpuVolumes, DdgiOutput, DdgiPipelines, VolumeGpu};
+pub use render::{DdgiGpuVolumes, DdgiOutput, DdgiPipelines, DdgiProbeColor, DdgiProbeView, VolumeGpu};
 pub use volume::{DdgiAdaptive, DdgiLayout, DdgiProbe, DdgiProbePin, DdgiProbeState, DdgiSettingsError, DdgiVolume, DdgiWeights};
 
 /// The name of the DDGI frame script.

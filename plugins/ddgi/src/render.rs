@@ -9,14 +9,14 @@ use bevy_ecs::prelude::*;
 use engine::gpu::GpuContext;
 use engine::graph::{Buffer as GraphBuffer, BufferDesc, Handle, RenderGraph, Texture as GraphTexture, TextureDesc};
 use engine::render::gpu_scene::GpuScene;
-use engine::render::{CameraFrame, HDR_FORMAT, SkyRadiance, dispatch};
+use engine::render::{CameraFrame, DEPTH_FORMAT, HDR_FORMAT, SkyRadiance, dispatch};
 use engine::rng::SplitMix64;
 use engine::scene::{Assets, Mesh};
-use engine::shader::{Program, ShaderError, compute_program, compute_program_with_constants};
+use engine::shader::{Program, RenderTargets, ShaderError, compute_program, compute_program_with_constants, render_program};
 use engine::wgpu;
 use glam::{Mat3, Quat, Vec3};
 
-use crate::gpu::{DdgiCounters, DdgiGatherParams, DdgiProbeData, DdgiVolumeGpu, NO_PIN, PIN_ACTIVE, PIN_INACTIVE, PROBE_INACTIVE};
+use crate::gpu::{DdgiCounters, DdgiGatherParams, DdgiProbeData, DdgiProbeViewParams, DdgiVolumeGpu, NO_PIN, PIN_ACTIVE, PIN_INACTIVE, PROBE_INACTIVE};
 use crate::volume::{DdgiLayout, DdgiLimits, DdgiProbe, DdgiProbePin, DdgiProbeState, DdgiVolume};
 
 /// Format of both atlases (irradiance perceptually encoded; distances
@@ -35,6 +35,86 @@ pub enum DdgiOutput {
     Full,
     /// DDGI's indirect light alone (albedo / π × irradiance).
     Indirect,
+    /// Direct light alone (the probes still update; the gather is skipped).
+    Direct,
+    /// The G-buffer's albedo (debug view).
+    Albedo,
+    /// The G-buffer's normals as colours, 0.5 + 0.5 n (debug view).
+    Normals,
+}
+
+impl DdgiOutput {
+    pub const ALL: [DdgiOutput; 5] = [Self::Full, Self::Direct, Self::Indirect, Self::Albedo, Self::Normals];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Full => "full",
+            Self::Indirect => "indirect only",
+            Self::Direct => "direct only",
+            Self::Albedo => "albedo",
+            Self::Normals => "normals",
+        }
+    }
+
+    /// The `debug_view` of `composite_debug`, for the outputs it draws.
+    fn debug_view(self) -> Option<u32> {
+        match self {
+            Self::Full | Self::Indirect => None,
+            Self::Direct => Some(1),
+            Self::Albedo => Some(2),
+            Self::Normals => Some(3),
+        }
+    }
+}
+
+/// What the probe debug view paints on each probe's sphere.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum DdgiProbeColor {
+    /// No spheres (the pass is left out).
+    #[default]
+    Off,
+    /// The probe's irradiance in the direction of each point of the sphere.
+    Irradiance,
+    /// Green active, red inactive (inside geometry or dark), yellow fresh.
+    State,
+    /// Rays this frame, blue (none) to red (`max_rays`).
+    Rays,
+    /// Temporal error, blue (0) to red (`max_error`).
+    Error,
+}
+
+impl DdgiProbeColor {
+    pub const ALL: [DdgiProbeColor; 5] = [Self::Off, Self::Irradiance, Self::State, Self::Rays, Self::Error];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Off => "off",
+            Self::Irradiance => "irradiance",
+            Self::State => "state",
+            Self::Rays => "ray budget",
+            Self::Error => "temporal error",
+        }
+    }
+}
+
+/// The probe debug view: every probe of the first volume drawn as a small sphere in the image
+/// (pass `ddgi_probe_spheres`, after the composite, depth-tested against the G-buffer). Costs one
+/// instanced draw of 576 vertices per probe when on, nothing when off.
+#[derive(Resource, Clone, Copy, Debug, PartialEq)]
+pub struct DdgiProbeView {
+    pub color: DdgiProbeColor,
+    /// Sphere radius as a fraction of the smallest probe spacing.
+    pub radius: f32,
+    /// The highlighted probe (index in the volume).
+    pub selected: Option<u32>,
+    /// Temporal error drawn as the hottest colour.
+    pub max_error: f32,
+}
+
+impl Default for DdgiProbeView {
+    fn default() -> Self {
+        Self { color: DdgiProbeColor::Off, radius: 0.12, selected: None, max_error: 0.1 }
+    }
 }
 
 type ComputeProgram = Arc<Program<wgpu::ComputePipeline>>;
@@ -79,6 +159,9 @@ pub struct DdgiPipelines {
     gather: ComputeProgram,
     composite: ComputeProgram,
     composite_indirect: ComputeProgram,
+    composite_debug: ComputeProgram,
+    /// Built on first use (the debug view is rarely on), with its vertices per sphere.
+    probe_spheres: Option<(Arc<Program<wgpu::RenderPipeline>>, u32)>,
     sampler: wgpu::Sampler,
 }
 
@@ -102,6 +185,8 @@ impl DdgiPipelines {
             gather: p("ddgi_gather.wgsl", "gather_irradiance")?,
             composite: p("ddgi_gather.wgsl", "composite")?,
             composite_indirect: p("ddgi_gather.wgsl", "composite_indirect")?,
+            composite_debug: p("ddgi_gather.wgsl", "composite_debug")?,
+            probe_spheres: None,
             sampler: gpu.device.create_sampler(&wgpu::SamplerDescriptor {
                 label: Some("ddgi_sampler"),
                 mag_filter: wgpu::FilterMode::Linear,
@@ -109,6 +194,33 @@ impl DdgiPipelines {
                 ..Default::default()
             }),
         })
+    }
+
+    /// The probe debug view's pipeline (built on first use).
+    fn probe_spheres_program(&mut self, gpu: &GpuContext) -> Result<(Arc<Program<wgpu::RenderPipeline>>, u32), ShaderError> {
+        if let Some(p) = &self.probe_spheres {
+            return Ok(p.clone());
+        }
+        let vertices = probe_sphere_vertices()?;
+        let program = render_program(
+            &gpu.device,
+            "ddgi_probes.wgsl",
+            "ddgi_probe_spheres",
+            RenderTargets {
+                colors: &[Some(wgpu::ColorTargetState { format: HDR_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL })],
+                depth: Some(wgpu::DepthStencilState {
+                    format: DEPTH_FORMAT,
+                    depth_write_enabled: Some(true),
+                    depth_compare: Some(wgpu::CompareFunction::Greater),
+                    stencil: Default::default(),
+                    bias: Default::default(),
+                }),
+                primitive: wgpu::PrimitiveState { cull_mode: Some(wgpu::Face::Back), ..Default::default() },
+            },
+        )?;
+        let program = (Arc::new(program), vertices);
+        self.probe_spheres = Some(program.clone());
+        Ok(program)
     }
 
     /// The trace and shading pipelines compiled for `s` (built on first use).
@@ -619,12 +731,13 @@ pub fn render_ddgi_frame(
     mut pipelines: ResMut<DdgiPipelines>,
     mut volumes: ResMut<DdgiGpuVolumes>,
     output: Res<DdgiOutput>,
+    probe_view: Option<Res<DdgiProbeView>>,
 ) {
     let size = frame.size();
     let gpu = frame.gpu.clone();
     let specialization = Specialization { spot_lights: frame.scene.has_spot_lights, emissive: frame.scene.has_emissive };
     let mut script = frame.begin();
-    let gbuffer = frame.add_gbuffer(&mut script.graph);
+    let mut gbuffer = frame.add_gbuffer(&mut script.graph);
     let mut direct = script.graph.create_texture(
         "ddgi_direct",
         TextureDesc {
@@ -653,7 +766,7 @@ pub fn render_ddgi_frame(
     );
     let device = &gpu.device;
     let params = |first: bool| {
-        let p = DdgiGatherParams { first_volume: u32::from(first), _pad0: 0, _pad1: 0, _pad2: 0 };
+        let p = DdgiGatherParams { first_volume: u32::from(first), debug_view: output.debug_view().unwrap_or(0), _pad1: 0, _pad2: 0 };
         let b = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("ddgi_gather_params"),
             size: size_of::<DdgiGatherParams>() as u64,
@@ -699,7 +812,38 @@ pub fn render_ddgi_frame(
             dispatch(ctx.encoder, ctx.label, &program.pipeline, &[&group0, &group1, &group2], workgroups);
         });
     }
-    {
+    if output.debug_view().is_some() {
+        // Direct light, albedo or normals: nobody reads the gathered indirect light, so the graph
+        // leaves the gather out.
+        let mut pass = script.graph.add_pass("ddgi_composite");
+        let inputs = [pass.read(&gbuffer.depth), pass.read(&gbuffer.normal), pass.read(&gbuffer.albedo), pass.read(&direct)];
+        let out = pass.write(&mut script.hdr);
+        pass.note(output.name());
+        let program = pipelines.composite_debug.clone();
+        let group0 = program.bind_group(device, 0, &scene_bindings);
+        let params = params(true);
+        pass.render(move |ctx| {
+            let [depth, normal, albedo, direct_in] = inputs.map(|i| wgpu::BindingResource::TextureView(ctx.view(i)));
+            let group2 = program.bind_group(
+                &ctx.gpu.device,
+                2,
+                &[
+                    ("ddgi_gather_params", params.as_entire_binding()),
+                    ("gbuffer_depth", depth),
+                    ("gbuffer_normal", normal),
+                    ("gbuffer_albedo", albedo),
+                    ("direct_in", direct_in),
+                    ("radiance_out", wgpu::BindingResource::TextureView(ctx.view(out))),
+                ],
+            );
+            let empty = ctx.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("empty"),
+                layout: &program.pipeline.get_bind_group_layout(1),
+                entries: &[],
+            });
+            dispatch(ctx.encoder, ctx.label, &program.pipeline, &[&group0, &empty, &group2], workgroups);
+        });
+    } else {
         let full = *output == DdgiOutput::Full;
         let mut pass = script.graph.add_pass("ddgi_composite");
         let (depth, albedo) = (pass.read(&gbuffer.depth), pass.read(&gbuffer.albedo));
@@ -732,6 +876,13 @@ pub fn render_ddgi_frame(
             dispatch(ctx.encoder, ctx.label, &program.pipeline, &[&group0, &empty, &group2], workgroups);
         });
     }
+    if let (Some(view), Some((k, _, h))) = (probe_view.filter(|v| v.color != DdgiProbeColor::Off), handles.first()) {
+        let volume = &volumes.volumes[*k].1;
+        match pipelines.probe_spheres_program(&gpu) {
+            Ok((program, vertices)) => add_probe_spheres(&mut script.graph, &gpu, (&program, vertices), &scene_bindings, &pipelines.sampler, volume, h, &mut gbuffer.depth, &mut script.hdr, &view),
+            Err(e) => log::error!("DDGI probe view: {e}"),
+        }
+    }
     drop(scene_bindings);
     frame.finish(script);
     let frame_index = frame.time.frame;
@@ -740,6 +891,94 @@ pub fn render_ddgi_frame(
         v.readback.request(&gpu, &v.probes, frame_index);
         v.counter_readback.request(&gpu, &v.counters, frame_index);
     }
+}
+
+/// Vertices of one probe sphere: two triangles per ring × segment of `ddgi_probes.wgsl`.
+pub fn probe_sphere_vertices() -> Result<u32, ShaderError> {
+    let parsed = engine::shader::parse("ddgi_probes.wgsl")?;
+    let missing = |name: &str| ShaderError::Missing(format!("ddgi_probes.wgsl: const {name}"));
+    let rings = parsed.u32_constant("SPHERE_RINGS").ok_or_else(|| missing("SPHERE_RINGS"))?;
+    let segments = parsed.u32_constant("SPHERE_SEGMENTS").ok_or_else(|| missing("SPHERE_SEGMENTS"))?;
+    Ok(6 * rings * segments)
+}
+
+/// The probe debug view's pass: one sphere per probe of `volume`, rasterized into `hdr` with the
+/// G-buffer's depth.
+#[allow(clippy::too_many_arguments)]
+fn add_probe_spheres(
+    graph: &mut RenderGraph,
+    gpu: &GpuContext,
+    (program, vertices): (&Arc<Program<wgpu::RenderPipeline>>, u32),
+    scene_bindings: &[(&'static str, wgpu::BindingResource<'_>)],
+    sampler: &wgpu::Sampler,
+    volume: &VolumeGpu,
+    handles: &VolumeHandles,
+    depth: &mut Handle<GraphTexture>,
+    hdr: &mut Handle<GraphTexture>,
+    view: &DdgiProbeView,
+) {
+    let spacing = volume.layout.spacing.min_element().max(0.0);
+    let params = DdgiProbeViewParams {
+        mode: match view.color {
+            DdgiProbeColor::Off | DdgiProbeColor::Irradiance => 1,
+            DdgiProbeColor::State => 2,
+            DdgiProbeColor::Rays => 3,
+            DdgiProbeColor::Error => 4,
+        },
+        selected: view.selected.unwrap_or(u32::MAX),
+        radius: view.radius.clamp(0.0, 0.5) * spacing,
+        max_rays: volume.settings.rays_per_probe as f32,
+        max_error: view.max_error,
+        ..Default::default()
+    };
+    let uniform = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("ddgi_probe_view"),
+        size: size_of::<DdgiProbeViewParams>() as u64,
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    gpu.queue.write_buffer(&uniform, 0, bytemuck::bytes_of(&params));
+    let mut pass = graph.add_pass("ddgi_probe_spheres");
+    pass.note(view.color.name());
+    pass.read(&handles.probes);
+    pass.read(&handles.irradiance);
+    pass.read(hdr);
+    pass.read(depth);
+    let color = pass.write(hdr);
+    let depth = pass.write(depth);
+    let program = program.clone();
+    let group0 = program.bind_group(&gpu.device, 0, scene_bindings);
+    let group1 = program.bind_group(&gpu.device, 1, &volume.common_bindings(sampler));
+    let group2 = program.bind_group(
+        &gpu.device,
+        2,
+        &[("ddgi_probe_view", uniform.as_entire_binding()), ("ddgi_probe_view_probes", volume.probes.as_entire_binding())],
+    );
+    let count = volume.layout.probe_count;
+    pass.render(move |ctx| {
+        let mut rp = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some(ctx.label),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: ctx.view(color),
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: ctx.view(depth),
+                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        rp.set_pipeline(&program.pipeline);
+        rp.set_bind_group(0, &group0, &[]);
+        rp.set_bind_group(1, &group1, &[]);
+        rp.set_bind_group(2, &group2, &[]);
+        rp.draw(0..vertices, 0..count);
+    });
 }
 
 // ---------------------------------------------------------------------------------------------

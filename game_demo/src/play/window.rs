@@ -1,0 +1,360 @@
+//! `game_demo play` in a window: first-person controls, the egui overlay (F1), screenshots (F12).
+//!
+//! Controls: click the view to grab the mouse; WASD walk, Shift run, Space jump, mouse look; E
+//! opens or closes the door (back to its automatic cycle with R); Esc releases the mouse, a second
+//! Esc quits. With the overlay open the mouse is free: click a probe sphere to inspect it.
+//!
+//! With `--script` the window runs the level's scripted tour on the fixed clock, frame for frame
+//! what the headless mode renders, saves a screenshot at a chosen frame and exits: the test under
+//! Xvfb compares the two.
+
+use std::collections::HashSet;
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
+
+use bevy_app::App;
+use engine::app::{EnginePlugin, Time};
+use engine::gpu::{GpuContext, GpuOptions};
+use engine::render::{RenderPlugin, RenderSize, SurfaceOverlay, SurfaceOverlayHook, SurfaceTarget, blit_program};
+use glam::Vec2;
+use winit::application::ApplicationHandler;
+use winit::event::{DeviceEvent, DeviceId, ElementState, MouseButton, WindowEvent};
+use winit::event_loop::{ActiveEventLoop, EventLoop};
+use winit::keyboard::{KeyCode, PhysicalKey};
+use winit::window::{CursorGrabMode, Window, WindowId};
+
+use super::controller::PlayerInput;
+use super::level::DoorControl;
+use super::overlay::{OverlayState, overlay_ui, pick_probe_in_world};
+use super::{PlayOptions, save_screenshot, setup_play};
+
+/// Mouse-look sensitivity, radians per pixel of mouse motion.
+const LOOK_RADIANS_PER_PIXEL: f32 = 0.0025;
+
+/// A scripted windowed run (tests): the fixed clock, the level's tour, a screenshot, then exit.
+pub struct WindowScript {
+    pub frames: u32,
+    pub screenshot: PathBuf,
+}
+
+/// Opens the demo's window and runs it until it is closed.
+pub fn run_window(options: PlayOptions, script: Option<WindowScript>) -> Result<(), String> {
+    let event_loop = EventLoop::new().map_err(|e| format!("cannot open a window (is a display available? set DISPLAY or WAYLAND_DISPLAY): {e}"))?;
+    let mut runner = Runner { options, script, state: None, error: None };
+    event_loop.run_app(&mut runner).map_err(|e| e.to_string())?;
+    runner.error.map_or(Ok(()), Err)
+}
+
+struct Runner {
+    options: PlayOptions,
+    script: Option<WindowScript>,
+    state: Option<State>,
+    error: Option<String>,
+}
+
+struct State {
+    window: Arc<Window>,
+    app: App,
+    gpu: GpuContext,
+    egui: egui::Context,
+    egui_winit: egui_winit::State,
+    painter: Arc<EguiPainter>,
+    overlay: OverlayState,
+    keys: HashSet<KeyCode>,
+    look: Vec2,
+    jump: bool,
+    grabbed: bool,
+    cursor: Vec2,
+    last_frame: Option<Instant>,
+    frames: u32,
+    screenshot_requested: bool,
+}
+
+/// egui's draws, recorded as the overlay pass after the frame's blit.
+struct EguiPainter {
+    renderer: Mutex<egui_wgpu::Renderer>,
+    frame: Mutex<Option<EguiFrame>>,
+}
+
+struct EguiFrame {
+    jobs: Vec<egui::ClippedPrimitive>,
+    textures: egui::TexturesDelta,
+    pixels_per_point: f32,
+}
+
+impl SurfaceOverlay for EguiPainter {
+    fn label(&self) -> &'static str {
+        "egui_overlay"
+    }
+
+    fn record(&self, gpu: &GpuContext, encoder: &mut engine::wgpu::CommandEncoder, target: &engine::wgpu::TextureView, size: (u32, u32)) {
+        let Some(frame) = self.frame.lock().unwrap_or_else(|e| e.into_inner()).take() else { return };
+        let mut renderer = self.renderer.lock().unwrap_or_else(|e| e.into_inner());
+        for (id, deltas) in &frame.textures.set {
+            for delta in deltas {
+                renderer.update_texture(&gpu.device, &gpu.queue, *id, delta);
+            }
+        }
+        let screen = egui_wgpu::ScreenDescriptor { size_in_pixels: [size.0, size.1], pixels_per_point: frame.pixels_per_point };
+        renderer.update_buffers(&gpu.device, &gpu.queue, encoder, &frame.jobs, &screen);
+        {
+            let pass = encoder.begin_render_pass(&engine::wgpu::RenderPassDescriptor {
+                label: Some("egui_overlay"),
+                color_attachments: &[Some(engine::wgpu::RenderPassColorAttachment {
+                    view: target,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: engine::wgpu::Operations { load: engine::wgpu::LoadOp::Load, store: engine::wgpu::StoreOp::Store },
+                })],
+                depth_stencil_attachment: None,
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            renderer.render(&mut pass.forget_lifetime(), &frame.jobs, &screen);
+        }
+        for id in &frame.textures.free {
+            renderer.free_texture(id);
+        }
+    }
+}
+
+impl Runner {
+    fn open(&mut self, event_loop: &ActiveEventLoop) -> Result<State, String> {
+        let (width, height) = (self.options.width, self.options.height);
+        let attributes = Window::default_attributes()
+            .with_title("game_demo — DDGI (F1: overlay)")
+            .with_inner_size(winit::dpi::PhysicalSize::new(width, height))
+            .with_resizable(self.script.is_none());
+        let window = Arc::new(event_loop.create_window(attributes).map_err(|e| format!("cannot create the window: {e}"))?);
+        let instance = GpuContext::create_instance();
+        let surface = instance.create_surface(window.clone()).map_err(|e| format!("cannot create the window's surface: {e}"))?;
+        let gpu = GpuContext::new(GpuOptions { compatible_surface: Some(&surface), instance: Some(instance.clone()), ..Default::default() })
+            .map_err(|e| e.to_string())?;
+        let size = window.inner_size();
+        let caps = surface.get_capabilities(&gpu.adapter);
+        // The image is sRGB-encoded by the tonemapper: present it through a non-sRGB format.
+        let format = caps.formats.iter().copied().find(|f| !f.is_srgb()).or(caps.formats.first().copied()).ok_or("the surface supports no format")?;
+        let mut config = surface
+            .get_default_config(&gpu.adapter, size.width.max(1), size.height.max(1))
+            .ok_or("the surface is not supported by the adapter")?;
+        config.format = format;
+        surface.configure(&gpu.device, &config);
+        let blit = blit_program(&gpu, format).map_err(|e| e.to_string())?;
+
+        let render_size = RenderSize { width: config.width, height: config.height };
+        let mut app = App::new();
+        if self.script.is_some() {
+            // Frame for frame what the headless mode renders.
+            app.insert_resource(Time::fixed(super::STEP_SECONDS)).insert_resource(engine::rt::WaitForBlasBuilds(true));
+        } else {
+            app.insert_resource(Time::real());
+        }
+        app.add_plugins((EnginePlugin, RenderPlugin { gpu: gpu.clone(), size: render_size }));
+        app.world_mut().resource_mut::<engine::render::FrameTimings>().keep = 600;
+        if self.script.is_some() {
+            app.world_mut().resource_mut::<engine::render::FrameTimings>().wait_each_frame = true;
+        }
+        app.insert_resource(SurfaceTarget { surface, config, blit: Arc::new(blit) });
+        setup_play(&mut app, &self.options, self.script.is_some())?;
+
+        let renderer = egui_wgpu::Renderer::new(&gpu.device, format, egui_wgpu::RendererOptions::default());
+        let painter = Arc::new(EguiPainter { renderer: Mutex::new(renderer), frame: Mutex::new(None) });
+        app.insert_resource(SurfaceOverlayHook(painter.clone()));
+        let egui = egui::Context::default();
+        let max_texture = gpu.device.limits().max_texture_dimension_2d as usize;
+        let egui_winit = egui_winit::State::new(egui.clone(), egui::ViewportId::ROOT, &window, Some(window.scale_factor() as f32), None, Some(max_texture));
+        window.request_redraw();
+        Ok(State {
+            window,
+            app,
+            gpu,
+            egui,
+            egui_winit,
+            painter,
+            overlay: OverlayState::default(),
+            keys: HashSet::new(),
+            look: Vec2::ZERO,
+            jump: false,
+            grabbed: false,
+            cursor: Vec2::ZERO,
+            last_frame: None,
+            frames: 0,
+            screenshot_requested: false,
+        })
+    }
+}
+
+impl State {
+    fn set_grab(&mut self, grab: bool) {
+        if grab {
+            let ok = self.window.set_cursor_grab(CursorGrabMode::Locked).or_else(|_| self.window.set_cursor_grab(CursorGrabMode::Confined));
+            if let Err(e) = ok {
+                log::warn!("cannot grab the mouse: {e}");
+            }
+        } else {
+            let _ = self.window.set_cursor_grab(CursorGrabMode::None);
+        }
+        self.window.set_cursor_visible(!grab);
+        self.grabbed = grab;
+    }
+
+    fn player_input(&mut self) -> PlayerInput {
+        let key = |k: KeyCode| self.keys.contains(&k);
+        let axis = |plus: bool, minus: bool| f32::from(u8::from(plus)) - f32::from(u8::from(minus));
+        let input = PlayerInput {
+            forward: axis(key(KeyCode::KeyW) || key(KeyCode::ArrowUp), key(KeyCode::KeyS) || key(KeyCode::ArrowDown)),
+            right: axis(key(KeyCode::KeyD) || key(KeyCode::ArrowRight), key(KeyCode::KeyA) || key(KeyCode::ArrowLeft)),
+            jump: std::mem::take(&mut self.jump) || key(KeyCode::Space),
+            run: key(KeyCode::ShiftLeft) || key(KeyCode::ShiftRight),
+            look: std::mem::take(&mut self.look) * LOOK_RADIANS_PER_PIXEL * Vec2::new(-1.0, -1.0),
+        };
+        input
+    }
+
+    /// One frame: input, the overlay's UI, the app's update (render and present).
+    fn redraw(&mut self, scripted: bool) -> Result<(), String> {
+        let now = Instant::now();
+        let dt = self.last_frame.map_or(0.0, |l| (now - l).as_secs_f64());
+        self.last_frame = Some(now);
+        self.overlay.frame(dt);
+        if !scripted {
+            let input = self.player_input();
+            self.app.world_mut().insert_resource(input);
+        }
+        // The overlay's UI (an empty frame when hidden, so egui's textures stay in step).
+        let raw = self.egui_winit.take_egui_input(&self.window);
+        let world = self.app.world_mut();
+        let overlay = &mut self.overlay;
+        let output = self.egui.run_pass(raw, |ctx| overlay_ui(ctx, overlay, world));
+        self.egui_winit.handle_platform_output(&self.window, output.platform_output);
+        let jobs = self.egui.tessellate(output.shapes, output.pixels_per_point);
+        *self.painter.frame.lock().unwrap_or_else(|e| e.into_inner()) =
+            Some(EguiFrame { jobs, textures: output.textures_delta, pixels_per_point: output.pixels_per_point });
+        self.app.update();
+        self.frames += 1;
+        if std::mem::take(&mut self.overlay.screenshot_requested) || std::mem::take(&mut self.screenshot_requested) {
+            let path = PathBuf::from("screenshots").join(format!("screenshot_{:05}.png", self.frames));
+            match save_screenshot(&self.gpu, self.app.world(), &path) {
+                Ok(()) => log::warn!("screenshot: {}", path.display()),
+                Err(e) => log::error!("screenshot failed: {e}"),
+            }
+        }
+        Ok(())
+    }
+}
+
+impl ApplicationHandler for Runner {
+    fn resumed(&mut self, event_loop: &ActiveEventLoop) {
+        if self.state.is_some() {
+            return;
+        }
+        match self.open(event_loop) {
+            Ok(state) => self.state = Some(state),
+            Err(e) => {
+                self.error = Some(e);
+                event_loop.exit();
+            }
+        }
+    }
+
+    fn device_event(&mut self, _event_loop: &ActiveEventLoop, _id: DeviceId, event: DeviceEvent) {
+        let Some(state) = &mut self.state else { return };
+        if let DeviceEvent::MouseMotion { delta } = event
+            && state.grabbed
+        {
+            state.look += Vec2::new(delta.0 as f32, delta.1 as f32);
+        }
+    }
+
+    fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
+        let Some(state) = &mut self.state else { return };
+        let scripted = self.script.is_some();
+        let egui_consumed = state.overlay.visible && state.egui_winit.on_window_event(&state.window, &event).consumed;
+        match event {
+            WindowEvent::CloseRequested => event_loop.exit(),
+            WindowEvent::KeyboardInput { event, .. } => {
+                let PhysicalKey::Code(code) = event.physical_key else { return };
+                let pressed = event.state == ElementState::Pressed;
+                if pressed && !event.repeat {
+                    match code {
+                        KeyCode::Escape if state.grabbed => state.set_grab(false),
+                        KeyCode::Escape => event_loop.exit(),
+                        KeyCode::F1 => {
+                            state.overlay.visible = !state.overlay.visible;
+                            if state.overlay.visible {
+                                state.set_grab(false);
+                            }
+                        }
+                        KeyCode::F12 => state.screenshot_requested = true,
+                        KeyCode::KeyE if !egui_consumed => {
+                            let open = super::door_open(state.app.world_mut());
+                            state.app.world_mut().insert_resource(DoorControl { manual: Some(!open) });
+                        }
+                        KeyCode::KeyR if !egui_consumed => {
+                            state.app.world_mut().insert_resource(DoorControl { manual: None });
+                        }
+                        KeyCode::Space if !egui_consumed => state.jump = true,
+                        _ => {}
+                    }
+                }
+                if pressed && !egui_consumed {
+                    state.keys.insert(code);
+                } else if !pressed {
+                    state.keys.remove(&code);
+                }
+            }
+            WindowEvent::CursorMoved { position, .. } => state.cursor = Vec2::new(position.x as f32, position.y as f32),
+            WindowEvent::MouseInput { state: ElementState::Pressed, button: MouseButton::Left, .. } if !egui_consumed => {
+                if state.overlay.visible {
+                    if !state.egui.egui_wants_pointer_input() {
+                        pick_probe_in_world(state.app.world_mut(), state.cursor);
+                    }
+                } else if !state.grabbed && !scripted {
+                    state.set_grab(true);
+                }
+            }
+            WindowEvent::Focused(false) => {
+                state.keys.clear();
+                if state.grabbed {
+                    state.set_grab(false);
+                }
+            }
+            WindowEvent::Resized(size) => {
+                // Zero-sized (minimized) windows keep their last configuration; frames are skipped.
+                if size.width > 0 && size.height > 0 {
+                    let world = state.app.world_mut();
+                    let gpu = world.resource::<GpuContext>().clone();
+                    let mut target = world.resource_mut::<SurfaceTarget>();
+                    target.config.width = size.width;
+                    target.config.height = size.height;
+                    target.surface.configure(&gpu.device, &target.config);
+                    world.insert_resource(RenderSize { width: size.width, height: size.height });
+                }
+                state.window.request_redraw();
+            }
+            WindowEvent::RedrawRequested => {
+                let size = state.window.inner_size();
+                if size.width > 0 && size.height > 0 {
+                    if let Err(e) = state.redraw(scripted) {
+                        self.error = Some(e);
+                        event_loop.exit();
+                        return;
+                    }
+                    if let Some(script) = &self.script
+                        && state.frames >= script.frames
+                    {
+                        if let Err(e) = save_screenshot(&state.gpu, state.app.world(), &script.screenshot) {
+                            self.error = Some(e);
+                        }
+                        event_loop.exit();
+                        return;
+                    }
+                }
+                state.window.request_redraw();
+            }
+            _ => {}
+        }
+    }
+}
