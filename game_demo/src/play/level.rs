@@ -950,8 +950,30 @@ mod tests {
         let (lo, hi) = level.layout.gi_bounds;
         let b = level.layout.bounds;
         assert!(lo.x <= b.min.x && lo.z <= b.min.y && hi.x >= b.max.x && hi.z >= b.max.y);
-        // The house (with its roof) and the lift at its top are inside.
-        assert!(hi.y >= HOUSE_MAX.y + HOUSE_WALL + 0.25 && hi.y >= LIFT_HIGH + 2.0 && lo.y <= 0.0);
+        // Everything on the ground but the clouds (and the ground slab itself, which runs on past
+        // the fence) is inside: house, roof, props, fence, enemy.
+        let world = level.scene.world_transforms();
+        let mut checked = 0;
+        for (node, xf) in level.scene.nodes.iter().zip(&world) {
+            if node.name.starts_with("cloud") || node.name == "ground" {
+                continue;
+            }
+            for content in &node.content {
+                let NodeContent::Meshes(list) = content else { continue };
+                for &(mesh, _) in list {
+                    for &p in &level.scene.meshes[mesh].positions {
+                        let p = xf.transform_point3(p);
+                        if p.y >= 0.0 {
+                            assert!(p.cmpge(lo).all() && p.cmple(hi).all(), "{} vertex {p} outside {lo}..{hi}", node.name);
+                            checked += 1;
+                        }
+                    }
+                }
+            }
+        }
+        assert!(checked > 100);
+        // The lift at its top, with a person on it.
+        assert!(hi.y >= LIFT_HIGH + 2.0 && lo.y <= 0.0);
         for f in &level.layout.floors {
             assert!(f.height >= lo.y && f.height <= hi.y);
         }
