@@ -415,6 +415,17 @@ mod tests {
     }
 
     #[test]
+    fn a_door_closing_on_the_player_pushes_them_out() {
+        let f = fixture();
+        let doorway = f.level.layout.door.footprint.center();
+        let mut player = Player::at(Vec3::new(doorway.x, 0.15, doorway.y), 0.0);
+        step_player(&mut player, &PlayerInput::default(), DT, &f.settings, &f.world(false, 0.3));
+        let p = xz(player.feet);
+        assert!(f.nav.is_walkable(p, false), "{p}");
+        assert!(p.distance(doorway) < 0.5 + f.settings.radius, "pushed too far: {p}");
+    }
+
+    #[test]
     fn jump_rises_and_lands() {
         let f = fixture();
         let world = f.world(false, 0.3);

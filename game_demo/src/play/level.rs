@@ -323,7 +323,12 @@ impl Builder {
     /// Places a model as a node named `name` (children for parts that are not at the model's
     /// origin). Returns the node, or `None` when the model is unavailable without stand-in.
     fn place(&mut self, name: &str, model: &KitModel, transform: Transform) -> Option<usize> {
-        let parts = self.model(model)?;
+        self.place_with(name, model, transform, Affine3A::IDENTITY)
+    }
+
+    /// [`Builder::place`] with `pre` applied to the model inside its node.
+    fn place_with(&mut self, name: &str, model: &KitModel, transform: Transform, pre: Affine3A) -> Option<usize> {
+        let parts: Parts = self.model(model)?.into_iter().map(|(xf, mesh, material)| (pre * xf, mesh, material)).collect();
         let at_origin: Vec<(usize, usize)> =
             parts.iter().filter(|(xf, _, _)| *xf == Affine3A::IDENTITY).map(|&(_, m, mt)| (m, mt)).collect();
         let content = if at_origin.is_empty() { vec![NodeContent::Empty] } else { vec![NodeContent::Meshes(at_origin)] };
@@ -600,8 +605,10 @@ fn build_outdoors(b: &mut Builder) {
 
     // The flying enemy circles the field, 5 m up, watching the house.
     let orbit = Orbit { center: Vec3::new(2.0, 5.0, 4.0), radius: 8.0, period: 20.0, look_at: Some(Vec3::new(0.0, 2.0, -8.0)) };
-    let start = Transform::from_translation(orbit.center + Vec3::X * orbit.radius).with_scale(Vec3::splat(1.5));
-    if let Some(node) = b.place(ENEMY, &ENEMY_FLYING, start) {
+    // glTF models face +Z and the orbit points the node's -Z at its target: turn the model round.
+    let start = Transform::from_translation(orbit.center + Vec3::X * orbit.radius);
+    let pre = Affine3A::from_scale_rotation_translation(Vec3::splat(1.5), Quat::from_rotation_y(PI), Vec3::ZERO);
+    if let Some(node) = b.place_with(ENEMY, &ENEMY_FLYING, start, pre) {
         b.desc.nodes[node].orbit = Some(orbit);
     }
 }
@@ -625,6 +632,17 @@ fn build_lift(b: &mut Builder) -> PlatformSpec {
         box_part(Vec3::new(lo.x, -0.2, lo.y), Vec3::new(inner.0.x, 0.05, hi.y)),
         box_part(Vec3::new(inner.1.x, -0.2, lo.y), Vec3::new(hi.x, 0.05, hi.y)),
     ];
+    // Each strip's top is a 5 cm floor.
+    let rims: Vec<Footprint> = [
+        (Vec2::new(lo.x, lo.y), Vec2::new(hi.x, inner.0.y)),
+        (Vec2::new(lo.x, inner.1.y), Vec2::new(hi.x, hi.y)),
+        (Vec2::new(lo.x, lo.y), Vec2::new(inner.0.x, hi.y)),
+        (Vec2::new(inner.1.x, lo.y), Vec2::new(hi.x, hi.y)),
+    ]
+    .into_iter()
+    .map(|(min, max)| Footprint::new(min, max))
+    .collect();
+    b.floors.extend(rims.into_iter().map(|footprint| Floor { footprint, height: 0.05 }));
     b.mesh_node("lift_rim", Transform::IDENTITY, merge("lift_rim", &parts), stone);
     PlatformSpec {
         node: PLATFORM.into(),
@@ -950,8 +968,30 @@ mod tests {
         let (lo, hi) = level.layout.gi_bounds;
         let b = level.layout.bounds;
         assert!(lo.x <= b.min.x && lo.z <= b.min.y && hi.x >= b.max.x && hi.z >= b.max.y);
-        // The house (with its roof) and the lift at its top are inside.
-        assert!(hi.y >= HOUSE_MAX.y + HOUSE_WALL + 0.25 && hi.y >= LIFT_HIGH + 2.0 && lo.y <= 0.0);
+        // Everything on the ground but the clouds (and the ground slab itself, which runs on past
+        // the fence) is inside: house, roof, props, fence, enemy.
+        let world = level.scene.world_transforms();
+        let mut checked = 0;
+        for (node, xf) in level.scene.nodes.iter().zip(&world) {
+            if node.name.starts_with("cloud") || node.name == "ground" {
+                continue;
+            }
+            for content in &node.content {
+                let NodeContent::Meshes(list) = content else { continue };
+                for &(mesh, _) in list {
+                    for &p in &level.scene.meshes[mesh].positions {
+                        let p = xf.transform_point3(p);
+                        if p.y >= 0.0 {
+                            assert!(p.cmpge(lo).all() && p.cmple(hi).all(), "{} vertex {p} outside {lo}..{hi}", node.name);
+                            checked += 1;
+                        }
+                    }
+                }
+            }
+        }
+        assert!(checked > 100);
+        // The lift at its top, with a person on it.
+        assert!(hi.y >= LIFT_HIGH + 2.0 && lo.y <= 0.0);
         for f in &level.layout.floors {
             assert!(f.height >= lo.y && f.height <= hi.y);
         }

@@ -54,6 +54,9 @@ pub enum NavMeshError {
 
 type Cdt = ConstrainedDelaunayTriangulation<Point2<f64>>;
 
+/// A grid point: indices into the sorted x and z coordinates.
+type GridPoint = (usize, usize);
+
 /// The level's floor plan as classified triangles. Coordinates are the world's (x, z).
 #[derive(Clone)]
 pub struct NavMesh {
@@ -119,12 +122,12 @@ impl NavMesh {
         }
 
         // Every rectangle side, split at each grid coordinate it passes.
-        let mut segments: Vec<(String, (usize, usize), (usize, usize))> = Vec::new();
-        let mut seen: HashSet<((usize, usize), (usize, usize))> = HashSet::new();
+        let mut segments: Vec<(String, GridPoint, GridPoint)> = Vec::new();
+        let mut seen: HashSet<(GridPoint, GridPoint)> = HashSet::new();
         for (what, r) in &rects {
             let (x0, x1) = (grid_index(&xs, r.min.x as f64), grid_index(&xs, r.max.x as f64));
             let (z0, z1) = (grid_index(&zs, r.min.y as f64), grid_index(&zs, r.max.y as f64));
-            let mut push = |a: (usize, usize), b: (usize, usize)| {
+            let mut push = |a: GridPoint, b: GridPoint| {
                 let key = if a <= b { (a, b) } else { (b, a) };
                 if seen.insert(key) {
                     segments.push((what.clone(), key.0, key.1));
@@ -141,9 +144,9 @@ impl NavMesh {
         }
 
         let mut cdt = Cdt::new();
-        let mut handles: HashMap<(usize, usize), FixedVertexHandle> = HashMap::new();
+        let mut handles: HashMap<GridPoint, FixedVertexHandle> = HashMap::new();
         for (what, a, b) in &segments {
-            let mut vertex = |key: (usize, usize)| -> Result<FixedVertexHandle, NavMeshError> {
+            let mut vertex = |key: GridPoint| -> Result<FixedVertexHandle, NavMeshError> {
                 if let Some(&h) = handles.get(&key) {
                     return Ok(h);
                 }
