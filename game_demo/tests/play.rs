@@ -53,7 +53,7 @@ fn headless_walk_writes_frames_and_a_timing_row_per_frame_while_the_player_moves
     let csv = std::fs::read_to_string(out.join("frames.csv")).expect("frames.csv");
     let mut lines = csv.lines();
     let header: Vec<&str> = lines.next().expect("a header").split(',').collect();
-    for column in ["frame", "player_x", "player_z", "door_open", "ddgi_rays", "gpu_total_ms", "gbuffer_ms", "ddgi_trace_rays_ms"] {
+    for column in ["frame", "player_x", "player_z", "door_open", "ddgi_rays", "gpu_total_ms", "gbuffer_ms", "ddgi_trace_ms"] {
         assert!(header.contains(&column), "frames.csv has no column {column}: {header:?}");
     }
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
@@ -121,9 +121,7 @@ impl Drop for Xvfb {
 }
 
 fn which(program: &str) -> Result<PathBuf, ()> {
-    std::env::var_os("PATH")
-        .and_then(|paths| std::env::split_paths(&paths).map(|p| p.join(program)).find(|p| p.is_file()))
-        .ok_or(())
+    std::env::var_os("PATH").and_then(|paths| std::env::split_paths(&paths).map(|p| p.join(program)).find(|p| p.is_file())).ok_or(())
 }
 
 #[test]

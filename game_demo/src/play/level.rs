@@ -56,6 +56,7 @@ impl Footprint {
         Self { min: self.min - Vec2::splat(by), max: self.max + Vec2::splat(by) }
     }
 
+    #[cfg(test)]
     pub fn center(&self) -> Vec2 {
         (self.min + self.max) * 0.5
     }

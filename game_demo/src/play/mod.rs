@@ -21,7 +21,7 @@ use ddgi::{DdgiOutput, DdgiProbeView, DdgiVolume};
 use engine::gpu::GpuContext;
 use engine::render::RenderOutputs;
 use engine::render::readback::read_texture;
-use glam::UVec3;
+use glam::{UVec3, Vec3Swizzles};
 
 use controller::{PlayerPlugin, PlayerSettings, ScriptedTour};
 use level::{DemoLevel, DemoLevelPlugin, demo_level, kenney_assets_dir};
@@ -58,6 +58,10 @@ pub fn setup_play(app: &mut App, options: &PlayOptions, scripted: bool) -> Resul
     }
     let level = demo_level(assets.as_deref());
     let player = PlayerPlugin::new(level.layout.clone(), PlayerSettings::default()).map_err(|e| format!("navigation mesh: {e}"))?;
+    let (outdoors, indoors) = (level.layout.spawn.xz(), level.layout.indoor_point.xz());
+    if !player.navmesh.connected(outdoors, indoors, true) {
+        return Err("the level's house cannot be reached from the spawn point, even with the door open".into());
+    }
     let root = level.scene.clone().spawn(app.world_mut());
     level.attach_animations(app.world_mut(), root).map_err(|e| e.to_string())?;
     if scripted {

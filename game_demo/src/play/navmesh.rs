@@ -185,10 +185,6 @@ impl NavMesh {
         Ok(Self { cdt, kinds, agent_radius })
     }
 
-    pub fn agent_radius(&self) -> f32 {
-        self.agent_radius
-    }
-
     fn kind(&self, face: FixedFaceHandle<InnerTag>) -> FaceKind {
         self.kinds.get(face.index()).copied().unwrap_or(FaceKind::Blocked)
     }

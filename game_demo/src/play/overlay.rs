@@ -11,6 +11,9 @@ use std::collections::VecDeque;
 use bevy_ecs::prelude::*;
 use ddgi::{DdgiGpuVolumes, DdgiOutput, DdgiProbe, DdgiProbeColor, DdgiProbeState, DdgiProbeView, DdgiVolume};
 use engine::gpu::GpuContext;
+
+use super::controller::NavMeshResource;
+use super::navmesh::FaceKind;
 use engine::render::gpu_scene::clip_from_world;
 use engine::render::{FrameTimings, RenderSize};
 use engine::scene::{Camera, DirectionalLight, GlobalTransform, MeshInstance, Name, PointLight, SpotLight, Transform};
@@ -32,6 +35,8 @@ pub struct OverlayState {
     last_timing_frame: Option<u64>,
     pub selected_entity: Option<Entity>,
     pub show_atlases: bool,
+    /// Draw the navigation mesh's faces over the view.
+    pub show_navmesh: bool,
     atlases: Option<AtlasImages>,
     atlas_age: f64,
     /// Set by the screenshot button; the runner takes it.
@@ -47,6 +52,7 @@ impl Default for OverlayState {
             last_timing_frame: None,
             selected_entity: None,
             show_atlases: false,
+            show_navmesh: false,
             atlases: None,
             atlas_age: f64::INFINITY,
             screenshot_requested: false,
@@ -56,13 +62,57 @@ impl Default for OverlayState {
 
 /// The atlases read back and uploaded to egui, and the tile geometry to crop a probe's maps.
 struct AtlasImages {
+    /// The whole atlases, shrunk by an integer factor when wider than egui's largest texture.
     irradiance: egui::TextureHandle,
     distance: egui::TextureHandle,
     irradiance_size: UVec2,
     distance_size: UVec2,
-    irradiance_texels: u32,
-    distance_texels: u32,
-    tiles_per_row: u32,
+    /// The selected probe's maps (its tiles, borders included), and which probe they show.
+    probe_irradiance: egui::TextureHandle,
+    probe_distance: egui::TextureHandle,
+    probe: u32,
+}
+
+/// An RGBA8 image, row-major.
+struct Rgba {
+    size: UVec2,
+    pixels: Vec<u8>,
+}
+
+impl Rgba {
+    /// Every `k`-th texel so that neither side exceeds `max_side`.
+    fn fit(&self, max_side: usize) -> egui::ColorImage {
+        let k = (self.size.x.max(self.size.y) as usize).div_ceil(max_side.max(1)).max(1) as u32;
+        let size = UVec2::new(self.size.x.div_ceil(k), self.size.y.div_ceil(k));
+        let mut out = Vec::with_capacity((size.x * size.y * 4) as usize);
+        for y in 0..size.y {
+            for x in 0..size.x {
+                let i = ((y * k * self.size.x + x * k) * 4) as usize;
+                out.extend_from_slice(&self.pixels[i..i + 4]);
+            }
+        }
+        egui::ColorImage::from_rgba_unmultiplied([size.x as usize, size.y as usize], &out)
+    }
+
+    /// The `n + 2` texels square tile of probe `probe` (tiles of `n + 2` texels, `tiles` per row).
+    fn tile(&self, probe: u32, n: u32, tiles: u32) -> egui::ColorImage {
+        let tiles = tiles.max(1);
+        let side = n + 2;
+        let origin = UVec2::new(probe % tiles, probe / tiles) * side;
+        let mut out = Vec::with_capacity((side * side * 4) as usize);
+        for y in 0..side {
+            for x in 0..side {
+                let (px, py) = (origin.x + x, origin.y + y);
+                if px < self.size.x && py < self.size.y {
+                    let i = ((py * self.size.x + px) * 4) as usize;
+                    out.extend_from_slice(&self.pixels[i..i + 4]);
+                } else {
+                    out.extend_from_slice(&[0, 0, 0, 255]);
+                }
+            }
+        }
+        egui::ColorImage::from_rgba_unmultiplied([side as usize, side as usize], &out)
+    }
 }
 
 impl OverlayState {
@@ -103,6 +153,9 @@ pub fn overlay_ui(ctx: &egui::Context, state: &mut OverlayState, world: &mut Wor
         state.show_atlases = open;
     }
     egui::Window::new("Inspector").default_pos([900.0, 10.0]).show(ctx, |ui| inspector_ui(ui, state, world));
+    if state.show_navmesh {
+        draw_navmesh(ctx, world);
+    }
     if (selected_probe.is_some() || state.show_atlases) && state.atlas_age >= ATLAS_REFRESH_SECONDS {
         refresh_atlases(ctx, state, world);
     }
@@ -124,7 +177,10 @@ fn collect_timings(state: &mut OverlayState, world: &World) {
 
 /// Passes of the probe update (everything DDGI does before the camera's gather).
 fn is_probe_update(label: &str) -> bool {
-    label.starts_with("ddgi_") && !label.starts_with("ddgi_gather") && !label.starts_with("ddgi_composite") && !label.starts_with("ddgi_probe_spheres")
+    label.starts_with("ddgi_")
+        && !label.starts_with("ddgi_gather")
+        && !label.starts_with("ddgi_composite")
+        && !label.starts_with("ddgi_probe_spheres")
 }
 
 fn performance_ui(ui: &mut egui::Ui, state: &mut OverlayState, world: &World) {
@@ -205,7 +261,10 @@ fn ddgi_ui(ui: &mut egui::Ui, state: &mut OverlayState, world: &mut World) {
     if view.color == DdgiProbeColor::Error {
         ui.add(egui::Slider::new(&mut view.max_error, 1e-3..=1.0).logarithmic(true).text("error scale"));
     }
-    ui.checkbox(&mut state.show_atlases, "show atlases");
+    ui.horizontal(|ui| {
+        ui.checkbox(&mut state.show_atlases, "show atlases");
+        ui.checkbox(&mut state.show_navmesh, "show navigation mesh");
+    });
     if world.get_resource::<DdgiProbeView>() != Some(&view) {
         world.insert_resource(view);
     }
@@ -266,25 +325,19 @@ fn probe_ui(ui: &mut egui::Ui, state: &mut OverlayState, world: &mut World, inde
         ui.label("reading the maps back…");
         return;
     };
-    let tile = |n: u32, size: UVec2| {
-        let tiles = atlases.tiles_per_row.max(1);
-        let origin = UVec2::new(index % tiles, index / tiles) * (n + 2) + UVec2::ONE;
-        let min = egui::pos2(origin.x as f32 / size.x as f32, origin.y as f32 / size.y as f32);
-        let max = egui::pos2((origin.x + n) as f32 / size.x as f32, (origin.y + n) as f32 / size.y as f32);
-        egui::Rect::from_min_max(min, max)
-    };
     ui.horizontal(|ui| {
         ui.vertical(|ui| {
             ui.label("irradiance");
-            let uv = tile(atlases.irradiance_texels, atlases.irradiance_size);
-            ui.add(egui::Image::new((atlases.irradiance.id(), egui::vec2(128.0, 128.0))).uv(uv));
+            ui.image((atlases.probe_irradiance.id(), egui::vec2(128.0, 128.0)));
         });
         ui.vertical(|ui| {
             ui.label("distance (mean)");
-            let uv = tile(atlases.distance_texels, atlases.distance_size);
-            ui.add(egui::Image::new((atlases.distance.id(), egui::vec2(128.0, 128.0))).uv(uv));
+            ui.image((atlases.probe_distance.id(), egui::vec2(128.0, 128.0)));
         });
     });
+    if atlases.probe != index {
+        ui.weak("(maps of the next readback)");
+    }
 }
 
 fn atlases_ui(ui: &mut egui::Ui, state: &mut OverlayState, _world: &mut World) {
@@ -320,8 +373,11 @@ fn refresh_atlases(ctx: &egui::Context, state: &mut OverlayState, world: &mut Wo
         let s = if t <= 0.003_130_8 { 12.92 * t } else { 1.055 * t.powf(1.0 / 2.4) - 0.055 };
         (s * 255.0).round().clamp(0.0, 255.0) as u8
     };
-    let irradiance_rgba: Vec<u8> =
-        irradiance.texels.iter().flat_map(|e| [encode(e.x / std::f32::consts::PI), encode(e.y / std::f32::consts::PI), encode(e.z / std::f32::consts::PI), 255]).collect();
+    let irradiance_rgba: Vec<u8> = irradiance
+        .texels
+        .iter()
+        .flat_map(|e| [encode(e.x / std::f32::consts::PI), encode(e.y / std::f32::consts::PI), encode(e.z / std::f32::consts::PI), 255])
+        .collect();
     let scale = volume.layout.distance_scale().max(1e-30);
     let distance_rgba: Vec<u8> = distance
         .texels
@@ -331,29 +387,72 @@ fn refresh_atlases(ctx: &egui::Context, state: &mut OverlayState, world: &mut Wo
             [g, g, g, 255]
         })
         .collect();
-    let image = |size: UVec2, rgba: &[u8]| egui::ColorImage::from_rgba_unmultiplied([size.x as usize, size.y as usize], rgba);
-    let nearest = egui::TextureOptions::NEAREST;
-    let irradiance_image = image(irradiance.size, &irradiance_rgba);
-    let distance_image = image(distance.size, &distance_rgba);
+    let irradiance = Rgba { size: irradiance.size, pixels: irradiance_rgba };
+    let distance = Rgba { size: distance.size, pixels: distance_rgba };
     let layout = &volume.layout;
+    let probe = world.get_resource::<DdgiProbeView>().and_then(|v| v.selected).unwrap_or(0).min(layout.probe_count.saturating_sub(1));
+    let max_side = ctx.input(|i| i.max_texture_side);
+    let nearest = egui::TextureOptions::NEAREST;
+    let images = [
+        irradiance.fit(max_side),
+        distance.fit(max_side),
+        irradiance.tile(probe, layout.irradiance_texels, layout.tiles_per_row),
+        distance.tile(probe, layout.distance_texels, layout.tiles_per_row),
+    ];
     match &mut state.atlases {
-        Some(a) if a.irradiance_size == irradiance.size && a.distance_size == distance.size => {
-            a.irradiance.set(irradiance_image, nearest);
-            a.distance.set(distance_image, nearest);
+        Some(a) => {
+            let [i, d, pi, pd] = images;
+            a.irradiance.set(i, nearest);
+            a.distance.set(d, nearest);
+            a.probe_irradiance.set(pi, nearest);
+            a.probe_distance.set(pd, nearest);
+            a.irradiance_size = irradiance.size;
+            a.distance_size = distance.size;
+            a.probe = probe;
         }
-        _ => {
+        None => {
+            let [i, d, pi, pd] = images;
             state.atlases = Some(AtlasImages {
-                irradiance: ctx.load_texture("ddgi_irradiance_atlas", irradiance_image, nearest),
-                distance: ctx.load_texture("ddgi_distance_atlas", distance_image, nearest),
+                irradiance: ctx.load_texture("ddgi_irradiance_atlas", i, nearest),
+                distance: ctx.load_texture("ddgi_distance_atlas", d, nearest),
                 irradiance_size: irradiance.size,
                 distance_size: distance.size,
-                irradiance_texels: layout.irradiance_texels,
-                distance_texels: layout.distance_texels,
-                tiles_per_row: layout.tiles_per_row,
-            })
+                probe_irradiance: ctx.load_texture("ddgi_probe_irradiance", pi, nearest),
+                probe_distance: ctx.load_texture("ddgi_probe_distance", pd, nearest),
+                probe,
+            });
         }
     }
 }
+
+/// The navigation mesh's faces projected over the view: walkable green, door yellow, blocked red.
+fn draw_navmesh(ctx: &egui::Context, world: &mut World) {
+    let Some(size) = world.get_resource::<RenderSize>().copied() else { return };
+    let mut cameras = world.query::<(&Camera, &GlobalTransform)>();
+    let Some((camera, transform)) = cameras.iter(world).next().map(|(c, t)| (*c, *t)) else { return };
+    let Some(navmesh) = world.get_resource::<NavMeshResource>() else { return };
+    let clip = clip_from_world(&camera, &transform, size);
+    let points_per_pixel = 1.0 / ctx.pixels_per_point();
+    let project = |p: Vec2| {
+        let c = clip * Vec4::new(p.x, NAVMESH_DRAW_HEIGHT, p.y, 1.0);
+        (c.w > 1e-3).then(|| {
+            egui::pos2((c.x / c.w + 1.0) * 0.5 * size.width as f32, (1.0 - c.y / c.w) * 0.5 * size.height as f32) * points_per_pixel
+        })
+    };
+    let painter = ctx.layer_painter(egui::LayerId::background());
+    for (corners, kind) in navmesh.0.triangles() {
+        let color = match kind {
+            FaceKind::Walkable => egui::Color32::from_rgba_unmultiplied(40, 220, 60, 160),
+            FaceKind::Door => egui::Color32::from_rgba_unmultiplied(240, 220, 40, 200),
+            FaceKind::Blocked => egui::Color32::from_rgba_unmultiplied(230, 40, 40, 90),
+        };
+        let Some(points) = corners.iter().map(|&c| project(c)).collect::<Option<Vec<_>>>() else { continue };
+        painter.add(egui::Shape::closed_line(points, egui::Stroke::new(1.0, color)));
+    }
+}
+
+/// Height (m) at which the navigation mesh is drawn: just above the ground and the house's floor.
+const NAVMESH_DRAW_HEIGHT: f32 = 0.2;
 
 /// Entities a user would select: named, with a transform, and not a probe or a mesh primitive.
 fn inspectable(world: &mut World) -> Vec<(Entity, String)> {
@@ -555,6 +654,46 @@ mod tests {
         let center = project(&camera, &transform, size, lone[0].1);
         assert_eq!(pick_probe(&camera, &transform, size, center, lone, 0.1), Some(7));
         assert_eq!(pick_probe(&camera, &transform, size, center + Vec2::new(40.0, 0.0), lone, 0.1), None);
+    }
+
+    /// The overlay builds every window of its UI from a running level (DDGI, probes read back,
+    /// atlases uploaded as egui textures) without errors, and its settings reach the renderer: the
+    /// probe spheres and the albedo view run as passes of the next frame.
+    #[test]
+    fn overlay_builds_its_ui_from_a_running_level() {
+        let Some(gpu) = GpuContext::for_tests("overlay_builds_its_ui_from_a_running_level") else { return };
+        let options =
+            crate::play::PlayOptions { width: 128, height: 72, probe_spacing: 4.0, rays_per_probe: 16, adaptive: true, use_assets: false };
+        let mut app = engine::headless::headless_app(&gpu, RenderSize { width: 128, height: 72 }, crate::play::STEP_SECONDS);
+        crate::play::setup_play(&mut app, &options, true).expect("the level builds");
+        engine::headless::run_frames(&mut app, 4, |_, _| {});
+        let ctx = egui::Context::default();
+        let mut state = OverlayState { visible: true, show_atlases: true, show_navmesh: true, ..Default::default() };
+        let world = app.world_mut();
+        world.resource_mut::<DdgiProbeView>().selected = Some(0);
+        let input = || egui::RawInput {
+            screen_rect: Some(egui::Rect::from_min_size(egui::Pos2::ZERO, egui::vec2(1280.0, 720.0))),
+            ..Default::default()
+        };
+        let mut shapes = 0;
+        for _ in 0..3 {
+            state.frame(1.0 / 60.0);
+            let mut output = ctx.run_pass(input(), |ctx| overlay_ui(ctx, &mut state, world));
+            shapes = output.shapes.len();
+            output.textures_delta.clear();
+        }
+        assert!(shapes > 50, "the overlay drew only {shapes} shapes");
+        assert!(state.atlases.is_some(), "the atlases were not read back into textures");
+        assert!(!state.gpu_ms.is_empty(), "no frame timings collected");
+        // Switch the probe view and the image through the same resources the UI edits.
+        world.resource_mut::<DdgiProbeView>().color = DdgiProbeColor::State;
+        *world.resource_mut::<DdgiOutput>() = DdgiOutput::Albedo;
+        engine::headless::run_frames(&mut app, 1, |_, _| {});
+        let timings = app.world().resource::<FrameTimings>();
+        let last = timings.frames.last().expect("a frame");
+        let ran = |label: &str| last.passes.iter().any(|p| p.label == label && p.ran);
+        assert!(ran("ddgi_probe_spheres"), "the probe spheres did not run: {:?}", last.passes);
+        assert!(!ran("ddgi_gather"), "the albedo view still gathered the indirect light");
     }
 
     #[test]

@@ -40,7 +40,8 @@ pub struct WindowScript {
 
 /// Opens the demo's window and runs it until it is closed.
 pub fn run_window(options: PlayOptions, script: Option<WindowScript>) -> Result<(), String> {
-    let event_loop = EventLoop::new().map_err(|e| format!("cannot open a window (is a display available? set DISPLAY or WAYLAND_DISPLAY): {e}"))?;
+    let event_loop =
+        EventLoop::new().map_err(|e| format!("cannot open a window (is a display available? set DISPLAY or WAYLAND_DISPLAY): {e}"))?;
     let mut runner = Runner { options, script, state: None, error: None };
     event_loop.run_app(&mut runner).map_err(|e| e.to_string())?;
     runner.error.map_or(Ok(()), Err)
@@ -81,6 +82,13 @@ struct EguiFrame {
     jobs: Vec<egui::ClippedPrimitive>,
     textures: egui::TexturesDelta,
     pixels_per_point: f32,
+}
+
+impl Drop for EguiFrame {
+    /// A frame dropped unpresented (the window closing) lets its texture updates go.
+    fn drop(&mut self) {
+        self.textures.clear();
+    }
 }
 
 impl SurfaceOverlay for EguiPainter {
@@ -130,12 +138,19 @@ impl Runner {
         let window = Arc::new(event_loop.create_window(attributes).map_err(|e| format!("cannot create the window: {e}"))?);
         let instance = GpuContext::create_instance();
         let surface = instance.create_surface(window.clone()).map_err(|e| format!("cannot create the window's surface: {e}"))?;
-        let gpu = GpuContext::new(GpuOptions { compatible_surface: Some(&surface), instance: Some(instance.clone()), ..Default::default() })
-            .map_err(|e| e.to_string())?;
+        let gpu =
+            GpuContext::new(GpuOptions { compatible_surface: Some(&surface), instance: Some(instance.clone()), ..Default::default() })
+                .map_err(|e| e.to_string())?;
         let size = window.inner_size();
         let caps = surface.get_capabilities(&gpu.adapter);
         // The image is sRGB-encoded by the tonemapper: present it through a non-sRGB format.
-        let format = caps.formats.iter().copied().find(|f| !f.is_srgb()).or(caps.formats.first().copied()).ok_or("the surface supports no format")?;
+        let format = caps
+            .formats
+            .iter()
+            .copied()
+            .find(|f| !f.is_srgb())
+            .or(caps.formats.first().copied())
+            .ok_or("the surface supports no format")?;
         let mut config = surface
             .get_default_config(&gpu.adapter, size.width.max(1), size.height.max(1))
             .ok_or("the surface is not supported by the adapter")?;
@@ -164,7 +179,14 @@ impl Runner {
         app.insert_resource(SurfaceOverlayHook(painter.clone()));
         let egui = egui::Context::default();
         let max_texture = gpu.device.limits().max_texture_dimension_2d as usize;
-        let egui_winit = egui_winit::State::new(egui.clone(), egui::ViewportId::ROOT, &window, Some(window.scale_factor() as f32), None, Some(max_texture));
+        let egui_winit = egui_winit::State::new(
+            egui.clone(),
+            egui::ViewportId::ROOT,
+            &window,
+            Some(window.scale_factor() as f32),
+            None,
+            Some(max_texture),
+        );
         window.request_redraw();
         Ok(State {
             window,
@@ -203,14 +225,13 @@ impl State {
     fn player_input(&mut self) -> PlayerInput {
         let key = |k: KeyCode| self.keys.contains(&k);
         let axis = |plus: bool, minus: bool| f32::from(u8::from(plus)) - f32::from(u8::from(minus));
-        let input = PlayerInput {
+        PlayerInput {
             forward: axis(key(KeyCode::KeyW) || key(KeyCode::ArrowUp), key(KeyCode::KeyS) || key(KeyCode::ArrowDown)),
             right: axis(key(KeyCode::KeyD) || key(KeyCode::ArrowRight), key(KeyCode::KeyA) || key(KeyCode::ArrowLeft)),
             jump: std::mem::take(&mut self.jump) || key(KeyCode::Space),
             run: key(KeyCode::ShiftLeft) || key(KeyCode::ShiftRight),
             look: std::mem::take(&mut self.look) * LOOK_RADIANS_PER_PIXEL * Vec2::new(-1.0, -1.0),
-        };
-        input
+        }
     }
 
     /// One frame: input, the overlay's UI, the app's update (render and present).
@@ -230,8 +251,14 @@ impl State {
         let output = self.egui.run_pass(raw, |ctx| overlay_ui(ctx, overlay, world));
         self.egui_winit.handle_platform_output(&self.window, output.platform_output);
         let jobs = self.egui.tessellate(output.shapes, output.pixels_per_point);
-        *self.painter.frame.lock().unwrap_or_else(|e| e.into_inner()) =
-            Some(EguiFrame { jobs, textures: output.textures_delta, pixels_per_point: output.pixels_per_point });
+        {
+            // A frame that was never presented (surface unavailable) keeps its texture updates:
+            // they go first.
+            let mut pending = self.painter.frame.lock().unwrap_or_else(|e| e.into_inner());
+            let mut textures = pending.take().map(|mut f| std::mem::take(&mut f.textures)).unwrap_or_default();
+            textures.append(output.textures_delta);
+            *pending = Some(EguiFrame { jobs, textures, pixels_per_point: output.pixels_per_point });
+        }
         self.app.update();
         self.frames += 1;
         if std::mem::take(&mut self.overlay.screenshot_requested) || std::mem::take(&mut self.screenshot_requested) {

@@ -16,7 +16,9 @@ use engine::shader::{Program, RenderTargets, ShaderError, compute_program, compu
 use engine::wgpu;
 use glam::{Mat3, Quat, Vec3};
 
-use crate::gpu::{DdgiCounters, DdgiGatherParams, DdgiProbeData, DdgiProbeViewParams, DdgiVolumeGpu, NO_PIN, PIN_ACTIVE, PIN_INACTIVE, PROBE_INACTIVE};
+use crate::gpu::{
+    DdgiCounters, DdgiGatherParams, DdgiProbeData, DdgiProbeViewParams, DdgiVolumeGpu, NO_PIN, PIN_ACTIVE, PIN_INACTIVE, PROBE_INACTIVE,
+};
 use crate::volume::{DdgiLayout, DdgiLimits, DdgiProbe, DdgiProbePin, DdgiProbeState, DdgiVolume};
 
 /// Format of both atlases (irradiance perceptually encoded; distances
@@ -879,7 +881,18 @@ pub fn render_ddgi_frame(
     if let (Some(view), Some((k, _, h))) = (probe_view.filter(|v| v.color != DdgiProbeColor::Off), handles.first()) {
         let volume = &volumes.volumes[*k].1;
         match pipelines.probe_spheres_program(&gpu) {
-            Ok((program, vertices)) => add_probe_spheres(&mut script.graph, &gpu, (&program, vertices), &scene_bindings, &pipelines.sampler, volume, h, &mut gbuffer.depth, &mut script.hdr, &view),
+            Ok((program, vertices)) => add_probe_spheres(
+                &mut script.graph,
+                &gpu,
+                (&program, vertices),
+                &scene_bindings,
+                &pipelines.sampler,
+                volume,
+                h,
+                &mut gbuffer.depth,
+                &mut script.hdr,
+                &view,
+            ),
             Err(e) => log::error!("DDGI probe view: {e}"),
         }
     }
