@@ -1,5 +1,6 @@
-# Quick start: `make run` renders the default scene headless; `make test` runs every test on a real
-# Vulkan driver (Mesa's lavapipe is installed when no Vulkan driver is present).
+# Quick start: `make run` opens the demo level (its scripted walk headless without a display);
+# `make test` runs every test on a real Vulkan driver (Mesa's lavapipe is installed when no Vulkan
+# driver is present) and Xvfb for the windowed test.
 
 CARGO ?= cargo
 SCENE ?= cornell
@@ -8,9 +9,19 @@ SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 # lavapipe's window-system code complains when this is unset, even headless.
 export XDG_RUNTIME_DIR ?= /tmp/xdg-runtime-$(shell id -u)
 
-.PHONY: run test lint vulkan-driver xvfb bless
+.PHONY: run render test lint vulkan-driver xvfb bless
 
 run: vulkan-driver
+	@mkdir -p $(XDG_RUNTIME_DIR) && chmod 700 $(XDG_RUNTIME_DIR)
+	@if [ -n "$$DISPLAY$$WAYLAND_DISPLAY" ]; then \
+		$(CARGO) run --release -p game_demo -- play; \
+	else \
+		echo "no display (DISPLAY and WAYLAND_DISPLAY unset): the demo's scripted walk, headless"; \
+		$(CARGO) run --release -p game_demo -- play --headless --frames 240 --every 30 --width 640 --height 360 --out out/play; \
+	fi
+
+# Renders one scene headless (SCENE=cornell by default).
+render: vulkan-driver
 	@mkdir -p $(XDG_RUNTIME_DIR) && chmod 700 $(XDG_RUNTIME_DIR)
 	$(CARGO) run --release -p game_demo -- render --scene $(SCENE) --width 1280 --height 720 --out $(OUT)
 	@echo "images: $(OUT)/image.png (tonemapped sRGB), $(OUT)/image.exr (linear radiance); GPU times: $(OUT)/timings.json"
