@@ -20,7 +20,7 @@ use crate::scene::{
 /// max_buffer_size)`.
 pub fn max_storage_buffer_bytes(device: &wgpu::Device) -> u64 {
     let l = device.limits();
-    u64::from(l.max_storage_buffer_binding_size).min(l.max_buffer_size)
+    l.max_storage_buffer_binding_size.min(l.max_buffer_size)
 }
 
 /// A storage or uniform buffer that grows when its contents do. Never empty: an empty array is
