@@ -9,7 +9,7 @@ SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 # lavapipe's window-system code complains when this is unset, even headless.
 export XDG_RUNTIME_DIR ?= /tmp/xdg-runtime-$(shell id -u)
 
-.PHONY: run render test lint vulkan-driver xvfb bless
+.PHONY: run render test lint vulkan-driver xvfb bless fuzz
 
 run: vulkan-driver
 	@mkdir -p $(XDG_RUNTIME_DIR) && chmod 700 $(XDG_RUNTIME_DIR)
@@ -33,6 +33,14 @@ test: vulkan-driver xvfb
 # Re-create the golden images of the image tests from the current renderer.
 bless: vulkan-driver
 	BLESS=1 $(CARGO) test --workspace
+
+# Fuzzes both scene importers for FUZZ_SECONDS each (cargo-fuzz, nightly; seeds in fuzz/corpus/).
+# Crashes land in fuzz/artifacts/<target>/; turn each into a fixture and a test.
+FUZZ_SECONDS ?= 60
+fuzz:
+	@command -v cargo-fuzz >/dev/null || $(CARGO) install cargo-fuzz
+	$(CARGO) +nightly fuzz run gltf -- -max_total_time=$(FUZZ_SECONDS) -rss_limit_mb=4096
+	$(CARGO) +nightly fuzz run obj -- -max_total_time=$(FUZZ_SECONDS) -rss_limit_mb=4096
 
 lint:
 	$(CARGO) fmt --all --check

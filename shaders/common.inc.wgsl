@@ -14,11 +14,14 @@ fn safe_normalize(v: vec3<f32>, fallback: vec3<f32>) -> vec3<f32> {
     return v * inverseSqrt(len2);
 }
 
-// Replaces NaN and negative values by zero and clamps to a finite maximum.
+// Largest radiance the shaders keep: +inf (an overflow of finite inputs) clamps to it, so a very
+// bright value stays very bright instead of turning black.
+const RADIANCE_MAX: f32 = 3.0e38;
+
+// Replaces NaN and negative values by zero and clamps to a finite maximum (+inf included).
 fn sanitize_radiance(c: vec3<f32>) -> vec3<f32> {
     // NaN fails every comparison, so select() keeps it out.
-    let ok = (c >= vec3<f32>(0.0)) & (c <= vec3<f32>(3.0e38));
-    return select(vec3<f32>(0.0), c, ok);
+    return select(vec3<f32>(0.0), min(c, vec3<f32>(RADIANCE_MAX)), c >= vec3<f32>(0.0));
 }
 
 fn luminance(c: vec3<f32>) -> f32 {

@@ -133,6 +133,11 @@ const DDGI_MISS: f32 = 3.0e38;
 const DDGI_BACKFACE_SCALE: f32 = 0.2;
 // Irradiance is stored as E^(1/gamma): perceptual precision in half floats, no banding in the dark.
 const DDGI_IRRADIANCE_GAMMA: f32 = 5.0;
+// Largest irradiance (W/m²) the maps hold, and largest radiance of a shaded probe ray: 1e24^(1/5)
+// ≈ 63,096 stays under the largest half float (65,504), so no atlas texel can be infinite, and
+// 4,096 rays of it sum without overflow. Only a scene whose light grows without bound (a closed
+// box of albedo 1 that emits) ever reaches it.
+const DDGI_MAX_IRRADIANCE: f32 = 1.0e24;
 
 @group(1) @binding(0) var<uniform> ddgi_volume: DdgiVolumeGpu;
 @group(1) @binding(1) var<storage, read_write> ddgi_probes: array<DdgiProbeData>;
@@ -261,7 +266,7 @@ fn ddgi_atlas_uv(p: u32, d: vec3<f32>, n: u32, atlas_size: vec2<f32>) -> vec2<f3
 }
 
 fn ddgi_encode_irradiance(e: vec3<f32>) -> vec3<f32> {
-    let c = min(sanitize_radiance(e), vec3<f32>(1e24));
+    let c = min(sanitize_radiance(e), vec3<f32>(DDGI_MAX_IRRADIANCE));
     return select(vec3<f32>(0.0), pow(c, vec3<f32>(1.0 / DDGI_IRRADIANCE_GAMMA)), c > vec3<f32>(0.0));
 }
 
@@ -316,7 +321,7 @@ fn ddgi_sample_irradiance(p: vec3<f32>, n: vec3<f32>, to_viewer: vec3<f32>) -> v
                 // One-tailed Chebyshev bound on the probability that the point is visible.
                 let variance = abs(mean * mean - moments.y);
                 let d = distance - mean;
-                var visibility = variance / max(variance + d * d, 1e-30);
+                var visibility = clamp(variance / max(variance + d * d, 1e-30), 0.0, 1.0);
                 visibility = visibility * visibility * visibility;
                 weight *= max(visibility, 0.05);
             }

@@ -250,7 +250,7 @@ fn shade_rays(@builtin(global_invocation_id) id: vec3<u32>) {
     let surfel = ddgi_surfels[i];
     let t = bitcast<f32>(surfel.x);
     if t >= DDGI_MISS {
-        ddgi_radiance[i] = vec4<f32>(sanitize_radiance(ddgi_volume.sky_radiance), DDGI_MISS);
+        ddgi_radiance[i] = vec4<f32>(min(sanitize_radiance(ddgi_volume.sky_radiance), vec3<f32>(DDGI_MAX_IRRADIANCE)), DDGI_MISS);
         return;
     }
     if t < 0.0 {
@@ -263,7 +263,12 @@ fn shade_rays(@builtin(global_invocation_id) id: vec3<u32>) {
     let albedo = unpack4x8unorm(surfel.z).rgb;
     var radiance = ddgi_unpack_rgb9e5(surfel.w);
     var irradiance = vec3<f32>(0.0);
-    let shadow_origin = offset_ray_origin(position, normal);
+    // `position` comes from origin + direction · t, which is only as exact as the larger of the two
+    // magnitudes: at large scales (10^4 units) that error dwarfs the float-step offset of a hit near
+    // a coordinate plane, and the shadow ray would start under the surface (the floor goes dark).
+    // Lift it by a few ulps of that magnitude first.
+    let magnitude = max(t, max(abs(origin.x), max(abs(origin.y), abs(origin.z))));
+    let shadow_origin = offset_ray_origin(position + normal * (1e-5 * magnitude), normal);
     for (var l = 0u; l < view.light_count; l++) {
         let s = sample_light(lights[l], position, normal);
         if any(s.irradiance > vec3<f32>(0.0)) && !trace_any(Ray(shadow_origin, 0.0, s.to_light, s.distance * (1.0 - 1e-4))) {
@@ -272,5 +277,5 @@ fn shade_rays(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     irradiance += ddgi_sample_irradiance(position, normal, -ray_info.direction);
     radiance += albedo * INV_PI * irradiance;
-    ddgi_radiance[i] = vec4<f32>(sanitize_radiance(radiance), t);
+    ddgi_radiance[i] = vec4<f32>(min(sanitize_radiance(radiance), vec3<f32>(DDGI_MAX_IRRADIANCE)), t);
 }

@@ -111,8 +111,8 @@ fn update_irradiance(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_inv
                     result = mix(sample, old, h);
                 }
             }
-            let finite_change = select(vec3<f32>(0.0), change, change == change);
-            ddgi_irradiance_history[slot] = DdgiTexel(vec4<f32>(min(sanitize_radiance(result), vec3<f32>(1e24)), 1.0), vec4<f32>(finite_change, 0.0));
+            let finite_change = clamp(select(vec3<f32>(0.0), change, change == change), vec3<f32>(-DDGI_MAX_IRRADIANCE), vec3<f32>(DDGI_MAX_IRRADIANCE));
+            ddgi_irradiance_history[slot] = DdgiTexel(vec4<f32>(min(sanitize_radiance(result), vec3<f32>(DDGI_MAX_IRRADIANCE)), 1.0), vec4<f32>(finite_change, 0.0));
         }
     }
     // The probe's temporal error: the mean over the texels that got rays. A fresh probe starts at
@@ -179,7 +179,7 @@ fn update_distance(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invoc
                 let sample = sum.xy / sum.z;
                 result = mix(sample, old, h);
             }
-            ddgi_distance_history[slot] = clamp(result, vec2<f32>(0.0), vec2<f32>(1.0));
+            ddgi_distance_history[slot] = clamp(select(old, result, result == result), vec2<f32>(0.0), vec2<f32>(1.0));
         }
     }
 }

@@ -56,7 +56,7 @@ fn camera_ray(pixel: vec2<u32>, jitter: vec2<f32>) -> Ray {
     let ndc = vec2<f32>(uv.x * 2.0 - 1.0, 1.0 - uv.y * 2.0);
     // Reverse-Z: depth 1 is the near plane.
     let near = view.world_from_clip * vec4<f32>(ndc, 1.0, 1.0);
-    let target_point = near.xyz / near.w;
+    let target_point = near.xyz / select(near.w, 1e-30, abs(near.w) < 1e-30);
     let dir = safe_normalize(target_point - view.camera_position, vec3<f32>(0.0, 0.0, -1.0));
     return Ray(view.camera_position, 0.0, dir, 3.0e38);
 }

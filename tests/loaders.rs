@@ -248,6 +248,19 @@ const BROKEN: &[(&str, &str)] = &[
     ("missing_mtl.obj", "material library 'does_not_exist.mtl' not found"),
     ("missing_texture.obj", "texture image 'textures/missing_diffuse.png' not found"),
     ("bad_color.obj", "line 2: 'Kd' needs 3 numbers"),
+    // Hostile files (issue 8): non-finite values, counts that overflow, wrong magic, binary junk.
+    ("infinite_translation.gltf", "node 0 'Tri': non-finite translation (inf, 0, 0)"),
+    ("infinite_light.gltf", "light 0: invalid intensity inf"),
+    ("infinite_emissive_strength.gltf", "material 0 'Blinding': invalid emissiveStrength inf"),
+    ("bad_base64.gltf", "invalid base64"),
+    ("count_overflow.gltf", "4294967295 exceeds the limit"),
+    ("wrong_magic.glb", "magic \"glTX\""),
+    ("empty.glb", "file is empty"),
+    ("inf_position.obj", "vertex 1 has non-finite position (inf, 0, 0)"),
+    ("nan_normal.obj", "vertex 0 has non-finite normal (NaN, 0, 1)"),
+    ("huge_index.obj", "line 5: f vertex index 4294967296 out of range"),
+    ("negative_index.obj", "line 5: f vertex index -7 out of range"),
+    ("binary_garbage.obj", "not UTF-8 text"),
 ];
 
 #[test]
@@ -349,4 +362,85 @@ fn kenney_models() {
         }
         assert_eq!(scene.images.len(), 1, "{name}: the shared colormap is decoded once");
     }
+}
+
+#[test]
+fn loading_from_bytes_matches_loading_the_file() {
+    for name in ["hierarchy.gltf", "hierarchy.glb", "cornell_box.obj"] {
+        let path = fixtures().join(name);
+        let bytes = std::fs::read(&path).unwrap();
+        let from_bytes = engine::import::load_scene_from_bytes(&path, &bytes).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(from_bytes, load(name), "{name}");
+    }
+    // Referenced files are resolved from the path given: elsewhere, they are missing (by name).
+    let bytes = std::fs::read(fixtures().join("cornell_box.obj")).unwrap();
+    let error = engine::import::load_scene_from_bytes(Path::new("/nonexistent/cornell_box.obj"), &bytes).unwrap_err();
+    assert!(matches!(error, ImportError::MissingFile { .. }) && error.to_string().contains("cornell_box.mtl"), "{error}");
+}
+
+#[test]
+fn scene_validation_names_the_item_field_and_value() {
+    let mut scene = load("hierarchy.gltf");
+    assert_eq!(scene.validate(), Ok(()));
+    let light = node(&scene, "PointLight");
+    scene.nodes[light].content =
+        vec![NodeContent::PointLight(PointLight { color: Vec3::new(1.0, f32::NAN, 1.0), intensity: 1.0, range: None })];
+    let message = scene.validate().unwrap_err().to_string();
+    assert!(message.contains("'PointLight'") && message.contains("color") && message.contains("NaN"), "{message}");
+
+    let mut scene = load("hierarchy.gltf");
+    scene.materials[0].emissive_strength = f32::INFINITY;
+    let message = scene.validate().unwrap_err().to_string();
+    assert!(message.contains(&scene.materials[0].name) && message.contains("emissive_strength = inf"), "{message}");
+
+    let mut scene = load("hierarchy.gltf");
+    scene.nodes[0].transform.scale = Vec3::new(1.0, f32::NEG_INFINITY, 1.0);
+    let message = scene.validate().unwrap_err().to_string();
+    assert!(message.contains("'Parent'") && message.contains("transform.scale") && message.contains("-inf"), "{message}");
+
+    let mut scene = load("hierarchy.gltf");
+    scene.meshes[1].normals[0] = Vec3::new(f32::NAN, 0.0, 1.0);
+    let message = scene.validate().unwrap_err().to_string();
+    assert!(message.contains("mesh 1") && message.contains("normals[0]") && message.contains("NaN"), "{message}");
+}
+
+#[test]
+fn a_failed_load_leaves_the_previous_scene_intact() {
+    use engine::import::{SceneLoadError, load_scene_into};
+    use engine::scene::{Name, SceneRoot};
+    let mut world = World::new();
+    let names = |world: &mut World| {
+        let mut v: Vec<String> = world.query::<&Name>().iter(world).map(|n| n.0.clone()).collect();
+        v.sort();
+        v
+    };
+    let first = load_scene_into(&mut world, &fixtures().join("hierarchy.gltf")).expect("loads");
+    let before = names(&mut world);
+    assert!(before.contains(&"Parent".to_string()));
+    // Every broken file: an error, and the world exactly as it was.
+    for (name, _) in BROKEN {
+        let path = fixtures().join("broken").join(name);
+        let error = load_scene_into(&mut world, &path).expect_err(name);
+        assert!(error.to_string().contains(name), "{error}");
+        assert_eq!(names(&mut world), before, "{name} changed the world");
+        assert!(world.get_entity(first).is_ok(), "{name} removed the scene");
+    }
+    // A file that imports but holds data the renderer cannot take is refused too.
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("loaders-into-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let camera = dir.join("nan_camera.gltf");
+    let text = std::fs::read_to_string(fixtures().join("hierarchy.gltf")).unwrap();
+    assert!(text.contains("\"yfov\": 0.8"));
+    std::fs::write(&camera, text.replace("\"yfov\": 0.8", "\"yfov\": 1e39")).unwrap();
+    let error = load_scene_into(&mut world, &camera).expect_err("infinite field of view");
+    assert!(matches!(error, SceneLoadError::Import(_) | SceneLoadError::Data { .. }), "{error:?}");
+    assert!(error.to_string().contains("nan_camera.gltf") && error.to_string().contains("inf"), "{error}");
+    assert_eq!(names(&mut world), before);
+    std::fs::remove_dir_all(&dir).ok();
+    // A good file replaces the scene: one root, the new one.
+    let second = load_scene_into(&mut world, &fixtures().join("cornell_box.obj")).expect("loads");
+    assert!(world.get_entity(first).is_err(), "the old scene is gone");
+    let roots: Vec<String> = world.query::<&SceneRoot>().iter(&world).map(|r| r.name.clone()).collect();
+    assert_eq!(roots, ["cornell_box"]);
+    assert!(world.get_entity(second).is_ok());
 }

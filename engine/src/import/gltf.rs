@@ -32,6 +32,14 @@ use crate::scene::{
 
 /// Imports a `.gltf` or `.glb` file whose content is `bytes`.
 pub(super) fn load(file: &Path, bytes: &[u8]) -> Result<SceneDescription, ImportError> {
+    let is_glb = file.extension().is_some_and(|e| e.eq_ignore_ascii_case("glb"));
+    if is_glb && !bytes.starts_with(b"glTF") && !bytes.trim_ascii_start().starts_with(b"{") {
+        let magic = String::from_utf8_lossy(&bytes[..bytes.len().min(4)]).into_owned();
+        return Err(ImportError::Parse {
+            file: file.to_path_buf(),
+            message: format!("invalid GLB: magic {magic:?} (bytes {:02x?}), expected \"glTF\"", &bytes[..bytes.len().min(4)]),
+        });
+    }
     let (json_bytes, blob) = if bytes.starts_with(b"glTF") { split_glb(file, bytes)? } else { (bytes, None) };
     // A byte-order mark is not allowed in glTF JSON, but some tools write one.
     let json_bytes = json_bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(json_bytes);

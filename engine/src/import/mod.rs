@@ -155,16 +155,53 @@ pub fn load_scene(path: &Path) -> Result<SceneDescription, ImportError> {
         return Err(ImportError::UnsupportedExtension { file: path.to_path_buf(), extension });
     }
     let bytes = std::fs::read(path).map_err(|source| ImportError::Io { file: path.to_path_buf(), path: path.to_path_buf(), source })?;
+    load_scene_from_bytes(path, &bytes)
+}
+
+/// [`load_scene`] on the content of a file already in memory (fuzzing, network, archives): `path`
+/// names the file in errors, picks the format by its extension and is where the files it refers to
+/// (buffers, images, material libraries) are resolved from; a missing one is an
+/// [`ImportError::MissingFile`]. Never panics.
+pub fn load_scene_from_bytes(path: &Path, bytes: &[u8]) -> Result<SceneDescription, ImportError> {
+    let extension = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
+    if !matches!(extension.as_str(), "gltf" | "glb" | "obj") {
+        let extension = if extension.is_empty() { String::new() } else { format!(".{extension}") };
+        return Err(ImportError::UnsupportedExtension { file: path.to_path_buf(), extension });
+    }
     if bytes.iter().all(u8::is_ascii_whitespace) {
         return Err(ImportError::EmptyFile { file: path.to_path_buf() });
     }
     let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
     let mut scene = match extension.as_str() {
-        "obj" => obj::load(path, &bytes)?,
-        _ => gltf::load(path, &bytes)?,
+        "obj" => obj::load(path, bytes)?,
+        _ => gltf::load(path, bytes)?,
     };
+    // The importers check what they read; this catches anything that slipped through (a non-finite
+    // material value, a transform that overflows when composed with its parents).
+    scene.validate().map_err(|e| ImportError::InvalidValue { file: path.to_path_buf(), what: "scene".into(), message: e.to_string() })?;
     scene.name = name;
     Ok(scene)
+}
+
+/// Why [`load_scene_into`] left the world as it was.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneLoadError {
+    #[error(transparent)]
+    Import(#[from] ImportError),
+    /// The file imported, but its scene holds data that cannot be rendered.
+    #[error("{}: {source}", file.display())]
+    Data {
+        file: PathBuf,
+        #[source]
+        source: crate::scene::SceneDataError,
+    },
+}
+
+/// Loads `path` and replaces the scene in `world` with it ([`SceneDescription::replace_in`]). A
+/// file that fails to import or to validate changes nothing: the previous scene stays as it was.
+pub fn load_scene_into(world: &mut bevy_ecs::world::World, path: &Path) -> Result<bevy_ecs::entity::Entity, SceneLoadError> {
+    let scene = load_scene(path)?;
+    scene.replace_in(world).map_err(|source| SceneLoadError::Data { file: path.to_path_buf(), source })
 }
 
 /// Checks that `mesh` keeps the invariants of [`Mesh`]: finite positions, one finite unit normal per

@@ -12,8 +12,16 @@ use glam::{Affine3A, Mat4, Vec3};
 use super::gpu_types::*;
 use crate::gpu::GpuContext;
 use crate::scene::{
-    Assets, Camera, DirectionalLight, GlobalTransform, Image, Material, Mesh, MeshInstance, PointLight, SpotLight, TextureRef,
+    Assets, Camera, DirectionalLight, GlobalTransform, Image, Material, Mesh, MeshInstance, Name, PointLight, SceneDataError, SpotLight,
+    TextureRef, validate_affine, validate_light,
 };
+
+/// The largest storage buffer the adapter binds (bytes): `min(max_storage_buffer_binding_size,
+/// max_buffer_size)`.
+pub fn max_storage_buffer_bytes(device: &wgpu::Device) -> u64 {
+    let l = device.limits();
+    l.max_storage_buffer_binding_size.min(l.max_buffer_size)
+}
 
 /// A storage or uniform buffer that grows when its contents do. Never empty: an empty array is
 /// bound as one zeroed element, so shaders can always bind it.
@@ -35,7 +43,9 @@ impl GrowableBuffer {
         let needed = (bytes.len() as u64).max(256).next_multiple_of(4);
         let grew = needed > self.buffer.size();
         if grew {
-            let size = needed.next_power_of_two();
+            // Doubling, but never past what the adapter can bind when the data itself fits.
+            let limit = max_storage_buffer_bytes(&gpu.device) / 4 * 4;
+            let size = needed.next_power_of_two().min(limit.max(needed));
             self.buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(self.label),
                 size,
@@ -103,6 +113,12 @@ pub struct GpuScene {
     atlas_rects: Vec<[f32; 4]>,
     seen_generations: Option<(u64, u64, u64)>,
     frame: u32,
+    /// Scene data left out of the upload, by where it was found (see [`GpuScene::errors`]).
+    geometry_errors: Vec<SceneDataError>,
+    material_errors: Vec<SceneDataError>,
+    instance_errors: EntityHashMap<SceneDataError>,
+    frame_errors: Vec<SceneDataError>,
+    logged: std::collections::HashSet<String>,
 }
 
 impl GpuScene {
@@ -142,6 +158,28 @@ impl GpuScene {
             atlas_rects: Vec::new(),
             seen_generations: None,
             frame: 0,
+            geometry_errors: Vec::new(),
+            material_errors: Vec::new(),
+            instance_errors: EntityHashMap::default(),
+            frame_errors: Vec::new(),
+            logged: Default::default(),
+        }
+    }
+
+    /// Scene data the upload rejected and left out, as it stands this frame: meshes with non-finite
+    /// vertices (drawn as nothing), materials with non-finite values (black), lights and cameras
+    /// with non-finite values (left out), instances with non-finite transforms (not drawn), and
+    /// geometry beyond the adapter's buffer limits (nothing drawn). Each is logged once.
+    pub fn errors(&self) -> Vec<&SceneDataError> {
+        self.geometry_errors.iter().chain(&self.material_errors).chain(self.instance_errors.values()).chain(&self.frame_errors).collect()
+    }
+
+    fn log_new_errors(&mut self) {
+        let messages: Vec<String> = self.errors().iter().map(|e| e.to_string()).collect();
+        for message in messages {
+            if self.logged.insert(message.clone()) {
+                log::error!("scene data rejected at upload: {message}");
+            }
         }
     }
 
@@ -183,9 +221,25 @@ impl GpuScene {
         let mut vertices: Vec<GpuVertex> = Vec::new();
         let mut indices: Vec<u32> = Vec::new();
         self.mesh_ranges.clear();
-        for (_, mesh) in meshes.iter() {
+        self.geometry_errors.clear();
+        for (handle, mesh) in meshes.iter() {
             let base_vertex = vertices.len() as i32;
             let first = indices.len() as u32;
+            let item = format!("mesh {} '{}'", handle.index(), mesh.name);
+            let bad_index = mesh.indices.iter().enumerate().find(|(_, i)| **i as usize >= mesh.positions.len()).map(|(k, i)| {
+                SceneDataError::OutOfRange {
+                    item: item.clone(),
+                    field: format!("indices[{k}]"),
+                    value: i.to_string(),
+                    reason: "refers to a vertex that does not exist",
+                }
+            });
+            if let Some(error) = mesh.validate_data(&item).err().or(bad_index) {
+                // Left out: an empty range draws nothing and traces nothing.
+                self.geometry_errors.push(error);
+                self.mesh_ranges.push(MeshRange { indices: first..first, base_vertex });
+                continue;
+            }
             vertices.extend(mesh.positions.iter().enumerate().map(|(i, p)| {
                 let n = mesh.normals.get(i).copied().unwrap_or(Vec3::Y);
                 let uv = mesh.uvs.get(i).copied().unwrap_or_default();
@@ -193,6 +247,22 @@ impl GpuScene {
             }));
             indices.extend_from_slice(&mesh.indices);
             self.mesh_ranges.push(MeshRange { indices: first..indices.len() as u32, base_vertex });
+        }
+        let limit = max_storage_buffer_bytes(&gpu.device);
+        let needs = [
+            ("vertex buffer (32 bytes per vertex)", std::mem::size_of_val(vertices.as_slice()) as u64),
+            ("index buffer (4 bytes per index)", std::mem::size_of_val(indices.as_slice()) as u64),
+        ];
+        if let Some((buffer, needed)) = needs.into_iter().find(|(_, n)| *n > limit) {
+            // Nothing of it fits: draw nothing rather than bind a buffer the adapter refuses.
+            let largest = meshes.iter().max_by_key(|(_, m)| m.positions.len().max(m.indices.len()));
+            let item = largest.map_or("scene".to_string(), |(h, m)| format!("scene geometry (largest: mesh {} '{}')", h.index(), m.name));
+            self.geometry_errors.push(SceneDataError::OverLimit { item, buffer, needed, limit });
+            vertices.clear();
+            indices.clear();
+            for range in &mut self.mesh_ranges {
+                *range = MeshRange { indices: 0..0, base_vertex: 0 };
+            }
         }
         self.vertices.write(gpu, bytemuck::cast_slice(&vertices));
         self.indices.write(gpu, bytemuck::cast_slice(&indices));
@@ -221,15 +291,36 @@ impl GpuScene {
             let [x, y] = t.transform.rows();
             TextureSlot { uv_x: x.extend(0.0).to_array(), uv_y: y.extend(0.0).to_array(), rect: *rect }
         };
+        let mut errors = Vec::new();
         let data: Vec<GpuMaterial> = materials
             .iter()
-            .map(|(_, m)| GpuMaterial {
-                base_color: m.base_color.to_array(),
-                emissive: (m.emissive * m.emissive_strength).extend(1.0).to_array(),
-                base_color_texture: slot(&m.base_color_texture),
-                emissive_texture: slot(&m.emissive_texture),
+            .map(|(h, m)| {
+                let emissive = m.emissive * m.emissive_strength;
+                let checked = m.validate_data(&format!("material {} '{}'", h.index(), m.name)).and_then(|()| {
+                    if emissive.is_finite() {
+                        Ok(())
+                    } else {
+                        Err(SceneDataError::NonFinite {
+                            item: format!("material {} '{}'", h.index(), m.name),
+                            field: "emissive × emissive_strength".into(),
+                            value: format!("{emissive:?}"),
+                        })
+                    }
+                });
+                if let Err(e) = checked {
+                    // Rejected: black, emitting nothing.
+                    errors.push(e);
+                    return GpuMaterial { base_color: [0.0, 0.0, 0.0, 1.0], ..GpuMaterial::zeroed() };
+                }
+                GpuMaterial {
+                    base_color: m.base_color.to_array(),
+                    emissive: emissive.extend(1.0).to_array(),
+                    base_color_texture: slot(&m.base_color_texture),
+                    emissive_texture: slot(&m.emissive_texture),
+                }
             })
             .collect();
+        self.material_errors = errors;
         self.has_emissive = materials.iter().any(|(_, m)| m.emissive_strength != 0.0 && m.emissive != Vec3::ZERO);
         self.materials.write(gpu, bytemuck::cast_slice(&data));
     }
@@ -487,12 +578,13 @@ pub fn prepare_gpu_scene(
     meshes: Res<Assets<Mesh>>,
     materials: Res<Assets<Material>>,
     images: Res<Assets<Image>>,
-    instances: Query<(Entity, &MeshInstance, &GlobalTransform), ChangedInstance>,
+    instances: Query<(Entity, &MeshInstance, &GlobalTransform, Option<&Name>), ChangedInstance>,
     mut removed: RemovedComponents<MeshInstance>,
-    cameras: Query<(&Camera, &GlobalTransform)>,
-    directional: Query<(&DirectionalLight, &GlobalTransform)>,
-    points: Query<(&PointLight, &GlobalTransform)>,
-    spots: Query<(&SpotLight, &GlobalTransform)>,
+    cameras: Query<(Entity, &Camera, &GlobalTransform)>,
+    directional: Query<(Entity, &DirectionalLight, &GlobalTransform)>,
+    points: Query<(Entity, &PointLight, &GlobalTransform)>,
+    spots: Query<(Entity, &SpotLight, &GlobalTransform)>,
+    names: Query<&Name>,
 ) {
     let generations = (meshes.generation(), images.generation(), materials.generation());
     let seen = scene.seen_generations;
@@ -511,13 +603,25 @@ pub fn prepare_gpu_scene(
     let instances_started = std::time::Instant::now();
     scene.changes = InstanceChanges::default();
     for entity in removed.read() {
+        scene.instance_errors.remove(&entity);
         if let Some(slot) = scene.slots.release(entity) {
             scene.changes.structure_changed = true;
             scene.changes.dirty.push(slot);
         }
     }
     let geometry_changed = seen.map(|s| s.0) != Some(generations.0);
-    for (entity, instance, transform) in &instances {
+    for (entity, instance, transform, name) in &instances {
+        let item = format!("instance entity {entity}{}", name.map_or(String::new(), |n| format!(" '{}'", n.0)));
+        if let Err(error) = validate_affine(&item, "world transform", &transform.0) {
+            // Not drawn (and not traced) until its transform is finite again.
+            scene.instance_errors.insert(entity, error);
+            if let Some(slot) = scene.slots.release(entity) {
+                scene.changes.structure_changed = true;
+                scene.changes.dirty.push(slot);
+            }
+            continue;
+        }
+        scene.instance_errors.remove(&entity);
         if scene.mesh_ranges.get(instance.mesh.index() as usize).is_none() || materials.get(instance.material).is_none() {
             log::warn!("{entity}: mesh instance refers to a missing {:?} or {:?}; not drawn", instance.mesh, instance.material);
             continue;
@@ -565,14 +669,27 @@ pub fn prepare_gpu_scene(
         _pad1: 0,
         _pad2: 0,
     };
-    for (l, t) in &directional {
-        lights.push(light(LIGHT_DIRECTIONAL, l.color, l.intensity, t, None));
+    let mut frame_errors = Vec::new();
+    let item = |kind: &str, e: Entity| format!("{kind} entity {e}{}", names.get(e).map_or(String::new(), |n| format!(" '{}'", n.0)));
+    let mut check = |item: String, color: Vec3, intensity: f32, range: Option<f32>, cones: Option<(f32, f32)>, t: &GlobalTransform| {
+        let result = validate_light(&item, color, intensity, range, cones).and_then(|()| validate_affine(&item, "world transform", &t.0));
+        result.map_err(|e| frame_errors.push(e)).is_ok()
+    };
+    for (e, l, t) in &directional {
+        if check(item("directional light", e), l.color, l.intensity, None, None, t) {
+            lights.push(light(LIGHT_DIRECTIONAL, l.color, l.intensity, t, None));
+        }
     }
-    for (l, t) in &points {
-        lights.push(light(LIGHT_POINT, l.color, l.intensity, t, l.range));
+    for (e, l, t) in &points {
+        if check(item("point light", e), l.color, l.intensity, l.range, None, t) {
+            lights.push(light(LIGHT_POINT, l.color, l.intensity, t, l.range));
+        }
     }
     scene.has_spot_lights = !spots.is_empty();
-    for (l, t) in &spots {
+    for (e, l, t) in &spots {
+        if !check(item("spot light", e), l.color, l.intensity, l.range, Some((l.inner_cone_angle, l.outer_cone_angle)), t) {
+            continue;
+        }
         // glTF: attenuation = clamp(cos(angle) * scale + offset, 0, 1)², guarded for equal cones.
         let (cos_outer, cos_inner) = (l.outer_cone_angle.cos(), l.inner_cone_angle.cos());
         let scale = 1.0 / (cos_inner - cos_outer).max(1e-4);
@@ -586,7 +703,24 @@ pub fn prepare_gpu_scene(
     scene.light_data = lights;
 
     // View.
-    let (camera, camera_transform) = cameras.iter().next().map_or((Camera::default(), GlobalTransform::default()), |(c, t)| (*c, *t));
+    let (mut camera, mut camera_transform) =
+        cameras.iter().next().map_or((Camera::default(), GlobalTransform::default()), |(_, c, t)| (*c, *t));
+    if let Some((e, _, _)) = cameras.iter().next() {
+        let item = item("camera", e);
+        let fields = [("yfov", camera.yfov), ("znear", camera.znear), ("exposure", camera.exposure)];
+        let bad = fields.iter().find(|(_, v)| !v.is_finite()).map(|(f, v)| SceneDataError::NonFinite {
+            item: item.clone(),
+            field: (*f).into(),
+            value: format!("{v:?}"),
+        });
+        if let Some(error) = bad.or_else(|| validate_affine(&item, "world transform", &camera_transform.0).err()) {
+            // Rendered from the default camera instead.
+            frame_errors.push(error);
+            (camera, camera_transform) = (Camera::default(), GlobalTransform::default());
+        }
+    }
+    scene.frame_errors = frame_errors;
+    scene.log_new_errors();
     let clip_from_world = clip_from_world(&camera, &camera_transform, *size);
     let position = camera_transform.translation();
     scene.view_uniform = ViewUniform {

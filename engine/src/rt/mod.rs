@@ -57,6 +57,10 @@ pub struct Blas {
 impl Blas {
     /// Builds the BLAS of a mesh. Degenerate triangles are kept (they never report a hit).
     pub fn build(mesh: &Mesh) -> Self {
+        // Scene data with NaN or infinite positions is rejected at upload; its BLAS is empty.
+        if mesh.positions.iter().any(|p| !p.is_finite()) {
+            return Self { nodes: Vec::new(), triangles: Vec::new(), bounds: None };
+        }
         let tris: Vec<Triangle> = mesh
             .indices
             .chunks_exact(3)
@@ -304,7 +308,7 @@ impl RayTracingScene {
         for (mesh, blas) in self.blas.iter().enumerate() {
             let range = scene.mesh_ranges.get(mesh);
             let info = match (blas, range) {
-                (Some(b), Some(range)) if !b.nodes.is_empty() => {
+                (Some(b), Some(range)) if !b.nodes.is_empty() && !range.indices.is_empty() => {
                     let info = GpuBlas {
                         node_offset: (nodes.len() / 80) as u32,
                         triangle_offset: triangles.len() as u32,
@@ -322,6 +326,16 @@ impl RayTracingScene {
                 _ => GpuBlas { node_offset: u32::MAX, ..GpuBlas::zeroed() },
             };
             self.gpu_blas.push(info);
+        }
+        let limit = crate::render::gpu_scene::max_storage_buffer_bytes(&gpu.device);
+        let needed = (nodes.len() as u64).max(std::mem::size_of_val(triangles.as_slice()) as u64);
+        if needed > limit {
+            log::error!("the scene's BVH needs {needed} bytes, over the adapter's limit of {limit} bytes per buffer; nothing is traced");
+            nodes.clear();
+            triangles.clear();
+            for info in &mut self.gpu_blas {
+                *info = GpuBlas { node_offset: u32::MAX, ..GpuBlas::zeroed() };
+            }
         }
         self.blas_nodes.write(gpu, &nodes);
         self.blas_triangles.write(gpu, bytemuck::cast_slice(&triangles));

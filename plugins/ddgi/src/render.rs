@@ -11,7 +11,7 @@ use engine::graph::{Buffer as GraphBuffer, BufferDesc, Handle, RenderGraph, Text
 use engine::render::gpu_scene::GpuScene;
 use engine::render::{CameraFrame, DEPTH_FORMAT, HDR_FORMAT, SkyRadiance, dispatch};
 use engine::rng::SplitMix64;
-use engine::scene::{Assets, Mesh};
+use engine::scene::{Assets, Material, Mesh};
 use engine::shader::{Program, RenderTargets, ShaderError, compute_program, compute_program_with_constants, render_program};
 use engine::wgpu;
 use glam::{Mat3, Quat, Vec3};
@@ -372,6 +372,38 @@ pub struct DdgiGpuVolumes {
     errors: HashMap<Entity, String>,
     /// Local bounds of each mesh, computed once.
     mesh_bounds: HashMap<u32, Option<(Vec3, Vec3)>>,
+    /// Warnings about the scene ([`divergence_warnings`]) and the material generation they are of.
+    warnings: Vec<String>,
+    warned_generation: Option<u64>,
+}
+
+/// Largest irradiance (W/m²) a probe map holds (`DDGI_MAX_IRRADIANCE` in `ddgi.inc.wgsl`): the
+/// documented clamp that keeps a diverging scene finite.
+pub const MAX_IRRADIANCE: f32 = 1.0e24;
+
+/// Materials that reflect all the light they receive (albedo 1 in some channel). A closed scene of
+/// such a material that emits (or is lit) is physically divergent: every frame adds one bounce,
+/// so its indirect light grows without bound, by the first bounce's irradiance each frame. DDGI
+/// keeps it finite (irradiance is clamped at [`MAX_IRRADIANCE`]) but not meaningful; these
+/// warnings say so, one per material.
+pub fn divergence_warnings(materials: &Assets<Material>) -> Vec<String> {
+    materials
+        .iter()
+        .filter(|(_, m)| m.base_color.truncate().max_element() >= 1.0 - 1e-6)
+        .map(|(h, m)| {
+            let c = m.base_color.truncate().min(Vec3::ONE);
+            format!(
+                "material {} '{}' has albedo ({}, {}, {}): it reflects all the light it receives, so in a closed scene the indirect \
+                 light does not converge (it grows by one bounce every frame); DDGI clamps irradiance at {MAX_IRRADIANCE:e} W/m², \
+                 which keeps it finite but not physical. Use an albedo below 1",
+                h.index(),
+                m.name,
+                c.x,
+                c.y,
+                c.z
+            )
+        })
+        .collect()
 }
 
 impl DdgiGpuVolumes {
@@ -382,6 +414,11 @@ impl DdgiGpuVolumes {
     /// The settings error that keeps `entity`'s volume from lighting the scene, if any.
     pub fn error(&self, entity: Entity) -> Option<&str> {
         self.errors.get(&entity).map(String::as_str)
+    }
+
+    /// Warnings about the scene's materials while a volume is on ([`divergence_warnings`]).
+    pub fn warnings(&self) -> &[String] {
+        &self.warnings
     }
 
     /// Any volume's settings error (for tools that run a single volume).
@@ -437,10 +474,19 @@ pub fn prepare_ddgi_volumes(
     scene: Res<GpuScene>,
     sky: Res<SkyRadiance>,
     meshes: Res<Assets<Mesh>>,
+    materials: Res<Assets<Material>>,
     volumes: Query<(Entity, &DdgiVolume)>,
     mut state: ResMut<DdgiGpuVolumes>,
 ) {
     let state = &mut *state;
+    if !volumes.is_empty() && state.warned_generation != Some(materials.generation()) {
+        state.warned_generation = Some(materials.generation());
+        let warnings = divergence_warnings(&materials);
+        for w in warnings.iter().filter(|w| !state.warnings.contains(w)) {
+            log::warn!("DDGI: {w}");
+        }
+        state.warnings = warnings;
+    }
     state.volumes.retain(|(e, v)| {
         let keep = volumes.get(*e).is_ok();
         if !keep {

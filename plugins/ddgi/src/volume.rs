@@ -257,7 +257,8 @@ impl DdgiVolume {
         if !(a.error_floor.is_finite() && a.error_floor >= 0.0) {
             return Err(invalid("adaptive.error_floor", a.error_floor, "must be finite and not negative"));
         }
-        if a.min_rays == 0 || a.min_rays > self.rays_per_probe {
+        // Only adaptive budgets use min_rays: a fixed budget of fewer rays than its default (16) is fine.
+        if a.enabled && (a.min_rays == 0 || a.min_rays > self.rays_per_probe) {
             return Err(invalid("adaptive.min_rays", a.min_rays, "must be between 1 and rays_per_probe"));
         }
         if a.frame_budget == Some(0) {
@@ -400,6 +401,7 @@ impl DdgiLayout {
         }
         let probes = u64::from(probe_count);
         let buffers = [
+            ("probe buffer (probes × 48 bytes)", probes * size_of::<crate::gpu::DdgiProbeData>() as u64),
             ("per-ray buffer (probes × rays_per_probe × 16 bytes)", probes * u64::from(volume.rays_per_probe) * BYTES_PER_RAY),
             ("irradiance map buffer (probes × irradiance_texels² × 32 bytes)", probes * u64::from(volume.irradiance_texels.pow(2)) * 32),
             ("distance map buffer (probes × distance_texels² × 8 bytes)", probes * u64::from(volume.distance_texels.pow(2)) * 8),
