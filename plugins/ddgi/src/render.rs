@@ -51,8 +51,8 @@ impl DdgiOutput {
     pub fn name(self) -> &'static str {
         match self {
             Self::Full => "full",
-            Self::Indirect => "indirect only",
-            Self::Direct => "direct only",
+            Self::Indirect => "indirect light only",
+            Self::Direct => "direct light only",
             Self::Albedo => "albedo",
             Self::Normals => "normals",
         }
@@ -860,60 +860,40 @@ pub fn render_ddgi_frame(
             dispatch(ctx.encoder, ctx.label, &program.pipeline, &[&group0, &group1, &group2], workgroups);
         });
     }
-    if output.debug_view().is_some() {
-        // Direct light, albedo or normals: nobody reads the gathered indirect light, so the graph
-        // leaves the gather out.
-        let mut pass = script.graph.add_pass("ddgi_composite");
-        let inputs = [pass.read(&gbuffer.depth), pass.read(&gbuffer.normal), pass.read(&gbuffer.albedo), pass.read(&direct)];
-        let out = pass.write(&mut script.hdr);
-        pass.note(output.name());
-        let program = pipelines.composite_debug.clone();
-        let group0 = program.bind_group(device, 0, &scene_bindings);
-        let params = params(true);
-        pass.render(move |ctx| {
-            let [depth, normal, albedo, direct_in] = inputs.map(|i| wgpu::BindingResource::TextureView(ctx.view(i)));
-            let group2 = program.bind_group(
-                &ctx.gpu.device,
-                2,
-                &[
-                    ("ddgi_gather_params", params.as_entire_binding()),
-                    ("gbuffer_depth", depth),
-                    ("gbuffer_normal", normal),
-                    ("gbuffer_albedo", albedo),
-                    ("direct_in", direct_in),
-                    ("radiance_out", wgpu::BindingResource::TextureView(ctx.view(out))),
-                ],
-            );
-            let empty = ctx.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("empty"),
-                layout: &program.pipeline.get_bind_group_layout(1),
-                entries: &[],
-            });
-            dispatch(ctx.encoder, ctx.label, &program.pipeline, &[&group0, &empty, &group2], workgroups);
-        });
-    } else {
+    {
+        // What the composite reads depends on the output: `composite` direct + indirect,
+        // `composite_indirect` the indirect light alone, `composite_debug` direct light, albedo or
+        // normals. When it reads no gathered light, nobody does: the graph leaves the gather out.
+        let debug = output.debug_view().is_some();
         let full = *output == DdgiOutput::Full;
         let mut pass = script.graph.add_pass("ddgi_composite");
-        let (depth, albedo) = (pass.read(&gbuffer.depth), pass.read(&gbuffer.albedo));
-        let direct_in = full.then(|| pass.read(&direct));
-        let acc = pass.read(&indirect);
+        let mut textures = vec![("gbuffer_depth", pass.read(&gbuffer.depth)), ("gbuffer_albedo", pass.read(&gbuffer.albedo))];
+        if debug {
+            textures.push(("gbuffer_normal", pass.read(&gbuffer.normal)));
+        }
+        if full || debug {
+            textures.push(("direct_in", pass.read(&direct)));
+        }
+        let indirect_in = (!debug).then(|| pass.read(&indirect));
         let out = pass.write(&mut script.hdr);
         if !full {
-            pass.note("indirect light only");
+            pass.note(output.name());
         }
-        let program = if full { pipelines.composite.clone() } else { pipelines.composite_indirect.clone() };
+        let program = match (debug, full) {
+            (true, _) => pipelines.composite_debug.clone(),
+            (false, true) => pipelines.composite.clone(),
+            (false, false) => pipelines.composite_indirect.clone(),
+        };
         let group0 = program.bind_group(device, 0, &scene_bindings);
         let params = params(true);
         pass.render(move |ctx| {
             let mut entries = vec![
                 ("ddgi_gather_params", params.as_entire_binding()),
-                ("gbuffer_depth", wgpu::BindingResource::TextureView(ctx.view(depth))),
-                ("gbuffer_albedo", wgpu::BindingResource::TextureView(ctx.view(albedo))),
-                ("ddgi_indirect", ctx.buffer(acc).as_entire_binding()),
                 ("radiance_out", wgpu::BindingResource::TextureView(ctx.view(out))),
             ];
-            if let Some(d) = direct_in {
-                entries.push(("direct_in", wgpu::BindingResource::TextureView(ctx.view(d))));
+            entries.extend(textures.iter().map(|&(name, t)| (name, wgpu::BindingResource::TextureView(ctx.view(t)))));
+            if let Some(acc) = indirect_in {
+                entries.push(("ddgi_indirect", ctx.buffer(acc).as_entire_binding()));
             }
             let group2 = program.bind_group(&ctx.gpu.device, 2, &entries);
             let empty = ctx.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
