@@ -4,7 +4,9 @@
 use std::sync::Arc;
 
 use bevy_app::App;
+use bevy_ecs::world::World;
 use winit::application::ApplicationHandler;
+use winit::dpi::PhysicalSize;
 use winit::event::{ElementState, KeyEvent, WindowEvent};
 use winit::event_loop::{ActiveEventLoop, EventLoop};
 use winit::keyboard::{Key, NamedKey};
@@ -53,32 +55,7 @@ impl WindowedRunner {
     fn open(&mut self, event_loop: &ActiveEventLoop) -> Result<WindowState, WindowError> {
         let attributes = Window::default_attributes().with_title("game_demo").with_inner_size(winit::dpi::LogicalSize::new(1280, 720));
         let window = Arc::new(event_loop.create_window(attributes).map_err(|e| WindowError::Surface(e.to_string()))?);
-        let instance = GpuContext::create_instance();
-        let surface = instance.create_surface(window.clone()).map_err(|e| WindowError::Surface(e.to_string()))?;
-        let gpu =
-            GpuContext::new(GpuOptions { compatible_surface: Some(&surface), instance: Some(instance.clone()), ..Default::default() })?;
-        let size = window.inner_size();
-        let caps = surface.get_capabilities(&gpu.adapter);
-        // The image is sRGB-encoded by the tonemapper: present it through a non-sRGB format.
-        let format = caps
-            .formats
-            .iter()
-            .copied()
-            .find(|f| !f.is_srgb())
-            .or(caps.formats.first().copied())
-            .ok_or_else(|| WindowError::Surface("the surface supports no format".into()))?;
-        let mut config = surface
-            .get_default_config(&gpu.adapter, size.width.max(1), size.height.max(1))
-            .ok_or_else(|| WindowError::Surface("the surface is not supported by the adapter".into()))?;
-        config.format = format;
-        surface.configure(&gpu.device, &config);
-        let blit = blit_program(&gpu, format).map_err(|e| WindowError::Surface(e.to_string()))?;
-
-        let mut app = App::new();
-        app.insert_resource(Time::real());
-        app.add_plugins((EnginePlugin, RenderPlugin { gpu: gpu.clone(), size: RenderSize { width: config.width, height: config.height } }));
-        app.insert_resource(SurfaceTarget { surface, config, blit: Arc::new(blit) });
-        app.world_mut().resource_mut::<crate::render::FrameTimings>().keep = 600;
+        let mut app = windowed_app(&window, Time::real())?.app;
         if let Some(scene) = self.scene.take() {
             scene.spawn(app.world_mut());
         }
@@ -86,6 +63,60 @@ impl WindowedRunner {
         window.request_redraw();
         Ok(WindowState { window, app })
     }
+}
+
+/// An app presenting to a window: the GPU (an adapter that can present to the window), the
+/// window's surface configured for the tonemapped image, and the engine with the camera path.
+pub struct WindowedApp {
+    pub app: App,
+    pub gpu: GpuContext,
+    /// The surface's format (not sRGB: the image is already encoded).
+    pub format: wgpu::TextureFormat,
+}
+
+/// Builds a [`WindowedApp`] for `window` on the clock `time` (real time for play, a fixed step
+/// for scripted runs that must match headless ones). Keeps the timings of the last 600 frames.
+pub fn windowed_app(window: &Arc<Window>, time: Time) -> Result<WindowedApp, WindowError> {
+    let instance = GpuContext::create_instance();
+    let surface = instance.create_surface(window.clone()).map_err(|e| WindowError::Surface(e.to_string()))?;
+    let gpu = GpuContext::new(GpuOptions { compatible_surface: Some(&surface), instance: Some(instance.clone()), ..Default::default() })?;
+    let size = window.inner_size();
+    let caps = surface.get_capabilities(&gpu.adapter);
+    // The image is sRGB-encoded by the tonemapper: present it through a non-sRGB format.
+    let format = caps
+        .formats
+        .iter()
+        .copied()
+        .find(|f| !f.is_srgb())
+        .or(caps.formats.first().copied())
+        .ok_or_else(|| WindowError::Surface("the surface supports no format".into()))?;
+    let mut config = surface
+        .get_default_config(&gpu.adapter, size.width.max(1), size.height.max(1))
+        .ok_or_else(|| WindowError::Surface("the surface is not supported by the adapter".into()))?;
+    config.format = format;
+    surface.configure(&gpu.device, &config);
+    let blit = blit_program(&gpu, format).map_err(|e| WindowError::Surface(e.to_string()))?;
+
+    let mut app = App::new();
+    app.insert_resource(time);
+    app.add_plugins((EnginePlugin, RenderPlugin { gpu: gpu.clone(), size: RenderSize { width: config.width, height: config.height } }));
+    app.insert_resource(SurfaceTarget { surface, config, blit: Arc::new(blit) });
+    app.world_mut().resource_mut::<crate::render::FrameTimings>().keep = 600;
+    Ok(WindowedApp { app, gpu, format })
+}
+
+/// Follows a window's new size: reconfigures the surface and the render size. A zero-sized
+/// (minimized) window keeps its last configuration; its frames are skipped by the runner.
+pub fn resize_surface(world: &mut World, size: PhysicalSize<u32>) {
+    if size.width == 0 || size.height == 0 {
+        return;
+    }
+    let gpu = world.resource::<GpuContext>().clone();
+    let mut target = world.resource_mut::<SurfaceTarget>();
+    target.config.width = size.width;
+    target.config.height = size.height;
+    target.surface.configure(&gpu.device, &target.config);
+    world.insert_resource(RenderSize { width: size.width, height: size.height });
 }
 
 impl ApplicationHandler for WindowedRunner {
@@ -111,16 +142,7 @@ impl ApplicationHandler for WindowedRunner {
                 ..
             } => event_loop.exit(),
             WindowEvent::Resized(size) => {
-                // Zero-sized (minimized) windows keep their last configuration; frames are skipped.
-                if size.width > 0 && size.height > 0 {
-                    let world = state.app.world_mut();
-                    let gpu = world.resource::<GpuContext>().clone();
-                    let mut target = world.resource_mut::<SurfaceTarget>();
-                    target.config.width = size.width;
-                    target.config.height = size.height;
-                    target.surface.configure(&gpu.device, &target.config);
-                    world.insert_resource(RenderSize { width: size.width, height: size.height });
-                }
+                resize_surface(state.app.world_mut(), size);
                 state.window.request_redraw();
             }
             WindowEvent::RedrawRequested => {

@@ -14,9 +14,10 @@ use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use bevy_app::App;
-use engine::app::{EnginePlugin, Time};
-use engine::gpu::{GpuContext, GpuOptions};
-use engine::render::{RenderPlugin, RenderSize, SurfaceOverlay, SurfaceOverlayHook, SurfaceTarget, blit_program};
+use engine::app::Time;
+use engine::gpu::GpuContext;
+use engine::render::{SurfaceOverlay, SurfaceOverlayHook};
+use engine::window::{WindowError, WindowedApp, resize_surface, windowed_app};
 use glam::Vec2;
 use winit::application::ApplicationHandler;
 use winit::event::{DeviceEvent, DeviceId, ElementState, MouseButton, WindowEvent};
@@ -40,8 +41,7 @@ pub struct WindowScript {
 
 /// Opens the demo's window and runs it until it is closed.
 pub fn run_window(options: PlayOptions, script: Option<WindowScript>) -> Result<(), String> {
-    let event_loop =
-        EventLoop::new().map_err(|e| format!("cannot open a window (is a display available? set DISPLAY or WAYLAND_DISPLAY): {e}"))?;
+    let event_loop = EventLoop::new().map_err(|e| WindowError::EventLoop(e.to_string()).to_string())?;
     let mut runner = Runner { options, script, state: None, error: None };
     event_loop.run_app(&mut runner).map_err(|e| e.to_string())?;
     runner.error.map_or(Ok(()), Err)
@@ -136,42 +136,13 @@ impl Runner {
             .with_inner_size(winit::dpi::PhysicalSize::new(width, height))
             .with_resizable(self.script.is_none());
         let window = Arc::new(event_loop.create_window(attributes).map_err(|e| format!("cannot create the window: {e}"))?);
-        let instance = GpuContext::create_instance();
-        let surface = instance.create_surface(window.clone()).map_err(|e| format!("cannot create the window's surface: {e}"))?;
-        let gpu =
-            GpuContext::new(GpuOptions { compatible_surface: Some(&surface), instance: Some(instance.clone()), ..Default::default() })
-                .map_err(|e| e.to_string())?;
-        let size = window.inner_size();
-        let caps = surface.get_capabilities(&gpu.adapter);
-        // The image is sRGB-encoded by the tonemapper: present it through a non-sRGB format.
-        let format = caps
-            .formats
-            .iter()
-            .copied()
-            .find(|f| !f.is_srgb())
-            .or(caps.formats.first().copied())
-            .ok_or("the surface supports no format")?;
-        let mut config = surface
-            .get_default_config(&gpu.adapter, size.width.max(1), size.height.max(1))
-            .ok_or("the surface is not supported by the adapter")?;
-        config.format = format;
-        surface.configure(&gpu.device, &config);
-        let blit = blit_program(&gpu, format).map_err(|e| e.to_string())?;
-
-        let render_size = RenderSize { width: config.width, height: config.height };
-        let mut app = App::new();
+        // A scripted run renders frame for frame what the headless mode does.
+        let time = if self.script.is_some() { Time::fixed(super::STEP_SECONDS) } else { Time::real() };
+        let WindowedApp { mut app, gpu, format } = windowed_app(&window, time).map_err(|e| e.to_string())?;
         if self.script.is_some() {
-            // Frame for frame what the headless mode renders.
-            app.insert_resource(Time::fixed(super::STEP_SECONDS)).insert_resource(engine::rt::WaitForBlasBuilds(true));
-        } else {
-            app.insert_resource(Time::real());
-        }
-        app.add_plugins((EnginePlugin, RenderPlugin { gpu: gpu.clone(), size: render_size }));
-        app.world_mut().resource_mut::<engine::render::FrameTimings>().keep = 600;
-        if self.script.is_some() {
+            app.insert_resource(engine::rt::WaitForBlasBuilds(true));
             app.world_mut().resource_mut::<engine::render::FrameTimings>().wait_each_frame = true;
         }
-        app.insert_resource(SurfaceTarget { surface, config, blit: Arc::new(blit) });
         setup_play(&mut app, &self.options, self.script.is_some())?;
 
         let renderer = egui_wgpu::Renderer::new(&gpu.device, format, egui_wgpu::RendererOptions::default());
@@ -349,16 +320,7 @@ impl ApplicationHandler for Runner {
                 }
             }
             WindowEvent::Resized(size) => {
-                // Zero-sized (minimized) windows keep their last configuration; frames are skipped.
-                if size.width > 0 && size.height > 0 {
-                    let world = state.app.world_mut();
-                    let gpu = world.resource::<GpuContext>().clone();
-                    let mut target = world.resource_mut::<SurfaceTarget>();
-                    target.config.width = size.width;
-                    target.config.height = size.height;
-                    target.surface.configure(&gpu.device, &target.config);
-                    world.insert_resource(RenderSize { width: size.width, height: size.height });
-                }
+                resize_surface(state.app.world_mut(), size);
                 state.window.request_redraw();
             }
             WindowEvent::RedrawRequested => {
