@@ -257,6 +257,14 @@ impl Shell {
     }
 }
 
+/// A closed box of solid slabs `thickness` thick around the interior `inner_min..inner_max` (every
+/// slab spans the whole outer box along the two axes it does not close).
+pub fn closed_shell(name: &str, inner_min: Vec3, inner_max: Vec3, thickness: f32) -> Mesh {
+    let shell = Shell::around(inner_min, inner_max, thickness);
+    let parts: Vec<_> = [X, Y, Z].into_iter().flat_map(|axis| [shell.slab_part(axis, false), shell.slab_part(axis, true)]).collect();
+    merge(name, &parts)
+}
+
 /// Axis indices for [`Shell::slab`].
 const X: usize = 0;
 const Y: usize = 1;
@@ -282,12 +290,6 @@ const SUN_GIZMO_DISTANCE: f32 = 10.0;
 /// A node whose local -Z points along `direction`, placed up-sun of `target` for editors.
 fn sun_transform(target: Vec3, direction: Vec3) -> Transform {
     Transform::from_translation(target - direction * SUN_GIZMO_DISTANCE).looking_at(target, Vec3::Y)
-}
-
-/// Adds a mesh node drawing `mesh` with `material`.
-fn add_mesh_node(desc: &mut SceneDescription, name: &str, transform: Transform, mesh: Mesh, material: usize) -> usize {
-    let mesh = desc.add_mesh(mesh);
-    desc.add_node(name, transform, None, vec![NodeContent::Meshes(vec![(mesh, material)])])
 }
 
 /// Adds a camera at `eye` looking at `target`.
@@ -365,11 +367,11 @@ pub fn cornell() -> SceneDescription {
     let mut shell = Shell::around(CORNELL_MIN, CORNELL_MAX, CORNELL_WALL_THICKNESS);
     shell.outer_max.z = CORNELL_MAX.z;
     let walls = merge("cornell_white_walls", &[shell.slab_part(Y, false), shell.slab_part(Y, true), shell.slab_part(Z, false)]);
-    add_mesh_node(&mut desc, "white_walls", Transform::IDENTITY, walls, white);
+    desc.add_mesh_node("white_walls", Transform::IDENTITY, walls, white);
     let left = merge("cornell_left_wall", &[shell.slab_part(X, false)]);
-    add_mesh_node(&mut desc, "left_wall", Transform::IDENTITY, left, red);
+    desc.add_mesh_node("left_wall", Transform::IDENTITY, left, red);
     let right = merge("cornell_right_wall", &[shell.slab_part(X, true)]);
-    add_mesh_node(&mut desc, "right_wall", Transform::IDENTITY, right, green);
+    desc.add_mesh_node("right_wall", Transform::IDENTITY, right, green);
 
     let blocks = [
         ("tall_box", TALL_BOX_HALF, TALL_BOX_CENTER, TALL_BOX_YAW_DEGREES),
@@ -377,13 +379,13 @@ pub fn cornell() -> SceneDescription {
     ];
     for (name, half, center, yaw) in blocks {
         let transform = Transform::from_translation(center).with_rotation(Quat::from_rotation_y(yaw.to_radians()));
-        add_mesh_node(&mut desc, name, transform, cuboid(name, half), white);
+        desc.add_mesh_node(name, transform, cuboid(name, half), white);
     }
 
     // The lamp quad faces down; its point light is a child hanging just below it.
     let lamp_mesh = merge("cornell_lamp", &[(quad("", LAMP_SIZE), Affine3A::from_rotation_x(PI))]);
     let lamp_y = CORNELL_MAX.y - LAMP_GAP;
-    let lamp_node = add_mesh_node(&mut desc, "lamp", Transform::from_xyz(0.0, lamp_y, 0.0), lamp_mesh, lamp);
+    let lamp_node = desc.add_mesh_node("lamp", Transform::from_xyz(0.0, lamp_y, 0.0), lamp_mesh, lamp);
     let light = PointLight { color: LAMP_COLOR, intensity: LAMP_INTENSITY, range: None };
     desc.add_node(
         "lamp_light",
@@ -461,7 +463,7 @@ pub fn ceiling_opening() -> SceneDescription {
         shell.slab_part(Z, true),
     ];
     parts.extend(shell.slab_with_opening(Y, true, &SKYLIGHT));
-    add_mesh_node(&mut desc, "room", Transform::IDENTITY, merge("room", &parts), white);
+    desc.add_mesh_node("room", Transform::IDENTITY, merge("room", &parts), white);
 
     // The divider reaches into the floor, ceiling and back wall so that it closes against them.
     let divider = merge(
@@ -471,7 +473,7 @@ pub fn ceiling_opening() -> SceneDescription {
             Vec3::new(DIVIDER_HALF_THICKNESS, shell.outer_max.y, DIVIDER_END_Z),
         )],
     );
-    add_mesh_node(&mut desc, "divider", Transform::IDENTITY, divider, white);
+    desc.add_mesh_node("divider", Transform::IDENTITY, divider, white);
 
     let direction = sun_direction(SKY_SUN_ELEVATION_DEGREES.to_radians(), SKY_SUN_HEADING_DEGREES.to_radians());
     let sun = DirectionalLight { color: SUN_COLOR, intensity: SKY_SUN_INTENSITY };
@@ -539,14 +541,14 @@ pub fn door_room() -> SceneDescription {
     let wall = desc.add_material(Material::diffuse("wall", WHITE));
     let floor = desc.add_material(Material::diffuse("floor", FLOOR_ALBEDO));
 
-    add_mesh_node(&mut desc, "ground", Transform::IDENTITY, quad("ground", Vec2::splat(GROUND_SIZE)), ground);
+    desc.add_mesh_node("ground", Transform::IDENTITY, quad("ground", Vec2::splat(GROUND_SIZE)), ground);
 
     let shell = Shell::around(DOOR_ROOM_MIN, DOOR_ROOM_MAX, WALL_THICKNESS);
     let mut parts = vec![shell.slab_part(X, false), shell.slab_part(X, true), shell.slab_part(Y, true), shell.slab_part(Z, false)];
     parts.extend(shell.slab_with_opening(Z, true, &DOOR));
-    add_mesh_node(&mut desc, "room", Transform::IDENTITY, merge("room", &parts), wall);
+    desc.add_mesh_node("room", Transform::IDENTITY, merge("room", &parts), wall);
     let floor_mesh = merge("floor", &[shell.slab_part(Y, false)]);
-    add_mesh_node(&mut desc, "floor", Transform::IDENTITY, floor_mesh, floor);
+    desc.add_mesh_node("floor", Transform::IDENTITY, floor_mesh, floor);
 
     let door = (DOOR.min + DOOR.max) * 0.5;
     desc.add_node("door", Transform::from_translation(door), None, vec![NodeContent::Empty]);
@@ -613,9 +615,7 @@ pub fn color_bleed() -> SceneDescription {
     let red = desc.add_material(Material::diffuse("red", RED_CUBE_ALBEDO));
     let blue = desc.add_material(Material::diffuse("blue", BLUE_BOX_ALBEDO));
 
-    let shell = Shell::around(BLEED_ROOM_MIN, BLEED_ROOM_MAX, WALL_THICKNESS);
-    let parts: Vec<_> = [X, Y, Z].into_iter().flat_map(|axis| [shell.slab_part(axis, false), shell.slab_part(axis, true)]).collect();
-    add_mesh_node(&mut desc, "room", Transform::IDENTITY, merge("room", &parts), white);
+    desc.add_mesh_node("room", Transform::IDENTITY, closed_shell("room", BLEED_ROOM_MIN, BLEED_ROOM_MAX, WALL_THICKNESS), white);
 
     let objects = [
         ("red_cube", RED_CUBE_HALF, RED_CUBE_CENTER, RED_CUBE_YAW_DEGREES, red),
@@ -623,7 +623,7 @@ pub fn color_bleed() -> SceneDescription {
     ];
     for (name, half, center, yaw, material) in objects {
         let transform = Transform::from_translation(center).with_rotation(Quat::from_rotation_y(yaw.to_radians()));
-        add_mesh_node(&mut desc, name, transform, cuboid(name, half), material);
+        desc.add_mesh_node(name, transform, cuboid(name, half), material);
     }
 
     let spot = SpotLight {

@@ -289,12 +289,6 @@ fn add_camera(desc: &mut SceneDescription, eye: Vec3, target: Vec3, yfov_degrees
     desc.add_node("camera", transform, None, vec![NodeContent::Camera(camera)]);
 }
 
-/// Adds `mesh` drawn with `material` as a root node called `name`.
-fn add_mesh_node(desc: &mut SceneDescription, name: &str, mesh: Mesh, material: usize) {
-    let mesh = desc.add_mesh(mesh);
-    desc.add_node(name, Transform::IDENTITY, None, vec![NodeContent::Meshes(vec![(mesh, material)])]);
-}
-
 // ---------------------------------------------------------------------------------------------
 // cathedral
 // ---------------------------------------------------------------------------------------------
@@ -686,10 +680,10 @@ pub fn cathedral() -> SceneDescription {
     let mut desc = SceneDescription { name: "cathedral".into(), ..Default::default() };
     let stone = desc.add_material(Material::diffuse("stone", STONE_ALBEDO));
     let floor = desc.add_material(Material::diffuse("floor", FLOOR_ALBEDO));
-    add_mesh_node(&mut desc, "walls", cathedral_walls(), stone);
-    add_mesh_node(&mut desc, "vaults", cathedral_vaults(), stone);
-    add_mesh_node(&mut desc, "columns", cathedral_columns(), stone);
-    add_mesh_node(&mut desc, "floor", cathedral_floor(), floor);
+    desc.add_mesh_node("walls", Transform::IDENTITY, cathedral_walls(), stone);
+    desc.add_mesh_node("vaults", Transform::IDENTITY, cathedral_vaults(), stone);
+    desc.add_mesh_node("columns", Transform::IDENTITY, cathedral_columns(), stone);
+    desc.add_mesh_node("floor", Transform::IDENTITY, cathedral_floor(), floor);
 
     let direction = sun_direction(CATHEDRAL_SUN_ELEVATION_DEGREES.to_radians(), CATHEDRAL_SUN_AZIMUTH_DEGREES.to_radians());
     // The sun patch: where the ray through the middle of a +X clerestory window meets the floor.

@@ -420,6 +420,12 @@ impl SceneDescription {
         self.nodes.len() - 1
     }
 
+    /// Adds `mesh` and a root node called `name` drawing it with `material`; returns the node.
+    pub fn add_mesh_node(&mut self, name: &str, transform: Transform, mesh: Mesh, material: usize) -> usize {
+        let mesh = self.add_mesh(mesh);
+        self.add_node(name, transform, None, vec![NodeContent::Meshes(vec![(mesh, material)])])
+    }
+
     pub fn add_mesh(&mut self, mesh: Mesh) -> usize {
         self.meshes.push(mesh);
         self.meshes.len() - 1

@@ -26,7 +26,7 @@ use bevy_ecs::prelude::*;
 use engine::app::Time;
 use engine::builtin::{box_part, box_with_hole, merge};
 use engine::render::SkyRadiance;
-use engine::scene::{Camera, DirectionalLight, Material, Mesh, Name, NodeContent, Orbit, PointLight, SceneDescription, Transform};
+use engine::scene::{Camera, DirectionalLight, Material, Name, NodeContent, Orbit, PointLight, SceneDescription, Transform};
 use glam::{Affine3A, Quat, Vec2, Vec3};
 
 /// An axis-aligned rectangle of the floor plan: `min`/`max` are (x, z).
@@ -234,14 +234,9 @@ impl Builder {
         self.desc.add_material(Material::diffuse(name, color))
     }
 
-    fn mesh_node(&mut self, name: &str, transform: Transform, mesh: Mesh, material: usize) -> usize {
-        let mesh = self.desc.add_mesh(mesh);
-        self.desc.add_node(name, transform, None, vec![NodeContent::Meshes(vec![(mesh, material)])])
-    }
-
     /// A static box `min`..`max` in world space.
     fn solid(&mut self, name: &str, min: Vec3, max: Vec3, material: usize) -> usize {
-        self.mesh_node(name, Transform::IDENTITY, merge(name, &[box_part(min, max)]), material)
+        self.desc.add_mesh_node(name, Transform::IDENTITY, merge(name, &[box_part(min, max)]), material)
     }
 
     /// The model's parts, loading it (into the scene's lists) on first use; `None` when it is not
@@ -462,7 +457,7 @@ fn build_house(b: &mut Builder) {
     parts.push(box_part(min, max));
     // Ceiling slab.
     parts.push(box_part(Vec3::new(lo.x, HOUSE_MAX.y, lo.z), hi));
-    b.mesh_node("house", Transform::IDENTITY, merge("house", &parts), plaster);
+    b.desc.add_mesh_node("house", Transform::IDENTITY, merge("house", &parts), plaster);
     b.solid("house_floor", lo, Vec3::new(hi.x, HOUSE_MIN.y, hi.z), wood);
     b.solid("roof", Vec3::new(lo.x - 0.4, hi.y, lo.z - 0.4), Vec3::new(hi.x + 0.4, hi.y + 0.25, hi.z + 0.4), roof);
 
@@ -500,7 +495,7 @@ fn build_house(b: &mut Builder) {
     let door_wood = b.material("door", DOOR_WOOD);
     let half = Vec3::new((DOOR_X.1 - DOOR_X.0) * 0.5 + 0.05, (DOOR_TOP - HOUSE_MIN.y) * 0.5 + 0.01, DOOR_THICKNESS * 0.5);
     let center = Vec3::new((DOOR_X.0 + DOOR_X.1) * 0.5, (HOUSE_MIN.y + DOOR_TOP) * 0.5, HOUSE_MAX.z + t * 0.5);
-    b.mesh_node(DOOR, door_closed_transform(center), merge(DOOR, &[box_part(-half, half)]), door_wood);
+    b.desc.add_mesh_node(DOOR, door_closed_transform(center), merge(DOOR, &[box_part(-half, half)]), door_wood);
 
     // Furniture: a crate with a blaster on it, and a pillar.
     let crate_wood = b.material("crate", Vec3::new(0.6, 0.45, 0.25));
@@ -621,7 +616,7 @@ fn build_lift(b: &mut Builder) -> PlatformSpec {
     let half = Vec2::new(LIFT_MAX.x - LIFT_MIN.x, LIFT_MAX.y - LIFT_MIN.y) * 0.5;
     let mesh = merge(PLATFORM, &[box_part(Vec3::new(-half.x, -depth, -half.y), Vec3::new(half.x, 0.0, half.y))]);
     let center = (LIFT_MIN + LIFT_MAX) * 0.5;
-    b.mesh_node(PLATFORM, Transform::from_xyz(center.x, LIFT_LOW, center.y), mesh, paint);
+    b.desc.add_mesh_node(PLATFORM, Transform::from_xyz(center.x, LIFT_LOW, center.y), mesh, paint);
     // A stone pit rim around the column.
     let stone = b.material("standin_stone", STONE);
     let rim = 0.25;
@@ -644,7 +639,7 @@ fn build_lift(b: &mut Builder) -> PlatformSpec {
     .map(|(min, max)| Footprint::new(min, max))
     .collect();
     b.floors.extend(rims.into_iter().map(|footprint| Floor { footprint, height: 0.05 }));
-    b.mesh_node("lift_rim", Transform::IDENTITY, merge("lift_rim", &parts), stone);
+    b.desc.add_mesh_node("lift_rim", Transform::IDENTITY, merge("lift_rim", &parts), stone);
     PlatformSpec {
         node: PLATFORM.into(),
         footprint: Footprint::new(LIFT_MIN, LIFT_MAX),

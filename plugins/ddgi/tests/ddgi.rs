@@ -176,23 +176,8 @@ fn shared_exponent_packing_keeps_emission_within_its_precision() {
 /// A closed room of solid slabs around the interior `lo..hi`, all of one material.
 fn closed_room(lo: Vec3, hi: Vec3, material: Material) -> SceneDescription {
     let mut s = SceneDescription { name: "closed_room".into(), ..Default::default() };
-    let t = 0.2;
-    let (outer_lo, outer_hi) = (lo - t, hi + t);
-    let mut parts = Vec::new();
-    for axis in 0..3 {
-        for positive in [false, true] {
-            let (mut a, mut b) = (outer_lo, outer_hi);
-            if positive {
-                a[axis] = hi[axis];
-            } else {
-                b[axis] = lo[axis];
-            }
-            parts.push(engine::builtin::box_part(a, b));
-        }
-    }
-    let mesh = s.add_mesh(engine::builtin::merge("room", &parts));
     let m = s.add_material(material);
-    s.add_node("room", Transform::IDENTITY, None, vec![NodeContent::Meshes(vec![(mesh, m)])]);
+    s.add_mesh_node("room", Transform::IDENTITY, engine::builtin::closed_shell("room", lo, hi, 0.2), m);
     let camera = Transform::from_translation((lo + hi) * 0.5).looking_at(lo, Vec3::Y);
     s.add_node("camera", camera, None, vec![NodeContent::Camera(engine::scene::Camera { yfov: 1.2, ..Default::default() })]);
     s

@@ -43,22 +43,8 @@ fn material(albedo: f32, emission: f32) -> Material {
 /// with a camera at the centre looking at a corner.
 fn closed_room(lo: Vec3, hi: Vec3, thickness: f32, material: Material) -> SceneDescription {
     let mut s = SceneDescription { name: "closed_room".into(), ..Default::default() };
-    let (outer_lo, outer_hi) = (lo - thickness, hi + thickness);
-    let mut parts = Vec::new();
-    for axis in 0..3 {
-        for positive in [false, true] {
-            let (mut a, mut b) = (outer_lo, outer_hi);
-            if positive {
-                a[axis] = hi[axis];
-            } else {
-                b[axis] = lo[axis];
-            }
-            parts.push(engine::builtin::box_part(a, b));
-        }
-    }
-    let mesh = s.add_mesh(engine::builtin::merge("room", &parts));
     let m = s.add_material(material);
-    s.add_node("room", Transform::IDENTITY, None, vec![NodeContent::Meshes(vec![(mesh, m)])]);
+    s.add_mesh_node("room", Transform::IDENTITY, engine::builtin::closed_shell("room", lo, hi, thickness), m);
     let extent = (hi - lo).max_element();
     let camera = Transform::from_translation((lo + hi) * 0.5).looking_at(lo, Vec3::Y);
     let camera_node = Camera { yfov: 1.2, znear: extent * 1e-3, ..Default::default() };
