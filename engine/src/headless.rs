@@ -107,11 +107,10 @@ pub fn render_scene_and_inspect(
     let mut app = scene_app(gpu, scene, settings, configure)?;
     run_headless(&mut app, settings.frames);
     let world = app.world_mut();
-    let hdr = read_hdr(gpu, world);
-    let ldr = read_texture(gpu, &world.resource::<RenderOutputs>().ldr);
     let timings = std::mem::take(&mut world.resource_mut::<FrameTimings>().frames);
+    let frame = RenderedFrame { timings, ..read_frame(gpu, world) };
     inspect(world);
-    Ok(RenderedFrame { width: settings.width, height: settings.height, hdr, ldr, timings, adapter: gpu.adapter_name() })
+    Ok(frame)
 }
 
 /// A headless app ([`headless_app`]) at the settings' size with `configure` applied and `scene`
@@ -153,6 +152,24 @@ pub fn run_frames(app: &mut App, frames: u32, mut after_frame: impl FnMut(u32, &
 /// The linear radiance of the last frame (RGBA, row-major from the top-left).
 pub fn read_hdr(gpu: &GpuContext, world: &World) -> Vec<f32> {
     read_rgba32f(gpu, &world.resource::<RenderOutputs>().hdr)
+}
+
+/// The tonemapped sRGB image of the last frame (RGBA8, row-major from the top-left).
+pub fn read_ldr(gpu: &GpuContext, world: &World) -> Vec<u8> {
+    read_texture(gpu, &world.resource::<RenderOutputs>().ldr)
+}
+
+/// The last frame's images, with the timings recorded so far.
+pub fn read_frame(gpu: &GpuContext, world: &World) -> RenderedFrame {
+    let size = world.resource::<RenderOutputs>().size;
+    RenderedFrame {
+        width: size.width,
+        height: size.height,
+        hdr: read_hdr(gpu, world),
+        ldr: read_ldr(gpu, world),
+        timings: world.resource::<FrameTimings>().frames.clone(),
+        adapter: gpu.adapter_name(),
+    }
 }
 
 #[derive(Serialize)]

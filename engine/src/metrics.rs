@@ -19,12 +19,15 @@ pub const RELATIVE_MSE_EPSILON: f64 = 1e-2;
 /// Linear RGBA radiance → sRGB-encoded RGB8: exposure, clamp to [0, 1], sRGB transfer function
 /// (the camera path's tonemapper, on the CPU). Non-finite values count as black.
 pub fn tonemap_to_srgb8(rgba: &[f32], exposure: f32) -> Vec<u8> {
-    let encode = |c: f32| {
-        let c = if c.is_finite() { (c * exposure).clamp(0.0, 1.0) } else { 0.0 };
-        let s = if c <= 0.003_130_8 { c * 12.92 } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 };
-        (s * 255.0 + 0.5) as u8
-    };
+    let encode = |c: f32| srgb8(if c.is_finite() { c * exposure } else { 0.0 });
     rgba.chunks_exact(4).flat_map(|p| [encode(p[0]), encode(p[1]), encode(p[2])]).collect()
+}
+
+/// A linear value clamped to [0, 1], sRGB-encoded to 8 bits.
+pub fn srgb8(linear: f32) -> u8 {
+    let c = linear.clamp(0.0, 1.0);
+    let s = if c <= 0.003_130_8 { c * 12.92 } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 };
+    (s * 255.0 + 0.5) as u8
 }
 
 /// Mean FLIP between two sRGB RGB8 images of `width × height`, and the per-pixel error map.

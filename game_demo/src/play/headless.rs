@@ -11,7 +11,8 @@ use engine::headless::{headless_app, run_frames};
 use engine::render::{FrameTimings, RenderSize};
 
 use super::controller::Player;
-use super::{PlayOptions, STEP_SECONDS, door_open, save_screenshot, setup_play};
+use super::level::door_is_open;
+use super::{PlayOptions, STEP_SECONDS, save_screenshot, setup_play};
 
 pub struct HeadlessPlay {
     pub frames: u32,
@@ -40,7 +41,7 @@ pub fn run_headless_play(gpu: &GpuContext, options: &PlayOptions, run: &Headless
     let mut images = Vec::new();
     let mut error = None;
     run_frames(&mut app, run.frames, |frame, world| {
-        let door = door_open(world);
+        let door = door_is_open(world);
         let mut players = world.query::<&Player>();
         let feet = players.iter(world).next().map(|p| p.feet).unwrap_or_default();
         players_per_frame.push((feet, door));

@@ -20,7 +20,6 @@ use bevy_app::App;
 use ddgi::{DdgiOutput, DdgiProbeView, DdgiVolume};
 use engine::gpu::GpuContext;
 use engine::render::RenderOutputs;
-use engine::render::readback::read_texture;
 use glam::{UVec3, Vec3Swizzles};
 
 use controller::{PlayerPlugin, PlayerSettings, ScriptedTour};
@@ -84,15 +83,13 @@ pub fn setup_play(app: &mut App, options: &PlayOptions, scripted: bool) -> Resul
     Ok(level)
 }
 
-pub use level::door_is_open as door_open;
-
 /// Writes the last frame's tonemapped image as a PNG.
 pub fn save_screenshot(gpu: &GpuContext, world: &bevy_ecs::world::World, path: &Path) -> Result<(), String> {
-    let outputs = world.resource::<RenderOutputs>();
-    let pixels = read_texture(gpu, &outputs.ldr);
+    let pixels = engine::headless::read_ldr(gpu, world);
+    let size = world.resource::<RenderOutputs>().size;
     if let Some(dir) = path.parent() {
         std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     }
-    image::save_buffer(path, &pixels, outputs.size.width, outputs.size.height, image::ExtendedColorType::Rgba8)
+    image::save_buffer(path, &pixels, size.width, size.height, image::ExtendedColorType::Rgba8)
         .map_err(|e| format!("{}: {e}", path.display()))
 }

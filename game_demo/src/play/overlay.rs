@@ -362,28 +362,26 @@ fn atlases_ui(ui: &mut egui::Ui, state: &mut OverlayState, _world: &mut World) {
 /// distance scale.
 fn refresh_atlases(ctx: &egui::Context, state: &mut OverlayState, world: &mut World) {
     state.atlas_age = 0.0;
+    let exposure = view_camera(world).map_or(1.0, |(c, _)| c.exposure);
     let (Some(gpu), Some(volumes)) = (world.get_resource::<GpuContext>(), world.get_resource::<DdgiGpuVolumes>()) else { return };
     let Some((_, volume)) = volumes.volumes.first() else { return };
-    let exposure = world.iter_entities().find_map(|e| e.get::<Camera>().map(|c| c.exposure)).unwrap_or(1.0);
     let irradiance = ddgi::atlas::read_irradiance(gpu, volume);
     let distance = ddgi::atlas::read_distance(gpu, volume);
     let encode = |x: f32| {
         let t = (x * exposure).max(0.0);
-        let t = t / (1.0 + t);
-        let s = if t <= 0.003_130_8 { 12.92 * t } else { 1.055 * t.powf(1.0 / 2.4) - 0.055 };
-        (s * 255.0).round().clamp(0.0, 255.0) as u8
+        engine::metrics::srgb8(t / (1.0 + t))
     };
     let irradiance_rgba: Vec<u8> = irradiance
         .texels
         .iter()
         .flat_map(|e| [encode(e.x / std::f32::consts::PI), encode(e.y / std::f32::consts::PI), encode(e.z / std::f32::consts::PI), 255])
         .collect();
-    let scale = volume.layout.distance_scale().max(1e-30);
+    let scale = volume.layout.distance_scale();
     let distance_rgba: Vec<u8> = distance
         .texels
         .iter()
         .flat_map(|d| {
-            let g = ((d.x / scale).clamp(0.0, 1.0) * 255.0).round() as u8;
+            let g = ddgi::atlas::distance_grey(*d, scale);
             [g, g, g, 255]
         })
         .collect();
@@ -428,8 +426,7 @@ fn refresh_atlases(ctx: &egui::Context, state: &mut OverlayState, world: &mut Wo
 /// The navigation mesh's faces projected over the view: walkable green, door yellow, blocked red.
 fn draw_navmesh(ctx: &egui::Context, world: &mut World) {
     let Some(size) = world.get_resource::<RenderSize>().copied() else { return };
-    let mut cameras = world.query::<(&Camera, &GlobalTransform)>();
-    let Some((camera, transform)) = cameras.iter(world).next().map(|(c, t)| (*c, *t)) else { return };
+    let Some((camera, transform)) = view_camera(world) else { return };
     let Some(navmesh) = world.get_resource::<NavMeshResource>() else { return };
     let clip = clip_from_world(&camera, &transform, size);
     let points_per_pixel = 1.0 / ctx.pixels_per_point();
@@ -449,6 +446,12 @@ fn draw_navmesh(ctx: &egui::Context, world: &mut World) {
         let Some(points) = corners.iter().map(|&c| project(c)).collect::<Option<Vec<_>>>() else { continue };
         painter.add(egui::Shape::closed_line(points, egui::Stroke::new(1.0, color)));
     }
+}
+
+/// The camera the image is rendered from (the renderer takes the first one).
+fn view_camera(world: &mut World) -> Option<(Camera, GlobalTransform)> {
+    let mut cameras = world.query::<(&Camera, &GlobalTransform)>();
+    cameras.iter(world).next().map(|(c, t)| (*c, *t))
 }
 
 /// Height (m) at which the navigation mesh is drawn: just above the ground and the house's floor.
@@ -589,8 +592,7 @@ pub fn camera_ray(camera: &Camera, transform: &GlobalTransform, size: RenderSize
 /// open). Returns the index picked, if any.
 pub fn pick_probe_in_world(world: &mut World, cursor: Vec2) -> Option<u32> {
     let size = *world.get_resource::<RenderSize>()?;
-    let mut cameras = world.query::<(&Camera, &GlobalTransform)>();
-    let (camera, transform) = cameras.iter(world).next().map(|(c, t)| (*c, *t))?;
+    let (camera, transform) = view_camera(world)?;
     let (spacing, first) = {
         let volumes = world.get_resource::<DdgiGpuVolumes>()?;
         let (entity, volume) = volumes.volumes.first()?;

@@ -287,7 +287,7 @@ impl ApplicationHandler for Runner {
                         }
                         KeyCode::F12 => state.screenshot_requested = true,
                         KeyCode::KeyE if !egui_consumed => {
-                            let open = super::door_open(state.app.world_mut());
+                            let open = super::level::door_is_open(state.app.world_mut());
                             state.app.world_mut().insert_resource(DoorControl { manual: Some(!open) });
                         }
                         KeyCode::KeyR if !egui_consumed => {

@@ -61,10 +61,9 @@ pub fn probe_mean_irradiance(atlas: &Atlas<Vec3>, volume: &VolumeGpu, probe: u32
     sum / (n * n) as f32
 }
 
-fn to_srgb8(v: f32) -> u8 {
-    let v = v.clamp(0.0, 1.0);
-    let e = if v <= 0.003_130_8 { v * 12.92 } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 };
-    (e * 255.0 + 0.5) as u8
+/// A distance-atlas texel as grey: its mean distance over the volume's distance scale, 0..255.
+pub fn distance_grey(texel: Vec2, distance_scale: f32) -> u8 {
+    ((texel.x / distance_scale).clamp(0.0, 1.0) * 255.0) as u8
 }
 
 fn save_rgb(path: &Path, size: UVec2, rgb: &[u8]) -> Result<(), String> {
@@ -79,7 +78,7 @@ pub fn write_atlas_images(gpu: &GpuContext, volume: &VolumeGpu, dir: &Path) -> R
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let irradiance = read_irradiance(gpu, volume);
     let path = dir.join("irradiance.png");
-    let rgb: Vec<u8> = irradiance.texels.iter().flat_map(|e| (*e / std::f32::consts::PI).to_array().map(to_srgb8)).collect();
+    let rgb: Vec<u8> = irradiance.texels.iter().flat_map(|e| (*e / std::f32::consts::PI).to_array().map(engine::metrics::srgb8)).collect();
     save_rgb(&path, irradiance.size, &rgb)?;
     let exr = dir.join("irradiance.exr");
     let linear: Vec<f32> = irradiance.texels.iter().flat_map(|e| e.to_array()).collect();
@@ -90,7 +89,7 @@ pub fn write_atlas_images(gpu: &GpuContext, volume: &VolumeGpu, dir: &Path) -> R
     let distance = read_distance(gpu, volume);
     let scale = volume.layout.distance_scale();
     let dpath = dir.join("distance.png");
-    let grey: Vec<u8> = distance.texels.iter().flat_map(|d| [((d.x / scale).clamp(0.0, 1.0) * 255.0) as u8; 3]).collect();
+    let grey: Vec<u8> = distance.texels.iter().flat_map(|d| [distance_grey(*d, scale); 3]).collect();
     save_rgb(&dpath, distance.size, &grey)?;
     let rays = read_rays(gpu, volume);
     let m = volume.settings.rays_per_probe;

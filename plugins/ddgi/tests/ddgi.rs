@@ -193,18 +193,8 @@ fn run_ddgi(gpu: &GpuContext, scene: SceneDescription, volume: DdgiVolume, size:
     use_ddgi(&mut app, volume, DdgiOutput::Full);
     scene.spawn(app.world_mut());
     run_headless(&mut app, frames);
-    let frame = read_frame(gpu, &mut app);
+    let frame = engine::headless::read_frame(gpu, app.world());
     (frame, app)
-}
-
-fn read_frame(gpu: &GpuContext, app: &mut bevy_app::App) -> RenderedFrame {
-    let world = app.world_mut();
-    let outputs = world.resource::<engine::render::RenderOutputs>();
-    let hdr = engine::render::readback::read_rgba32f(gpu, &outputs.hdr);
-    let ldr = engine::render::readback::read_texture(gpu, &outputs.ldr);
-    let size = outputs.size;
-    let timings = world.resource::<engine::render::FrameTimings>().frames.clone();
-    RenderedFrame { width: size.width, height: size.height, hdr, ldr, timings, adapter: gpu.adapter_name() }
 }
 
 fn first_volume(app: &bevy_app::App) -> &ddgi::VolumeGpu {
