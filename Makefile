@@ -9,7 +9,7 @@ SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 # lavapipe's window-system code complains when this is unset, even headless.
 export XDG_RUNTIME_DIR ?= /tmp/xdg-runtime-$(shell id -u)
 
-.PHONY: run render test lint vulkan-driver xvfb bless fuzz
+.PHONY: run render test lint vulkan-driver xvfb bless fuzz soak
 
 run: vulkan-driver
 	@mkdir -p $(XDG_RUNTIME_DIR) && chmod 700 $(XDG_RUNTIME_DIR)
@@ -29,6 +29,14 @@ render: vulkan-driver
 test: vulkan-driver xvfb
 	@mkdir -p $(XDG_RUNTIME_DIR) && chmod 700 $(XDG_RUNTIME_DIR)
 	$(CARGO) test --workspace --no-fail-fast
+
+# The full soak: 10,000 frames of the demo level headless, everything moving; fails if an image or
+# atlas holds a NaN or Inf, memory grows or frame times drift beyond their bounds (out/soak/soak.csv).
+SOAK_FRAMES ?= 10000
+SOAK_ARGS ?= --width 320 --height 180 --probe-spacing 2 --rays 64
+soak: vulkan-driver
+	@mkdir -p $(XDG_RUNTIME_DIR) && chmod 700 $(XDG_RUNTIME_DIR)
+	$(CARGO) run --release -p game_demo -- play --headless --soak --frames $(SOAK_FRAMES) $(SOAK_ARGS) --out out/soak
 
 # Re-create the golden images of the image tests from the current renderer.
 bless: vulkan-driver

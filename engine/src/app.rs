@@ -137,7 +137,8 @@ pub fn set_headless_runner(app: &mut App, frames: u32, step: f64) {
     app.set_runner(move |mut app| run_headless(&mut app, frames));
 }
 
-pub(crate) fn finish_plugins(app: &mut App) {
+/// Finishes building the app's plugins (what bevy's runners do before the first update).
+pub fn finish_plugins(app: &mut App) {
     if app.plugins_state() != bevy_app::PluginsState::Cleaned {
         while app.plugins_state() == bevy_app::PluginsState::Adding {
             std::thread::yield_now();

@@ -6,7 +6,7 @@
 //!   lights, mesh instances) and the shared asset stores.
 //! - [`gpu`]: adapter choice and the device; [`shader`]: the WGSL library, validated by naga, with
 //!   bindings looked up by name; [`graph`]: the render graph; [`render`]: the camera path;
-//!   [`headless`]: rendering to files without a window.
+//!   [`headless`]: rendering to files without a window; [`memory`]: the heap the Rust code holds.
 
 pub mod app;
 pub mod builtin;
@@ -15,6 +15,7 @@ pub mod gpu;
 pub mod graph;
 pub mod headless;
 pub mod import;
+pub mod memory;
 pub mod metrics;
 pub mod render;
 pub mod rng;

@@ -14,6 +14,10 @@ use engine::gpu::{GpuContext, GpuOptions};
 use engine::headless::{HeadlessSettings, render_scene};
 use engine::scene::{Camera, NodeContent, SceneDescription, Transform};
 
+/// Counts the heap the program holds (the soak test bounds its growth).
+#[global_allocator]
+static ALLOCATOR: engine::memory::CountingAllocator = engine::memory::CountingAllocator;
+
 #[derive(Parser)]
 #[command(version, about = "Dynamic diffuse global illumination demo: headless renders and a windowed viewer")]
 struct Cli {
@@ -105,6 +109,19 @@ struct PlayArgs {
     /// Build the level from procedural geometry only, without the shared Kenney models.
     #[arg(long)]
     no_assets: bool,
+    /// Headless: a soak test instead of the walk. Every --check-every frames the image and the
+    /// probe atlases must be finite; after the warm-up, resident and GPU memory may not grow and
+    /// frame times may not rise beyond their bounds. Writes soak.csv into --out; fails (exit 1)
+    /// naming each broken bound.
+    #[arg(long, requires = "headless")]
+    soak: bool,
+    /// Soak: check and sample every this many frames.
+    #[arg(long, default_value_t = 250, requires = "soak", value_parser = clap::value_parser!(u32).range(1..))]
+    check_every: u32,
+    /// Soak: frames before the baselines of memory and time are taken (default: a tenth of the
+    /// frames, at least one check).
+    #[arg(long, requires = "soak")]
+    warmup: Option<u32>,
     /// Show this scene in a window instead of the level (a built-in name or a scene file).
     #[arg(long, conflicts_with_all = ["headless", "script"])]
     scene: Option<String>,
@@ -125,6 +142,24 @@ fn play(args: PlayArgs) -> Result<(), String> {
         adaptive: !args.no_adaptive,
         use_assets: !args.no_assets,
     };
+    if args.soak {
+        let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
+        let soak = play::soak::SoakOptions {
+            frames: args.frames,
+            check_every: args.check_every,
+            warmup: args.warmup.unwrap_or((args.frames / 10).max(args.check_every)),
+            limits: play::soak::SoakLimits::for_adapter(&gpu),
+            out: args.out,
+        };
+        let report = play::soak::run_soak(&gpu, &options, &soak)?;
+        println!("soak of {} frames on {}: {} checks, in {}", args.frames, gpu.adapter_name(), report.samples.len(), report.csv.display());
+        println!("{}", std::fs::read_to_string(&report.csv).unwrap_or_default());
+        if report.failures.is_empty() {
+            println!("soak passed: no NaN or Inf, memory and frame times within bounds ({:?})", soak.limits);
+            return Ok(());
+        }
+        return Err(format!("soak failed:\n  {}", report.failures.join("\n  ")));
+    }
     if args.headless {
         let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
         let run = play::headless::HeadlessPlay { frames: args.frames, every: args.every, out: args.out };

@@ -149,3 +149,34 @@ fn windowed_demo_under_xvfb_matches_the_headless_frame() {
     eprintln!("windowed vs headless frame {}: mean FLIP {mean:.5}", FRAMES - 1);
     assert!(mean < 0.01, "the windowed frame differs from the headless one: mean FLIP {mean}");
 }
+
+/// The soak in CI: 300 frames of the level with everything moving. `make soak` runs 10,000.
+#[test]
+fn short_soak_keeps_images_and_atlases_finite_and_memory_and_timings_bounded() {
+    if !gpu_available("short_soak") {
+        return;
+    }
+    let out = out_dir("play_soak");
+    let output = game_demo()
+        .args(["play", "--headless", "--soak", "--frames", "300", "--check-every", "50", "--warmup", "100", "--out"])
+        .arg(&out)
+        .args(["--width", "64", "--height", "48", "--probe-spacing", "4", "--rays", "16"])
+        .output()
+        .expect("run game_demo play --headless --soak");
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(output.status.success(), "the soak failed:\n{stdout}\n{}", String::from_utf8_lossy(&output.stderr));
+    assert!(stdout.contains("soak passed"), "{stdout}");
+    let csv = std::fs::read_to_string(out.join("soak.csv")).expect("soak.csv");
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().expect("a header").split(',').collect();
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 6, "one sample every 50 frames: {csv}");
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap_or_else(|| panic!("soak.csv has no column {name}"));
+    for row in &rows {
+        assert_eq!(row[col("non_finite")], "0", "{row:?}");
+        // The binary counts its heap, and the GPU memory report exists on Vulkan.
+        let heap: f64 = row[col("heap_mib")].parse().expect("the heap is measured");
+        assert!(heap > 1.0, "{row:?}");
+        assert!(row[col("gpu_mib")].parse::<f64>().is_ok_and(|m| m > 0.0), "no GPU memory report: {row:?}");
+    }
+}

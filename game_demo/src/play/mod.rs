@@ -5,13 +5,15 @@
 //! - [`navmesh`]: where one can walk (spade's constrained Delaunay triangulation);
 //! - [`controller`]: the first-person controller and the scripted tour;
 //! - [`overlay`]: the egui overlay; [`window`]: the windowed runner; [`headless`]: the scripted
-//!   walk without a window.
+//!   walk without a window; [`soak`]: thousands of frames checked for NaN, memory growth and
+//!   timing drift.
 
 pub mod controller;
 pub mod headless;
 pub mod level;
 pub mod navmesh;
 pub mod overlay;
+pub mod soak;
 pub mod window;
 
 use std::path::Path;

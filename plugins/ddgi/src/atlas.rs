@@ -42,6 +42,15 @@ pub fn read_distance(gpu: &GpuContext, volume: &VolumeGpu) -> Atlas<Vec2> {
     Atlas { size: raw.size, texels: raw.texels.iter().map(|t| Vec2::new(t[0] * scale, t[1] * scale * scale)).collect() }
 }
 
+/// Texels holding NaN or an infinity in either atlas (raw, before decoding: the irradiance
+/// decoding would turn a NaN into black).
+pub fn count_non_finite(gpu: &GpuContext, volume: &VolumeGpu) -> usize {
+    [&volume.irradiance, &volume.distance]
+        .into_iter()
+        .map(|texture| read_half4(gpu, texture).texels.iter().filter(|t| t.iter().any(|v| !v.is_finite())).count())
+        .sum()
+}
+
 /// This frame's probe rays (direction and probe index with the skip bit).
 pub fn read_rays(gpu: &GpuContext, volume: &VolumeGpu) -> Vec<DdgiRay> {
     let bytes = engine::render::readback::read_buffer(gpu, &volume.rays);
