@@ -3,7 +3,8 @@
 //! Each frame runs bevy_app's main schedules (`First` … `Update` … `Last`) and then the render stages
 //! [`Extract`] → [`Prepare`] → [`Render`], in the same world: extract copies what changed in the scene
 //! into GPU-side mirrors, prepare uploads buffers and builds pipelines, render records the frame's
-//! render graph and submits it.
+//! render graph and submits it. The render stages run only while the GPU device works: once it is
+//! lost they stop and [`GpuLost`] says why, so a runner can open a new device and rebuild.
 
 use std::time::Instant;
 
@@ -24,6 +25,37 @@ pub struct Prepare;
 /// Render stage 3: record the frame's render graph, execute and submit it.
 #[derive(ScheduleLabel, Clone, Debug, PartialEq, Eq, Hash)]
 pub struct Render;
+
+/// The render stages in order, as one step of the main schedule order (see [`run_render_stages`]).
+#[derive(ScheduleLabel, Clone, Debug, PartialEq, Eq, Hash)]
+pub struct RenderStages;
+
+/// Present once the GPU device was lost: the render stages no longer run. The device cannot come
+/// back; runners open a new [`GpuContext`](crate::gpu::GpuContext) and rebuild the app.
+#[derive(Resource, Clone, Debug, PartialEq)]
+pub struct GpuLost {
+    /// What the driver said.
+    pub reason: String,
+    /// The frame at which the loss was noticed.
+    pub frame: u64,
+}
+
+/// Runs [`Extract`], [`Prepare`] and [`Render`], unless the GPU device is lost: then it records
+/// [`GpuLost`] (once) and skips them, so that no GPU call is made on a dead device.
+pub fn run_render_stages(world: &mut World) {
+    if world.contains_resource::<GpuLost>() {
+        return;
+    }
+    if let Some(reason) = world.get_resource::<crate::gpu::GpuContext>().and_then(|gpu| gpu.lost()) {
+        let frame = world.get_resource::<Time>().map_or(0, |t| t.frame);
+        log::error!("the GPU device was lost at frame {frame} ({reason}); rendering stops");
+        world.insert_resource(GpuLost { reason, frame });
+        return;
+    }
+    world.run_schedule(Extract);
+    world.run_schedule(Prepare);
+    world.run_schedule(Render);
+}
 
 /// Time as the engine's systems see it. With a fixed step (headless runner) every run is
 /// deterministic: frame `n` sees `elapsed_seconds = n · step`.
@@ -52,6 +84,16 @@ impl Time {
     pub fn real() -> Self {
         Self { delta_seconds: 0.0, elapsed_seconds: 0.0, frame: 0, clock: Clock::Real(None) }
     }
+
+    /// A clock of the same kind whose first frame follows this one's current frame: a runner that
+    /// rebuilds its app (after a lost GPU device) keeps the level's time going.
+    pub fn continuing(&self) -> Self {
+        let (elapsed_seconds, clock) = match self.clock {
+            Clock::Fixed(step) => (self.elapsed_seconds + step, Clock::Fixed(step)),
+            Clock::Real(_) => (self.elapsed_seconds, Clock::Real(None)),
+        };
+        Self { delta_seconds: 0.0, elapsed_seconds, frame: self.frame + 1, clock }
+    }
 }
 
 impl Default for Time {
@@ -63,9 +105,8 @@ impl Default for Time {
 fn advance_time(mut time: ResMut<Time>, mut started: Local<bool>) {
     if !*started {
         *started = true;
-        // The first frame is frame 0 at t = 0, for either clock.
-        time.frame = 0;
-        time.elapsed_seconds = 0.0;
+        // The first frame is the clock's start: frame 0 at t = 0, unless it continues another
+        // ([`Time::continuing`]).
         if let Clock::Real(last) = &mut time.clock {
             *last = Some(Instant::now());
         }
@@ -99,13 +140,9 @@ pub struct EnginePlugin;
 
 impl Plugin for EnginePlugin {
     fn build(&self, app: &mut App) {
-        app.init_schedule(Extract).init_schedule(Prepare).init_schedule(Render);
-        {
-            let mut order = app.world_mut().resource_mut::<MainScheduleOrder>();
-            order.insert_after(Last, Extract);
-            order.insert_after(Extract, Prepare);
-            order.insert_after(Prepare, Render);
-        }
+        app.init_schedule(Extract).init_schedule(Prepare).init_schedule(Render).init_schedule(RenderStages);
+        app.world_mut().resource_mut::<MainScheduleOrder>().insert_after(Last, RenderStages);
+        app.add_systems(RenderStages, run_render_stages);
         if !app.world().contains_resource::<Time>() {
             app.insert_resource(Time::default());
         }
@@ -145,5 +182,46 @@ pub fn finish_plugins(app: &mut App) {
         }
         app.finish();
         app.cleanup();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn app_with(time: Time) -> App {
+        let mut app = App::new();
+        app.insert_resource(time).add_plugins(EnginePlugin);
+        finish_plugins(&mut app);
+        app
+    }
+
+    #[test]
+    fn a_continuing_clock_picks_up_after_the_last_frame() {
+        let mut first = app_with(Time::fixed(0.5));
+        for _ in 0..3 {
+            first.update();
+        }
+        let last = first.world().resource::<Time>().clone();
+        assert_eq!((last.frame, last.elapsed_seconds), (2, 1.0));
+        let mut second = app_with(last.continuing());
+        second.update();
+        let time = second.world().resource::<Time>();
+        assert_eq!((time.frame, time.elapsed_seconds, time.delta_seconds), (3, 1.5, 0.0));
+        second.update();
+        let time = second.world().resource::<Time>();
+        assert_eq!((time.frame, time.elapsed_seconds, time.delta_seconds), (4, 2.0, 0.5));
+    }
+
+    #[test]
+    fn without_a_gpu_the_render_stages_still_run() {
+        #[derive(Resource, Default)]
+        struct Ran(u32);
+        let mut app = app_with(Time::default());
+        app.init_resource::<Ran>().add_systems(Render, |mut ran: ResMut<Ran>| ran.0 += 1);
+        app.update();
+        app.update();
+        assert_eq!(app.world().resource::<Ran>().0, 2);
+        assert!(!app.world().contains_resource::<GpuLost>());
     }
 }

@@ -5,7 +5,7 @@
 //! contains the given text (case-insensitive). Timestamp queries are turned on where the adapter has
 //! them; [`GpuContext::timestamps`] says whether they are.
 
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 use bevy_ecs::prelude::*;
 
@@ -58,6 +58,8 @@ pub struct GpuContext {
     pub timestamps: bool,
     /// Nanoseconds per timestamp tick.
     pub timestamp_period: f32,
+    /// Why the device was lost, once it is (see [`GpuContext::lost`]).
+    lost: Arc<Mutex<Option<String>>>,
 }
 
 impl GpuContext {
@@ -119,13 +121,31 @@ impl GpuContext {
             })
             .await
             .map_err(|source| GpuError::RequestDevice { adapter: adapter.get_info().name, source })?;
+        let lost = Arc::new(Mutex::new(None));
+        {
+            let lost = lost.clone();
+            device.set_device_lost_callback(move |reason, message| {
+                log::error!("the GPU device was lost ({reason:?}): {message}");
+                *lost.lock().unwrap_or_else(|e| e.into_inner()) = Some(format!("{reason:?}: {message}"));
+            });
+        }
+        // Once the device is lost every call on it fails: those errors are its consequence, not
+        // bugs, and are logged even in tests.
+        let after_loss = lost.clone();
+        let is_lost = move || after_loss.lock().unwrap_or_else(|e| e.into_inner()).is_some();
         match options.validation_errors {
-            ValidationErrors::Panic => device.on_uncaptured_error(Arc::new(|e| panic!("wgpu error: {e}"))),
+            ValidationErrors::Panic => device.on_uncaptured_error(Arc::new(move |e| {
+                if is_lost() {
+                    log::warn!("wgpu error after the device was lost: {e}");
+                } else {
+                    panic!("wgpu error: {e}")
+                }
+            })),
             ValidationErrors::Log => device.on_uncaptured_error(Arc::new(|e| log::error!("wgpu error: {e}"))),
         }
         let timestamp_period = queue.get_timestamp_period();
         log::info!("GPU: {} ({:?}), timestamps: {timestamps}", adapter.get_info().name, adapter.get_info().backend);
-        Ok(Self { instance, adapter, device, queue, timestamps, timestamp_period })
+        Ok(Self { instance, adapter, device, queue, timestamps, timestamp_period, lost })
     }
 
     /// Adapter name, e.g. "llvmpipe (LLVM 15.0.6, 256 bits)" or "NVIDIA H100 80GB HBM3".
@@ -138,6 +158,20 @@ impl GpuContext {
         if let Err(e) = self.device.poll(wgpu::PollType::wait_indefinitely()) {
             log::error!("waiting for the GPU failed: {e}");
         }
+    }
+
+    /// Why the device was lost (driver reset, GPU removed, [`wgpu::Device::destroy`]), or `None`
+    /// while it works. A lost device never comes back: the app's render stages stop
+    /// ([`crate::app::GpuLost`]) and a runner that wants to go on opens a new context.
+    pub fn lost(&self) -> Option<String> {
+        self.lost.lock().unwrap_or_else(|e| e.into_inner()).clone()
+    }
+
+    /// Destroys the device, as a driver reset would lose it, and waits until wgpu reports the loss
+    /// (tests and the demo's fault injection).
+    pub fn simulate_device_loss(&self) {
+        self.device.destroy();
+        let _ = self.device.poll(wgpu::PollType::wait_indefinitely());
     }
 
     /// A context for tests: validation errors panic. Without an adapter the test is skipped (returns
