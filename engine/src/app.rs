@@ -66,6 +66,8 @@ pub struct Time {
     /// Index of the current frame, from 0.
     pub frame: u64,
     clock: Clock,
+    /// The first update advances from `frame` instead of starting at it ([`Time::continuing`]).
+    continues: bool,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -77,22 +79,23 @@ enum Clock {
 impl Time {
     /// A clock that advances by `step` seconds every frame, whatever the wall time.
     pub fn fixed(step: f64) -> Self {
-        Self { delta_seconds: 0.0, elapsed_seconds: 0.0, frame: 0, clock: Clock::Fixed(step) }
+        Self { delta_seconds: 0.0, elapsed_seconds: 0.0, frame: 0, clock: Clock::Fixed(step), continues: false }
     }
 
     /// A clock that follows wall time (windowed runner).
     pub fn real() -> Self {
-        Self { delta_seconds: 0.0, elapsed_seconds: 0.0, frame: 0, clock: Clock::Real(None) }
+        Self { delta_seconds: 0.0, elapsed_seconds: 0.0, frame: 0, clock: Clock::Real(None), continues: false }
     }
 
-    /// A clock of the same kind whose first frame follows this one's current frame: a runner that
-    /// rebuilds its app (after a lost GPU device) keeps the level's time going.
+    /// A clock of the same kind whose first frame follows this one's current frame, as the next
+    /// update of this clock would (a fixed step; no time for a real clock, the rebuild's pause is
+    /// not counted): a runner that rebuilds its app after a lost GPU device keeps the level going.
     pub fn continuing(&self) -> Self {
-        let (elapsed_seconds, clock) = match self.clock {
-            Clock::Fixed(step) => (self.elapsed_seconds + step, Clock::Fixed(step)),
-            Clock::Real(_) => (self.elapsed_seconds, Clock::Real(None)),
+        let clock = match self.clock {
+            Clock::Fixed(step) => Clock::Fixed(step),
+            Clock::Real(_) => Clock::Real(None),
         };
-        Self { delta_seconds: 0.0, elapsed_seconds, frame: self.frame + 1, clock }
+        Self { delta_seconds: 0.0, clock, continues: true, ..*self }
     }
 }
 
@@ -107,6 +110,10 @@ fn advance_time(mut time: ResMut<Time>, mut started: Local<bool>) {
         *started = true;
         // The first frame is the clock's start: frame 0 at t = 0, unless it continues another
         // ([`Time::continuing`]).
+        if std::mem::take(&mut time.continues) {
+            time.advance();
+            return;
+        }
         if let Clock::Real(last) = &mut time.clock {
             *last = Some(Instant::now());
         }
@@ -207,7 +214,7 @@ mod tests {
         let mut second = app_with(last.continuing());
         second.update();
         let time = second.world().resource::<Time>();
-        assert_eq!((time.frame, time.elapsed_seconds, time.delta_seconds), (3, 1.5, 0.0));
+        assert_eq!((time.frame, time.elapsed_seconds, time.delta_seconds), (3, 1.5, 0.5));
         second.update();
         let time = second.world().resource::<Time>();
         assert_eq!((time.frame, time.elapsed_seconds, time.delta_seconds), (4, 2.0, 0.5));

@@ -12,7 +12,7 @@ use winit::event_loop::{ActiveEventLoop, EventLoop};
 use winit::keyboard::{Key, NamedKey};
 use winit::window::{Window, WindowId};
 
-use crate::app::{EnginePlugin, Time, finish_plugins};
+use crate::app::{EnginePlugin, GpuLost, Time, finish_plugins};
 use crate::gpu::{GpuContext, GpuOptions};
 use crate::headless::add_default_camera;
 use crate::render::{RenderPlugin, RenderSize, SurfaceTarget, blit_program};
@@ -27,6 +27,8 @@ pub enum WindowError {
     Surface(String),
     #[error(transparent)]
     Gpu(#[from] crate::gpu::GpuError),
+    #[error("the GPU device was lost {count} times in a row (last: {reason}); giving up")]
+    DeviceLost { count: u32, reason: String },
 }
 
 /// Opens a window showing `scene` until it is closed or Esc is pressed.
@@ -35,7 +37,7 @@ pub fn run_windowed(mut scene: SceneDescription) -> Result<(), WindowError> {
         add_default_camera(&mut scene);
     }
     let event_loop = EventLoop::new().map_err(|e| WindowError::EventLoop(e.to_string()))?;
-    let mut runner = WindowedRunner { scene: Some(scene), state: None, error: None };
+    let mut runner = WindowedRunner { scene, state: None, error: None, recoveries: 0 };
     event_loop.run_app(&mut runner).map_err(|e| WindowError::EventLoop(e.to_string()))?;
     runner.error.map_or(Ok(()), Err)
 }
@@ -46,22 +48,48 @@ struct WindowState {
 }
 
 struct WindowedRunner {
-    scene: Option<SceneDescription>,
+    /// The scene, kept to rebuild the app on a new device after a lost one.
+    scene: SceneDescription,
     state: Option<WindowState>,
     error: Option<WindowError>,
+    /// Devices reopened since the last frame that rendered.
+    recoveries: u32,
 }
 
 impl WindowedRunner {
     fn open(&mut self, event_loop: &ActiveEventLoop) -> Result<WindowState, WindowError> {
         let attributes = Window::default_attributes().with_title("game_demo").with_inner_size(winit::dpi::LogicalSize::new(1280, 720));
         let window = Arc::new(event_loop.create_window(attributes).map_err(|e| WindowError::Surface(e.to_string()))?);
-        let mut app = windowed_app(&window, Time::real())?.app;
-        if let Some(scene) = self.scene.take() {
-            scene.spawn(app.world_mut());
-        }
+        self.build(window, Time::real())
+    }
+
+    fn build(&self, window: Arc<Window>, time: Time) -> Result<WindowState, WindowError> {
+        let mut app = windowed_app(&window, time)?.app;
+        self.scene.clone().spawn(app.world_mut());
         finish_plugins(&mut app);
         window.request_redraw();
         Ok(WindowState { window, app })
+    }
+
+    /// After a frame: a lost surface is replaced; a lost device is reopened and the scene rebuilt
+    /// on it, the clock going on (at most [`MAX_DEVICE_RECOVERIES`] times in a row).
+    fn recover(&mut self) -> Result<(), WindowError> {
+        let Some(state) = &mut self.state else { return Ok(()) };
+        replace_lost_surface(state.app.world_mut(), &state.window)?;
+        let Some(lost) = state.app.world().get_resource::<GpuLost>().cloned() else {
+            self.recoveries = 0;
+            return Ok(());
+        };
+        self.recoveries += 1;
+        if self.recoveries > MAX_DEVICE_RECOVERIES {
+            return Err(WindowError::DeviceLost { count: self.recoveries, reason: lost.reason });
+        }
+        log::warn!("the GPU device was lost ({}): opening a new one and rebuilding the scene", lost.reason);
+        let time = state.app.world().resource::<Time>().continuing();
+        let window = state.window.clone();
+        self.state = None;
+        self.state = Some(self.build(window, time)?);
+        Ok(())
     }
 }
 
@@ -100,24 +128,54 @@ pub fn windowed_app(window: &Arc<Window>, time: Time) -> Result<WindowedApp, Win
     let mut app = App::new();
     app.insert_resource(time);
     app.add_plugins((EnginePlugin, RenderPlugin { gpu: gpu.clone(), size: RenderSize { width: config.width, height: config.height } }));
-    app.insert_resource(SurfaceTarget { surface, config, blit: Arc::new(blit) });
+    app.insert_resource(SurfaceTarget { surface, config, blit: Arc::new(blit), lost: Default::default() });
     app.world_mut().resource_mut::<crate::render::FrameTimings>().keep = 600;
     Ok(WindowedApp { app, gpu, format })
 }
 
 /// Follows a window's new size: reconfigures the surface and the render size. A zero-sized
-/// (minimized) window keeps its last configuration; its frames are skipped by the runner.
+/// (minimized) window keeps its last configuration; its frames are skipped by the runner. A window
+/// larger than the GPU's largest texture renders at that largest size (the surface stretches it).
 pub fn resize_surface(world: &mut World, size: PhysicalSize<u32>) {
-    if size.width == 0 || size.height == 0 {
+    if size.width == 0 || size.height == 0 || world.contains_resource::<GpuLost>() {
         return;
     }
     let gpu = world.resource::<GpuContext>().clone();
+    let max = gpu.device.limits().max_texture_dimension_2d;
+    let (width, height) = (size.width.min(max), size.height.min(max));
+    if (width, height) != (size.width, size.height) {
+        log::warn!(
+            "the window is {}×{} pixels, more than the GPU's largest texture ({max}): rendering {width}×{height}",
+            size.width,
+            size.height
+        );
+    }
     let mut target = world.resource_mut::<SurfaceTarget>();
-    target.config.width = size.width;
-    target.config.height = size.height;
+    target.config.width = width;
+    target.config.height = height;
     target.surface.configure(&gpu.device, &target.config);
-    world.insert_resource(RenderSize { width: size.width, height: size.height });
+    world.insert_resource(RenderSize { width, height });
 }
+
+/// Creates a new surface for `window` when the last one was lost ([`SurfaceTarget::lost`]),
+/// configured as the old one was. Returns whether it replaced one.
+pub fn replace_lost_surface(world: &mut World, window: &Arc<Window>) -> Result<bool, WindowError> {
+    let Some(target) = world.get_resource::<SurfaceTarget>() else { return Ok(false) };
+    if !target.lost.load(std::sync::atomic::Ordering::Relaxed) || world.contains_resource::<GpuLost>() {
+        return Ok(false);
+    }
+    let gpu = world.resource::<GpuContext>().clone();
+    let surface = gpu.instance.create_surface(window.clone()).map_err(|e| WindowError::Surface(e.to_string()))?;
+    let mut target = world.resource_mut::<SurfaceTarget>();
+    surface.configure(&gpu.device, &target.config);
+    target.surface = surface;
+    target.lost.store(false, std::sync::atomic::Ordering::Relaxed);
+    log::warn!("the lost surface was replaced by a new one");
+    Ok(true)
+}
+
+/// How many times in a row a runner reopens the GPU after losing it before it gives up.
+pub const MAX_DEVICE_RECOVERIES: u32 = 3;
 
 impl ApplicationHandler for WindowedRunner {
     fn resumed(&mut self, event_loop: &ActiveEventLoop) {
@@ -150,7 +208,13 @@ impl ApplicationHandler for WindowedRunner {
                 if size.width > 0 && size.height > 0 {
                     state.app.update();
                 }
-                state.window.request_redraw();
+                let window = state.window.clone();
+                if let Err(e) = self.recover() {
+                    self.error = Some(e);
+                    event_loop.exit();
+                    return;
+                }
+                window.request_redraw();
             }
             _ => {}
         }

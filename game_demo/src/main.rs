@@ -93,6 +93,10 @@ struct PlayArgs {
     /// frame to this PNG and exit (what the Xvfb test compares with --headless).
     #[arg(long)]
     script: Option<PathBuf>,
+    /// With --script: on the way, minimize the window, shrink it to two pixels and back, lose
+    /// the surface and lose the GPU device; each must be survived (the fault-injection test).
+    #[arg(long, requires = "script")]
+    inject_faults: bool,
     #[arg(long, default_value_t = 1280, value_parser = clap::value_parser!(u32).range(1..=16384))]
     width: u32,
     #[arg(long, default_value_t = 720, value_parser = clap::value_parser!(u32).range(1..=16384))]
@@ -170,7 +174,7 @@ fn play(args: PlayArgs) -> Result<(), String> {
         }
         return Ok(());
     }
-    let script = args.script.map(|screenshot| play::window::WindowScript { frames: args.frames, screenshot });
+    let script = args.script.map(|screenshot| play::window::WindowScript { frames: args.frames, screenshot, faults: args.inject_faults });
     play::window::run_window(options, script)
 }
 

@@ -141,6 +141,9 @@ pub struct SurfaceTarget {
     pub surface: wgpu::Surface<'static>,
     pub config: wgpu::SurfaceConfiguration,
     pub blit: Arc<Program<wgpu::RenderPipeline>>,
+    /// Set when the surface reported itself lost: the runner must create a new one from its window
+    /// ([`crate::window::replace_lost_surface`]); frames are not presented until then.
+    pub lost: std::sync::atomic::AtomicBool,
 }
 
 /// Something drawn over the presented image, after the blit (the demo's egui overlay). It records
@@ -513,12 +516,33 @@ pub fn render_camera_frame(mut frame: CameraFrame) {
     frame.finish(script);
 }
 
+/// The surface's next texture, or `None` when this frame cannot be presented: a timeout or an
+/// occluded window skip the frame; an outdated surface is reconfigured (the next frame presents); a
+/// lost surface is flagged for the runner to replace ([`SurfaceTarget::lost`]).
 fn acquire_surface(gpu: &GpuContext, target: &SurfaceTarget) -> Option<wgpu::SurfaceTexture> {
+    use std::sync::atomic::Ordering;
+    if target.lost.load(Ordering::Relaxed) {
+        return None;
+    }
     match target.surface.get_current_texture() {
-        wgpu::CurrentSurfaceTexture::Success(t) | wgpu::CurrentSurfaceTexture::Suboptimal(t) => Some(t),
-        other => {
-            log::warn!("surface texture unavailable ({other:?}); reconfiguring");
+        wgpu::CurrentSurfaceTexture::Success(t) => Some(t),
+        wgpu::CurrentSurfaceTexture::Suboptimal(t) => {
+            // Present this one; the next frame uses a surface that fits again.
             target.surface.configure(&gpu.device, &target.config);
+            Some(t)
+        }
+        wgpu::CurrentSurfaceTexture::Outdated => {
+            log::info!("the surface is outdated (the window changed): reconfiguring it");
+            target.surface.configure(&gpu.device, &target.config);
+            None
+        }
+        wgpu::CurrentSurfaceTexture::Lost => {
+            log::warn!("the surface was lost: the runner creates a new one");
+            target.lost.store(true, Ordering::Relaxed);
+            None
+        }
+        other => {
+            log::info!("no surface texture this frame ({other:?}): the frame is not presented");
             None
         }
     }

@@ -6,6 +6,7 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+use engine::app::GpuLost;
 use engine::gpu::GpuContext;
 use engine::headless::{headless_app, run_frames};
 use engine::render::{FrameTimings, RenderSize};
@@ -41,6 +42,13 @@ pub fn run_headless_play(gpu: &GpuContext, options: &PlayOptions, run: &Headless
     let mut images = Vec::new();
     let mut error = None;
     run_frames(&mut app, run.frames, |frame, world| {
+        if error.is_some() {
+            return;
+        }
+        if let Some(lost) = world.get_resource::<GpuLost>() {
+            error = Some(format!("the GPU device was lost at frame {}: {}", lost.frame, lost.reason));
+            return;
+        }
         let door = door_is_open(world);
         let mut players = world.query::<&Player>();
         let feet = players.iter(world).next().map(|p| p.feet).unwrap_or_default();

@@ -120,6 +120,9 @@ pub fn run_soak(gpu: &GpuContext, options: &PlayOptions, soak: &SoakOptions) -> 
         app.update();
         cpu_window.push(start.elapsed().as_secs_f64() * 1e3);
         let world = app.world_mut();
+        if let Some(lost) = world.get_resource::<engine::app::GpuLost>() {
+            return Err(format!("the GPU device was lost at frame {}: {}", lost.frame, lost.reason));
+        }
         let timings = world.resource::<FrameTimings>();
         if let Some(last) = timings.frames.last().filter(|f| f.frame == u64::from(frame)) {
             let times: Vec<f64> = last.passes.iter().filter_map(|p| p.gpu_ms).collect();

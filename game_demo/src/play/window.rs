@@ -14,18 +14,20 @@ use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use bevy_app::App;
+use engine::app::GpuLost;
 use engine::app::Time;
 use engine::gpu::GpuContext;
 use engine::render::{SurfaceOverlay, SurfaceOverlayHook};
-use engine::window::{WindowError, WindowedApp, resize_surface, windowed_app};
+use engine::window::{MAX_DEVICE_RECOVERIES, WindowError, WindowedApp, replace_lost_surface, resize_surface, windowed_app};
 use glam::Vec2;
 use winit::application::ApplicationHandler;
+use winit::dpi::PhysicalSize;
 use winit::event::{DeviceEvent, DeviceId, ElementState, MouseButton, WindowEvent};
 use winit::event_loop::{ActiveEventLoop, EventLoop};
 use winit::keyboard::{KeyCode, PhysicalKey};
 use winit::window::{CursorGrabMode, Window, WindowId};
 
-use super::controller::PlayerInput;
+use super::controller::{Player, PlayerInput, ScriptedTour};
 use super::level::DoorControl;
 use super::overlay::{OverlayState, overlay_ui, pick_probe_in_world};
 use super::{PlayOptions, save_screenshot, setup_play};
@@ -37,12 +39,36 @@ const LOOK_RADIANS_PER_PIXEL: f32 = 0.0025;
 pub struct WindowScript {
     pub frames: u32,
     pub screenshot: PathBuf,
+    /// Inject faults on the way ([`FAULTS`]): the window minimized to zero size, resized to two
+    /// pixels and back, the surface lost, the GPU device lost. Each must be survived.
+    pub faults: bool,
 }
+
+/// A fault of the scripted run, and the frame after which it is injected.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Fault {
+    /// A `Resized` of zero pixels (what a minimized window reports), then this many redraws, then
+    /// the old size again.
+    Minimize {
+        redraws: u32,
+    },
+    /// The window resized to two by two pixels by the window system, and back after 4 frames.
+    Shrink,
+    Restore,
+    /// The surface reports itself lost.
+    SurfaceLost,
+    /// The GPU device is lost (destroyed, as a driver reset would).
+    DeviceLost,
+}
+
+/// The scripted faults, by frame (the script's --frames must pass the last one).
+const FAULTS: [(u32, Fault); 5] =
+    [(6, Fault::Minimize { redraws: 5 }), (10, Fault::Shrink), (14, Fault::Restore), (18, Fault::SurfaceLost), (22, Fault::DeviceLost)];
 
 /// Opens the demo's window and runs it until it is closed.
 pub fn run_window(options: PlayOptions, script: Option<WindowScript>) -> Result<(), String> {
     let event_loop = EventLoop::new().map_err(|e| WindowError::EventLoop(e.to_string()).to_string())?;
-    let mut runner = Runner { options, script, state: None, error: None };
+    let mut runner = Runner { options, script, state: None, error: None, recoveries: 0, faults: Vec::new() };
     event_loop.run_app(&mut runner).map_err(|e| e.to_string())?;
     runner.error.map_or(Ok(()), Err)
 }
@@ -52,10 +78,28 @@ struct Runner {
     script: Option<WindowScript>,
     state: Option<State>,
     error: Option<String>,
+    /// Devices reopened since the last frame that rendered.
+    recoveries: u32,
+    /// The scripted faults still to inject.
+    faults: Vec<(u32, Fault)>,
+}
+
+/// What outlives the app when it is rebuilt on a new device: where the player stands, the tour,
+/// the door's override, the overlay's settings and the frame count.
+struct Resume {
+    player: Option<Player>,
+    tour: Option<ScriptedTour>,
+    door: Option<DoorControl>,
+    overlay: OverlayState,
+    frames: u32,
 }
 
 struct State {
     window: Arc<Window>,
+    /// The window's size as last reported (zero while minimized: frames are skipped).
+    size: PhysicalSize<u32>,
+    /// Redraws skipped while the window had no pixels.
+    skipped: u32,
     app: App,
     gpu: GpuContext,
     egui: egui::Context,
@@ -131,13 +175,23 @@ impl SurfaceOverlay for EguiPainter {
 impl Runner {
     fn open(&mut self, event_loop: &ActiveEventLoop) -> Result<State, String> {
         let (width, height) = (self.options.width, self.options.height);
+        let faults = self.script.as_ref().is_some_and(|s| s.faults);
+        if faults {
+            self.faults = FAULTS.to_vec();
+        }
         let attributes = Window::default_attributes()
             .with_title("game_demo — DDGI (F1: overlay)")
             .with_inner_size(winit::dpi::PhysicalSize::new(width, height))
-            .with_resizable(self.script.is_none());
+            .with_resizable(self.script.is_none() || faults);
         let window = Arc::new(event_loop.create_window(attributes).map_err(|e| format!("cannot create the window: {e}"))?);
         // A scripted run renders frame for frame what the headless mode does.
         let time = if self.script.is_some() { Time::fixed(super::STEP_SECONDS) } else { Time::real() };
+        self.build(window, time, None)
+    }
+
+    /// The app, the overlay and the level on `window`; `resume` carries the state of an app that
+    /// lost its device.
+    fn build(&self, window: Arc<Window>, time: Time, resume: Option<Resume>) -> Result<State, String> {
         let WindowedApp { mut app, gpu, format } = windowed_app(&window, time).map_err(|e| e.to_string())?;
         if self.script.is_some() {
             app.insert_resource(engine::rt::WaitForBlasBuilds(true));
@@ -158,24 +212,133 @@ impl Runner {
             None,
             Some(max_texture),
         );
+        let (overlay, frames) = match resume {
+            Some(resume) => {
+                let world = app.world_mut();
+                if let Some(player) = resume.player {
+                    let mut players = world.query::<&mut Player>();
+                    for mut p in players.iter_mut(world) {
+                        *p = player.clone();
+                    }
+                }
+                if let Some(tour) = resume.tour {
+                    world.insert_resource(tour);
+                }
+                if let Some(door) = resume.door {
+                    world.insert_resource(door);
+                }
+                (resume.overlay, resume.frames)
+            }
+            None => (OverlayState::default(), 0),
+        };
         window.request_redraw();
         Ok(State {
+            size: window.inner_size(),
+            skipped: 0,
             window,
             app,
             gpu,
             egui,
             egui_winit,
             painter,
-            overlay: OverlayState::default(),
+            overlay,
             keys: HashSet::new(),
             look: Vec2::ZERO,
             jump: false,
             grabbed: false,
             cursor: Vec2::ZERO,
             last_frame: None,
-            frames: 0,
+            frames,
             screenshot_requested: false,
         })
+    }
+
+    /// After a frame: a lost surface is replaced; a lost device is reopened and the level rebuilt
+    /// on it where the player stood, its clock going on (at most [`MAX_DEVICE_RECOVERIES`] times
+    /// in a row).
+    fn recover(&mut self) -> Result<(), String> {
+        let Some(state) = &mut self.state else { return Ok(()) };
+        replace_lost_surface(state.app.world_mut(), &state.window).map_err(|e| e.to_string())?;
+        let Some(lost) = state.app.world().get_resource::<GpuLost>().cloned() else {
+            self.recoveries = 0;
+            return Ok(());
+        };
+        self.recoveries += 1;
+        if self.recoveries > MAX_DEVICE_RECOVERIES {
+            return Err(WindowError::DeviceLost { count: self.recoveries, reason: lost.reason }.to_string());
+        }
+        log::warn!("the GPU device was lost ({}): opening a new one and rebuilding the level where the player stood", lost.reason);
+        let mut old = self.state.take().expect("state checked above");
+        let world = old.app.world_mut();
+        let time = world.resource::<Time>().continuing();
+        let player = world.query::<&Player>().iter(world).next().cloned();
+        let resume = Resume {
+            player,
+            tour: world.remove_resource::<ScriptedTour>(),
+            door: world.remove_resource::<DoorControl>(),
+            overlay: std::mem::take(&mut old.overlay),
+            frames: old.frames,
+        };
+        let window = old.window.clone();
+        drop(old);
+        self.state = Some(self.build(window, time, Some(resume))?);
+        log::warn!("the level runs on a new GPU device");
+        Ok(())
+    }
+
+    /// Injects the scripted faults due after the frame just drawn.
+    fn inject_faults(&mut self) -> Result<(), String> {
+        let Some(frames) = self.state.as_ref().map(|s| s.frames) else { return Ok(()) };
+        let due: Vec<Fault> = self.faults.iter().filter(|(f, _)| *f <= frames).map(|(_, fault)| *fault).collect();
+        self.faults.retain(|(f, _)| *f > frames);
+        for fault in due {
+            log::warn!("fault injected after frame {frames}: {fault:?}");
+            let Some(state) = &mut self.state else { return Ok(()) };
+            match fault {
+                Fault::Minimize { redraws } => {
+                    let size = state.size;
+                    self.handle_resize(PhysicalSize::new(0, 0));
+                    for _ in 0..redraws {
+                        self.draw_if_visible();
+                    }
+                    let state = self.state.as_ref().expect("a state");
+                    if state.frames != frames {
+                        return Err(format!("the minimized window rendered {} frames", state.frames - frames));
+                    }
+                    log::warn!("{} redraws skipped while minimized", state.skipped);
+                    self.handle_resize(size);
+                }
+                Fault::Shrink => {
+                    let _ = state.window.request_inner_size(PhysicalSize::new(2, 2));
+                }
+                Fault::Restore => {
+                    let _ = state.window.request_inner_size(PhysicalSize::new(self.options.width, self.options.height));
+                }
+                Fault::SurfaceLost => {
+                    state.app.world().resource::<engine::render::SurfaceTarget>().lost.store(true, std::sync::atomic::Ordering::Relaxed);
+                }
+                Fault::DeviceLost => state.gpu.simulate_device_loss(),
+            }
+        }
+        Ok(())
+    }
+
+    fn handle_resize(&mut self, size: PhysicalSize<u32>) {
+        let Some(state) = &mut self.state else { return };
+        state.size = size;
+        resize_surface(state.app.world_mut(), size);
+        state.window.request_redraw();
+    }
+
+    /// One redraw: a frame when the window has pixels, nothing (counted) when it has none.
+    fn draw_if_visible(&mut self) -> Option<Result<(), String>> {
+        let scripted = self.script.is_some();
+        let state = self.state.as_mut()?;
+        if state.size.width == 0 || state.size.height == 0 {
+            state.skipped += 1;
+            return None;
+        }
+        Some(state.redraw(scripted))
     }
 }
 
@@ -319,29 +482,36 @@ impl ApplicationHandler for Runner {
                     state.set_grab(false);
                 }
             }
-            WindowEvent::Resized(size) => {
-                resize_surface(state.app.world_mut(), size);
-                state.window.request_redraw();
-            }
+            WindowEvent::Resized(size) => self.handle_resize(size),
             WindowEvent::RedrawRequested => {
-                let size = state.window.inner_size();
-                if size.width > 0 && size.height > 0 {
-                    if let Err(e) = state.redraw(scripted) {
+                match self.draw_if_visible() {
+                    Some(Err(e)) => {
                         self.error = Some(e);
                         event_loop.exit();
                         return;
                     }
-                    if let Some(script) = &self.script
-                        && state.frames >= script.frames
-                    {
-                        if let Err(e) = save_screenshot(&state.gpu, state.app.world(), &script.screenshot) {
-                            self.error = Some(e);
+                    Some(Ok(())) => {
+                        let state = self.state.as_ref().expect("a state");
+                        if let Some(script) = &self.script
+                            && state.frames >= script.frames
+                        {
+                            if let Err(e) = save_screenshot(&state.gpu, state.app.world(), &script.screenshot) {
+                                self.error = Some(e);
+                            }
+                            event_loop.exit();
+                            return;
                         }
-                        event_loop.exit();
-                        return;
                     }
+                    None => {}
                 }
-                state.window.request_redraw();
+                if let Err(e) = self.inject_faults().and_then(|()| self.recover()) {
+                    self.error = Some(e);
+                    event_loop.exit();
+                    return;
+                }
+                if let Some(state) = &self.state {
+                    state.window.request_redraw();
+                }
             }
             _ => {}
         }
