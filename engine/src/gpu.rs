@@ -45,6 +45,9 @@ pub struct GpuOptions<'a> {
     pub compatible_surface: Option<&'a wgpu::Surface<'a>>,
     /// An instance to reuse (the one the surface was created from).
     pub instance: Option<wgpu::Instance>,
+    /// Limits to ask for instead of the adapter's own (each clamped to the adapter's): tests of
+    /// scenes over a small GPU's limits.
+    pub limits: Option<wgpu::Limits>,
 }
 
 /// The device everything renders with. Cheap to clone (wgpu handles are reference counted).
@@ -116,7 +119,10 @@ impl GpuContext {
             .request_device(&wgpu::DeviceDescriptor {
                 label: Some("engine_device"),
                 required_features: features,
-                required_limits: adapter.limits(),
+                required_limits: match &options.limits {
+                    Some(wanted) => wanted.clone().or_worse_values_from(&adapter.limits()),
+                    None => adapter.limits(),
+                },
                 ..Default::default()
             })
             .await
@@ -177,7 +183,12 @@ impl GpuContext {
     /// A context for tests: validation errors panic. Without an adapter the test is skipped (returns
     /// `None` after saying so), except in CI (`CI=true`), where a missing adapter is a failure.
     pub fn for_tests(test: &str) -> Option<Self> {
-        match Self::new(GpuOptions { validation_errors: ValidationErrors::Panic, ..Default::default() }) {
+        Self::for_tests_with(test, GpuOptions::default())
+    }
+
+    /// [`GpuContext::for_tests`] with other options (validation errors still panic).
+    pub fn for_tests_with(test: &str, options: GpuOptions<'_>) -> Option<Self> {
+        match Self::new(GpuOptions { validation_errors: ValidationErrors::Panic, ..options }) {
             Ok(ctx) => Some(ctx),
             Err(e) if std::env::var("CI").is_ok_and(|v| v == "true") => panic!("{test}: CI=true and {e}"),
             Err(e) => {

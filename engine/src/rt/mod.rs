@@ -161,6 +161,8 @@ pub struct RayTracingScene {
     results: Mutex<Receiver<(usize, Arc<Blas>)>>,
     sender: Sender<(usize, Arc<Blas>)>,
     pub progress: BlasBuildProgress,
+    /// The BVH over the adapter's buffer limits, when it is (nothing is traced then).
+    pub over_limit: Option<crate::scene::SceneDataError>,
     tlas: Option<Bvh2>,
     /// Instance slot of each TLAS primitive.
     tlas_slots: Vec<u32>,
@@ -195,6 +197,7 @@ impl RayTracingScene {
             results: Mutex::new(results),
             sender,
             progress: BlasBuildProgress::default(),
+            over_limit: None,
             tlas: None,
             tlas_slots: Vec::new(),
             slot_leaf: Vec::new(),
@@ -329,8 +332,19 @@ impl RayTracingScene {
         }
         let limit = crate::render::gpu_scene::max_storage_buffer_bytes(&gpu.device);
         let needed = (nodes.len() as u64).max(std::mem::size_of_val(triangles.as_slice()) as u64);
+        self.over_limit = None;
         if needed > limit {
-            log::error!("the scene's BVH needs {needed} bytes, over the adapter's limit of {limit} bytes per buffer; nothing is traced");
+            let buffer = if nodes.len() as u64 > limit { "BVH node buffer" } else { "BVH triangle buffer (48 bytes per triangle)" };
+            let largest = self
+                .blas
+                .iter()
+                .enumerate()
+                .filter_map(|(i, b)| b.as_ref().map(|b| (i, b.triangles.len())))
+                .max_by_key(|(_, n)| *n)
+                .map_or(String::new(), |(i, n)| format!(" (largest: mesh {i}, {n} triangles)"));
+            let error = crate::scene::SceneDataError::OverLimit { item: format!("scene BVH{largest}"), buffer, needed, limit };
+            log::error!("{error}; nothing is traced");
+            self.over_limit = Some(error);
             nodes.clear();
             triangles.clear();
             for info in &mut self.gpu_blas {
