@@ -11,7 +11,7 @@ use engine::graph::{Buffer as GraphBuffer, BufferDesc, Handle, RenderGraph, Text
 use engine::render::gpu_scene::GpuScene;
 use engine::render::{CameraFrame, DEPTH_FORMAT, HDR_FORMAT, SkyRadiance, dispatch};
 use engine::rng::SplitMix64;
-use engine::scene::{Assets, Material, Mesh};
+use engine::scene::{Assets, Image, Material, Mesh};
 use engine::shader::{Program, RenderTargets, ShaderError, compute_program, compute_program_with_constants, render_program};
 use engine::wgpu;
 use glam::{Mat3, Quat, Vec3};
@@ -386,12 +386,16 @@ pub const MAX_IRRADIANCE: f32 = 1.0e24;
 /// so its indirect light grows without bound, by the first bounce's irradiance each frame. DDGI
 /// keeps it finite (irradiance is clamped at [`MAX_IRRADIANCE`]) but not meaningful; these
 /// warnings say so, one per material.
-pub fn divergence_warnings(materials: &Assets<Material>) -> Vec<String> {
+pub fn divergence_warnings(materials: &Assets<Material>, images: &Assets<Image>) -> Vec<String> {
     materials
         .iter()
-        .filter(|(_, m)| m.base_color.truncate().max_element() >= 1.0 - 1e-6)
-        .map(|(h, m)| {
-            let c = m.base_color.truncate().min(Vec3::ONE);
+        .filter_map(|(h, m)| {
+            // A texture scales the factor by its texels: its mean (linear) is the surface's albedo.
+            let texture = m.base_color_texture.as_ref().map_or(Some(Vec3::ONE), |t| images.get(t.image).map(mean_linear_texel));
+            let albedo = m.base_color.truncate() * texture.unwrap_or(Vec3::ONE);
+            (albedo.max_element() >= 1.0 - 1e-6).then_some((h, m, albedo.min(Vec3::ONE)))
+        })
+        .map(|(h, m, c)| {
             format!(
                 "material {} '{}' has albedo ({}, {}, {}): it reflects all the light it receives, so in a closed scene the indirect \
                  light does not converge (it grows by one bounce every frame); DDGI clamps irradiance at {MAX_IRRADIANCE:e} W/m², \
@@ -404,6 +408,17 @@ pub fn divergence_warnings(materials: &Assets<Material>) -> Vec<String> {
             )
         })
         .collect()
+}
+
+/// The mean of an sRGB-encoded texture's texels, decoded to linear.
+fn mean_linear_texel(image: &Image) -> Vec3 {
+    let decode = |v: u8| {
+        let c = f32::from(v) / 255.0;
+        if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+    };
+    let texels = image.rgba8.chunks_exact(4);
+    let count = texels.len().max(1) as f32;
+    texels.fold(Vec3::ZERO, |sum, t| sum + Vec3::new(decode(t[0]), decode(t[1]), decode(t[2]))) / count
 }
 
 impl DdgiGpuVolumes {
@@ -475,13 +490,14 @@ pub fn prepare_ddgi_volumes(
     sky: Res<SkyRadiance>,
     meshes: Res<Assets<Mesh>>,
     materials: Res<Assets<Material>>,
+    images: Res<Assets<Image>>,
     volumes: Query<(Entity, &DdgiVolume)>,
     mut state: ResMut<DdgiGpuVolumes>,
 ) {
     let state = &mut *state;
     if !volumes.is_empty() && state.warned_generation != Some(materials.generation()) {
         state.warned_generation = Some(materials.generation());
-        let warnings = divergence_warnings(&materials);
+        let warnings = divergence_warnings(&materials, &images);
         for w in warnings.iter().filter(|w| !state.warnings.contains(w)) {
             log::warn!("DDGI: {w}");
         }
@@ -1161,5 +1177,31 @@ pub fn upload_ddgi_probe_pins(
         if let Ok(probe) = probes.get(entity) {
             write(probe, None);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use engine::scene::{TextureRef, UvTransform};
+
+    #[test]
+    fn albedo_one_warns_unless_a_texture_darkens_it() {
+        let mut images = Assets::<Image>::default();
+        let grey = images.add(Image { name: "grey".into(), width: 1, height: 1, rgba8: vec![128, 128, 128, 255] });
+        let white = images.add(Image { name: "white".into(), width: 2, height: 1, rgba8: vec![255; 8] });
+        let textured = |name: &str, image| Material {
+            name: name.into(),
+            base_color_texture: Some(TextureRef { image, transform: UvTransform::default() }),
+            ..Default::default()
+        };
+        let mut materials = Assets::<Material>::default();
+        materials.add(Material { name: "plain_white".into(), ..Default::default() });
+        materials.add(textured("grey_texture", grey));
+        materials.add(textured("white_texture", white));
+        materials.add(Material::diffuse("half", Vec3::splat(0.5)));
+        let warnings = divergence_warnings(&materials, &images);
+        assert_eq!(warnings.len(), 2, "{warnings:?}");
+        assert!(warnings[0].contains("'plain_white'") && warnings[1].contains("'white_texture'"), "{warnings:?}");
     }
 }
