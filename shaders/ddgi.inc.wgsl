@@ -78,9 +78,16 @@ struct DdgiProbeData {
     // Pinned by the application: a ray count (DDGI_NO_PIN: none) and a state (DDGI_PIN_*).
     pinned_rays: u32,
     pinned_state: u32,
-    _pad0: u32,
+    // Classifications in a row whose rays found no front face in the probe's region (see
+    // DDGI_EMPTY_CHECKS).
+    empty_checks: u32,
     _pad1: u32,
 }
+
+// A probe counts as affecting no surface only after this many classifications in a row found none
+// in its region: with few rays (adaptive budgets) one frame's rays can miss a small surface at the
+// edge of the region, and each frame rotates them anew.
+const DDGI_EMPTY_CHECKS: u32 = 8u;
 
 // What the budget pass leaves for the rest of the frame: the indirect dispatch of the ray passes,
 // the number of rays and the brightest probe's luma.

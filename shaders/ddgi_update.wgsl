@@ -421,7 +421,12 @@ fn classify_probes(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invoc
     ddgi_probes[probe].luma = select(0.0, luma, luma == luma);
     var is_active = true;
     if ddgi_has(DDGI_CLASSIFICATION) {
-        is_active = !ddgi_inside_geometry(s, data.ray_count) && s.frontface_in_cell != 0u;
+        var empty = 0u;
+        if s.frontface_in_cell == 0u {
+            empty = min(data.empty_checks + 1u, DDGI_EMPTY_CHECKS);
+        }
+        ddgi_probes[probe].empty_checks = empty;
+        is_active = !ddgi_inside_geometry(s, data.ray_count) && empty < DDGI_EMPTY_CHECKS;
     }
     if is_active && ddgi_has(DDGI_ADAPTIVE) {
         is_active = !ddgi_dark_around(probe, luma, ddgi_volume.dark_fraction * ddgi_counters.max_luma);

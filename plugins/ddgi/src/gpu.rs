@@ -55,7 +55,8 @@ pub struct DdgiProbeData {
     pub pinned_rays: u32,
     /// 0, [`PIN_ACTIVE`] or [`PIN_INACTIVE`].
     pub pinned_state: u32,
-    pub _pad0: u32,
+    /// Classifications in a row that found no surface in the probe's region.
+    pub empty_checks: u32,
     pub _pad1: u32,
 }
 
@@ -70,7 +71,7 @@ impl DdgiProbeData {
         luma: 0.0,
         pinned_rays: NO_PIN,
         pinned_state: 0,
-        _pad0: 0,
+        empty_checks: 0,
         _pad1: 0,
     };
 }
