@@ -1,8 +1,8 @@
 // The ray-tracing core: closest-hit and any-hit traversal of the two-level BVH.
 //
-// TLAS: a binary BVH over instance bounds (stack traversal, nearer child first).
-// BLAS: one 8-wide compressed BVH (CWBVH, Ylitie, Karras and Laine 2017) per mesh, traversed with
-// node and triangle groups in ray-octant order. The ray is taken into instance space with the
+// TLAS and BLASes: 8-wide compressed BVHs (CWBVH, Ylitie, Karras and Laine 2017), traversed with
+// node groups in ray-octant order. The TLAS's leaves are entries into instances: at the BLAS root,
+// or at one of its children (so a ray skips the empty parts of a mesh's bounds). BLASes: one per mesh. The ray is taken into instance space with the
 // instance's inverse transform and its direction is NOT normalized, so t means the same thing in
 // every instance and in the world.
 #include "scene.inc.wgsl"
@@ -20,19 +20,24 @@ struct GpuBlas {
     _pad1: u32,
 }
 
-// Leaves: count > 0 and index = instance slot. Inner nodes: children at index and index + 1.
-struct TlasNode {
-    min: vec3<f32>,
-    count: u32,
-    max: vec3<f32>,
-    index: u32,
+// Where a ray enters an instance at a TLAS leaf. node: the BLAS node to start at (relative to the
+// BLAS's first), or RT_NO_HIT for a leaf of the BLAS root: then the triangles of triangle_mask (bit k:
+// triangle triangle_base + k, relative to the BLAS's first triangle).
+struct TlasEntry {
+    instance: u32,
+    node: u32,
+    triangle_base: u32,
+    triangle_mask: u32,
 }
 
 @group(0) @binding(7) var<storage, read> blas_nodes: array<vec4<u32>>;
 // Three vec4 a triangle, in leaf order: (v0, mesh triangle index as bits), (v1 - v0, 0), (v2 - v0, 0).
 @group(0) @binding(8) var<storage, read> blas_triangles: array<vec4<f32>>;
 @group(0) @binding(9) var<storage, read> blas_info: array<GpuBlas>;
-@group(0) @binding(10) var<storage, read> tlas_nodes: array<TlasNode>;
+// The TLAS: CWBVH nodes (5 × vec4<u32> each) whose children all carry inner-node metadata (so that
+// leaves too are visited in octant order; imask tells the inner ones), then eight TlasEntry a node,
+// one per child slot, from the node's primitive_base_idx (an index into this array).
+@group(0) @binding(10) var<storage, read> tlas_nodes: array<vec4<u32>>;
 @group(0) @binding(11) var<storage, read> indices: array<u32>;
 
 const RT_NO_HIT: u32 = 0xffffffffu;
@@ -41,9 +46,9 @@ const RT_NO_HIT: u32 = 0xffffffffu;
 // (x: TLAS nodes, y: instances entered, z: BLAS nodes, w: triangles tested). Off, it costs nothing.
 override RT_COUNT_WORK: bool = false;
 var<private> rt_work: vec4<u32>;
-// Far children waiting in the TLAS walk (a PLOC tree of 100k instances is ~40 deep), and node groups
-// waiting in a CWBVH walk (8-wide trees are shallow).
-const RT_TLAS_STACK_SIZE: u32 = 48u;
+// Node groups waiting in the TLAS walk and in a BLAS walk (8-wide trees are shallow; the TLAS's depth
+// is checked against this on the CPU, engine::rt::TLAS_STACK_SIZE).
+const RT_TLAS_STACK_SIZE: u32 = 32u;
 const RT_BLAS_STACK_SIZE: u32 = 24u;
 
 struct Ray {
@@ -92,12 +97,8 @@ fn rt_octant_inv4(d: vec3<f32>) -> u32 {
 
 // Intersects the ray with the eight quantized child boxes of a CWBVH node. Returns the hit mask:
 // bits 24..31 inner children (in octant order), bits 0..23 triangles of the hit leaves.
-fn rt_cwbvh_node_hits(node: u32, origin: vec3<f32>, dir: vec3<f32>, oct_inv4: u32, tmin: f32, tmax: f32) -> u32 {
-    let n0 = blas_nodes[node * 5u];
-    let n1 = blas_nodes[node * 5u + 1u];
-    let n2 = blas_nodes[node * 5u + 2u];
-    let n3 = blas_nodes[node * 5u + 3u];
-    let n4 = blas_nodes[node * 5u + 4u];
+// n0..n4: the node's five vec4 (from blas_nodes or tlas_nodes).
+fn rt_cwbvh_node_hits(n0: vec4<u32>, n1: vec4<u32>, n2: vec4<u32>, n3: vec4<u32>, n4: vec4<u32>, origin: vec3<f32>, dir: vec3<f32>, oct_inv4: u32, tmin: f32, tmax: f32) -> u32 {
     let p = bitcast<vec3<f32>>(n0.xyz);
     let e = vec3<u32>(n0.w & 0xffu, (n0.w >> 8u) & 0xffu, (n0.w >> 16u) & 0xffu);
     // Child planes are p + 2^(e - 127) · q: fold the scale and origin into the ray instead.
@@ -177,16 +178,18 @@ struct BlasHit {
     front_face: bool,
 }
 
-fn rt_traverse_blas(blas: GpuBlas, origin: vec3<f32>, dir_in: vec3<f32>, tmin: f32, tmax: f32, any_hit: bool) -> BlasHit {
+// Walks a BLAS from a TLAS entry: a node (as the only inner child of a virtual parent) or a set of
+// triangles of the root.
+fn rt_traverse_blas(blas: GpuBlas, entry: TlasEntry, origin: vec3<f32>, dir_in: vec3<f32>, tmin: f32, tmax: f32, any_hit: bool) -> BlasHit {
     var best = BlasHit(false, tmax, 0u, vec2<f32>(0.0), false);
     let dir = rt_safe_direction(dir_in);
     let oct_inv4 = rt_octant_inv4(dir);
     var stack: array<vec2<u32>, RT_BLAS_STACK_SIZE>;
     var sp = 0u;
-    // Start with the root as the only inner child of a virtual parent.
-    var current = vec2<u32>(0u, 0x80000000u);
+    let at_node = entry.node != RT_NO_HIT;
+    var current = select(vec2<u32>(0u, 0u), vec2<u32>(entry.node, 0x80000000u), at_node);
+    var triangles = select(vec2<u32>(entry.triangle_base, entry.triangle_mask), vec2<u32>(0u, 0u), at_node);
     loop {
-        var triangles = vec2<u32>(0u, 0u);
         if (current.y & 0xff000000u) != 0u {
             let hits = current.y;
             let child_bit = firstLeadingBit(hits);
@@ -201,10 +204,11 @@ fn rt_traverse_blas(blas: GpuBlas, origin: vec3<f32>, dir_in: vec3<f32>, tmin: f
             if RT_COUNT_WORK {
                 rt_work.z += 1u;
             }
-            let hit_mask = rt_cwbvh_node_hits(node, origin, dir, oct_inv4, tmin, best.t);
-            let n0w = blas_nodes[node * 5u].w;
+            let n0 = blas_nodes[node * 5u];
             let n1 = blas_nodes[node * 5u + 1u];
-            current = vec2<u32>(n1.x, (hit_mask & 0xff000000u) | (n0w >> 24u));
+            let hit_mask =
+                rt_cwbvh_node_hits(n0, n1, blas_nodes[node * 5u + 2u], blas_nodes[node * 5u + 3u], blas_nodes[node * 5u + 4u], origin, dir, oct_inv4, tmin, best.t);
+            current = vec2<u32>(n1.x, (hit_mask & 0xff000000u) | (n0.w >> 24u));
             triangles = vec2<u32>(n1.y, hit_mask & 0x00ffffffu);
         }
         while triangles.y != 0u {
@@ -233,37 +237,67 @@ fn rt_traverse_blas(blas: GpuBlas, origin: vec3<f32>, dir_in: vec3<f32>, tmin: f
     return best;
 }
 
-// Traverses the TLAS; for each instance leaf, the BLAS in instance space.
+fn rt_tlas_entry(index: u32) -> TlasEntry {
+    let v = tlas_nodes[index];
+    return TlasEntry(v.x, v.y, v.z, v.w);
+}
+
+// Visits TLAS node `node`: returns its group (child base, entry base, hit children in bits 24..31 in
+// octant order, imask in bits 0..7).
+fn rt_tlas_visit(node: u32, origin: vec3<f32>, dir: vec3<f32>, oct_inv4: u32, tmin: f32, tmax: f32) -> vec3<u32> {
+    if RT_COUNT_WORK {
+        rt_work.x += 1u;
+    }
+    let n0 = tlas_nodes[node * 5u];
+    let n1 = tlas_nodes[node * 5u + 1u];
+    let hits = rt_cwbvh_node_hits(n0, n1, tlas_nodes[node * 5u + 2u], tlas_nodes[node * 5u + 3u], tlas_nodes[node * 5u + 4u], origin, dir, oct_inv4, tmin, tmax);
+    return vec3<u32>(n1.x, n1.y, (hits & 0xff000000u) | (n0.w >> 24u));
+}
+
+// Traverses the TLAS; at each leaf, the instance's BLAS in instance space from the leaf's entry.
 fn rt_trace(ray: Ray, any_hit: bool) -> RayHit {
     var best = rt_no_hit(ray.tmax);
-    let inv_dir = 1.0 / rt_safe_direction(ray.direction);
-    let root = tlas_nodes[0];
-    if rt_aabb_entry(root.min, root.max, ray.origin, inv_dir, ray.tmin, ray.tmax) > ray.tmax {
-        return best;
-    }
-    var stack: array<vec2<u32>, RT_TLAS_STACK_SIZE>;
+    let dir = rt_safe_direction(ray.direction);
+    let oct_inv4 = rt_octant_inv4(dir);
+    var stack: array<vec3<u32>, RT_TLAS_STACK_SIZE>;
     var sp = 0u;
-    var node = 0u;
+    var current = rt_tlas_visit(0u, ray.origin, dir, oct_inv4, ray.tmin, best.t);
     loop {
-        let n = tlas_nodes[node];
-        var descend = false;
-        if RT_COUNT_WORK {
-            rt_work.x += 1u;
+        if (current.z & 0xff000000u) == 0u {
+            if sp == 0u {
+                break;
+            }
+            sp -= 1u;
+            current = stack[sp];
+            continue;
         }
-        if n.count > 0u {
+        let child_bit = firstLeadingBit(current.z);
+        let slot = (child_bit - 24u) ^ (oct_inv4 & 0xffu);
+        let group = current;
+        current.z &= ~(1u << child_bit);
+        if ((group.z >> slot) & 1u) != 0u {
+            // An inner child: keep the rest of the group for later, visit the child.
+            if (current.z & 0xff000000u) != 0u && sp < RT_TLAS_STACK_SIZE {
+                stack[sp] = current;
+                sp += 1u;
+            }
+            let node = group.x + countOneBits(group.z & ((1u << slot) - 1u));
+            current = rt_tlas_visit(node, ray.origin, dir, oct_inv4, ray.tmin, best.t);
+        } else {
+            let entry = rt_tlas_entry(group.y + slot);
             // Only the two fields traversal needs, not the whole instance record.
-            let blas = blas_info[instances[n.index].mesh];
+            let blas = blas_info[instances[entry.instance].mesh];
             if blas.node_offset != RT_NO_HIT {
                 if RT_COUNT_WORK {
                     rt_work.y += 1u;
                 }
-                let local_from_world = instances[n.index].local_from_world;
+                let local_from_world = instances[entry.instance].local_from_world;
                 let origin = (local_from_world * vec4<f32>(ray.origin, 1.0)).xyz;
-                let dir = (local_from_world * vec4<f32>(ray.direction, 0.0)).xyz;
-                let h = rt_traverse_blas(blas, origin, dir, ray.tmin, best.t, any_hit);
+                let local_dir = (local_from_world * vec4<f32>(ray.direction, 0.0)).xyz;
+                let h = rt_traverse_blas(blas, entry, origin, local_dir, ray.tmin, best.t, any_hit);
                 if h.hit {
                     best.t = h.t;
-                    best.instance = n.index;
+                    best.instance = entry.instance;
                     best.primitive = bitcast<u32>(blas_triangles[h.triangle * 3u].w);
                     best.barycentrics = h.barycentrics;
                     best.front_face = h.front_face;
@@ -271,40 +305,6 @@ fn rt_trace(ray: Ray, any_hit: bool) -> RayHit {
                         return best;
                     }
                 }
-            }
-        } else {
-            let a = tlas_nodes[n.index];
-            let b = tlas_nodes[n.index + 1u];
-            let ta = rt_aabb_entry(a.min, a.max, ray.origin, inv_dir, ray.tmin, best.t);
-            let tb = rt_aabb_entry(b.min, b.max, ray.origin, inv_dir, ray.tmin, best.t);
-            let hit_a = ta <= best.t;
-            let hit_b = tb <= best.t;
-            if hit_a && hit_b {
-                let a_first = ta <= tb;
-                node = select(n.index + 1u, n.index, a_first);
-                if sp < RT_TLAS_STACK_SIZE {
-                    stack[sp] = vec2<u32>(select(n.index, n.index + 1u, a_first), bitcast<u32>(max(ta, tb)));
-                    sp += 1u;
-                }
-                descend = true;
-            } else if hit_a || hit_b {
-                node = select(n.index + 1u, n.index, hit_a);
-                descend = true;
-            }
-        }
-        if !descend {
-            // Pop the next subtree that can still hold a nearer hit.
-            var found = false;
-            while sp > 0u {
-                sp -= 1u;
-                if bitcast<f32>(stack[sp].y) <= best.t {
-                    node = stack[sp].x;
-                    found = true;
-                    break;
-                }
-            }
-            if !found {
-                break;
             }
         }
     }
