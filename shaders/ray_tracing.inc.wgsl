@@ -34,9 +34,8 @@ struct TlasEntry {
 // Three vec4 a triangle, in leaf order: (v0, mesh triangle index as bits), (v1 - v0, 0), (v2 - v0, 0).
 @group(0) @binding(8) var<storage, read> blas_triangles: array<vec4<f32>>;
 @group(0) @binding(9) var<storage, read> blas_info: array<GpuBlas>;
-// The TLAS: CWBVH nodes (5 × vec4<u32> each) whose children all carry inner-node metadata (so that
-// leaves too are visited in octant order; imask tells the inner ones), then eight TlasEntry a node,
-// one per child slot, from the node's primitive_base_idx (an index into this array).
+// The TLAS: CWBVH nodes (5 × vec4<u32> each) whose leaves hold one TlasEntry each, then the entries
+// (one vec4 each; a node's primitive_base_idx is an index into this array).
 @group(0) @binding(10) var<storage, read> tlas_nodes: array<vec4<u32>>;
 @group(0) @binding(11) var<storage, read> indices: array<u32>;
 
@@ -46,10 +45,9 @@ const RT_NO_HIT: u32 = 0xffffffffu;
 // (x: TLAS nodes, y: instances entered, z: BLAS nodes, w: triangles tested). Off, it costs nothing.
 override RT_COUNT_WORK: bool = false;
 var<private> rt_work: vec4<u32>;
-// Node groups waiting in the TLAS walk and in a BLAS walk (8-wide trees are shallow; the TLAS's depth
-// is checked against this on the CPU, engine::rt::TLAS_STACK_SIZE).
-const RT_TLAS_STACK_SIZE: u32 = 32u;
-const RT_BLAS_STACK_SIZE: u32 = 24u;
+// Groups waiting in the walk of both levels (8-wide trees are shallow; the TLAS's depth is checked
+// against its share on the CPU, engine::rt::TLAS_STACK_SIZE).
+const RT_STACK_SIZE: u32 = 48u;
 
 struct Ray {
     origin: vec3<f32>,
@@ -169,144 +167,160 @@ fn rt_intersect_triangle(index: u32, origin: vec3<f32>, dir: vec3<f32>, tmin: f3
     return out;
 }
 
-struct BlasHit {
-    hit: bool,
-    t: f32,
-    // Index into blas_triangles.
-    triangle: u32,
-    barycentrics: vec2<f32>,
-    front_face: bool,
-}
-
-// Walks a BLAS from a TLAS entry: a node (as the only inner child of a virtual parent) or a set of
-// triangles of the root.
-fn rt_traverse_blas(blas: GpuBlas, entry: TlasEntry, origin: vec3<f32>, dir_in: vec3<f32>, tmin: f32, tmax: f32, any_hit: bool) -> BlasHit {
-    var best = BlasHit(false, tmax, 0u, vec2<f32>(0.0), false);
-    let dir = rt_safe_direction(dir_in);
-    let oct_inv4 = rt_octant_inv4(dir);
-    var stack: array<vec2<u32>, RT_BLAS_STACK_SIZE>;
-    var sp = 0u;
-    let at_node = entry.node != RT_NO_HIT;
-    var current = select(vec2<u32>(0u, 0u), vec2<u32>(entry.node, 0x80000000u), at_node);
-    var triangles = select(vec2<u32>(entry.triangle_base, entry.triangle_mask), vec2<u32>(0u, 0u), at_node);
-    loop {
-        if (current.y & 0xff000000u) != 0u {
-            let hits = current.y;
-            let child_bit = firstLeadingBit(hits);
-            current.y &= ~(1u << child_bit);
-            if (current.y & 0xff000000u) != 0u && sp < RT_BLAS_STACK_SIZE {
-                stack[sp] = current;
-                sp += 1u;
-            }
-            let slot = (child_bit - 24u) ^ (oct_inv4 & 0xffu);
-            let relative = countOneBits(hits & ~(0xffffffffu << slot));
-            let node = blas.node_offset + current.x + relative;
-            if RT_COUNT_WORK {
-                rt_work.z += 1u;
-            }
-            let n0 = blas_nodes[node * 5u];
-            let n1 = blas_nodes[node * 5u + 1u];
-            let hit_mask =
-                rt_cwbvh_node_hits(n0, n1, blas_nodes[node * 5u + 2u], blas_nodes[node * 5u + 3u], blas_nodes[node * 5u + 4u], origin, dir, oct_inv4, tmin, best.t);
-            current = vec2<u32>(n1.x, (hit_mask & 0xff000000u) | (n0.w >> 24u));
-            triangles = vec2<u32>(n1.y, hit_mask & 0x00ffffffu);
-        }
-        while triangles.y != 0u {
-            let local = firstLeadingBit(triangles.y);
-            triangles.y &= ~(1u << local);
-            let index = blas.triangle_offset + triangles.x + local;
-            if RT_COUNT_WORK {
-                rt_work.w += 1u;
-            }
-            let h = rt_intersect_triangle(index, origin, dir_in, tmin, best.t);
-            if h.hit {
-                best = BlasHit(true, h.t, index, h.barycentrics, h.front_face);
-                if any_hit {
-                    return best;
-                }
-            }
-        }
-        if (current.y & 0xff000000u) == 0u {
-            if sp == 0u {
-                break;
-            }
-            sp -= 1u;
-            current = stack[sp];
-        }
-    }
-    return best;
-}
-
 fn rt_tlas_entry(index: u32) -> TlasEntry {
     let v = tlas_nodes[index];
     return TlasEntry(v.x, v.y, v.z, v.w);
 }
 
-// Visits TLAS node `node`: returns its group (child base, entry base, hit children in bits 24..31 in
-// octant order, imask in bits 0..7).
-fn rt_tlas_visit(node: u32, origin: vec3<f32>, dir: vec3<f32>, oct_inv4: u32, tmin: f32, tmax: f32) -> vec3<u32> {
-    if RT_COUNT_WORK {
-        rt_work.x += 1u;
-    }
-    let n0 = tlas_nodes[node * 5u];
-    let n1 = tlas_nodes[node * 5u + 1u];
-    let hits = rt_cwbvh_node_hits(n0, n1, tlas_nodes[node * 5u + 2u], tlas_nodes[node * 5u + 3u], tlas_nodes[node * 5u + 4u], origin, dir, oct_inv4, tmin, tmax);
-    return vec3<u32>(n1.x, n1.y, (hits & 0xff000000u) | (n0.w >> 24u));
-}
-
-// Traverses the TLAS; at each leaf, the instance's BLAS in instance space from the leaf's entry.
+// Closest hit (or any hit) of a ray: one loop over both levels, so that the lanes of a warp test
+// nodes together whether they are in the TLAS or in an instance's BLAS. Each step tests one CWBVH
+// node (TLAS or BLAS, same code), then either the triangles it hit (in a BLAS) or one of the TLAS
+// entries it hit: entering an instance pushes what is left of the TLAS walk, takes the ray into
+// instance space and starts the BLAS walk at the entry; the walk returns to the TLAS when the stack
+// is back at the level it entered at.
 fn rt_trace(ray: Ray, any_hit: bool) -> RayHit {
     var best = rt_no_hit(ray.tmax);
-    let dir = rt_safe_direction(ray.direction);
-    let oct_inv4 = rt_octant_inv4(dir);
-    var stack: array<vec3<u32>, RT_TLAS_STACK_SIZE>;
+    var best_triangle = 0u;
+    let world_dir = rt_safe_direction(ray.direction);
+    let world_oct = rt_octant_inv4(world_dir);
+    // The ray in the space of the level being walked: world for the TLAS, instance space in a BLAS
+    // (`dir` nudged off zero for slab tests, `tri_dir` as given for triangle tests).
+    var origin = ray.origin;
+    var dir = world_dir;
+    var tri_dir = ray.direction;
+    var oct_inv4 = world_oct;
+    var in_blas = false;
+    var instance = 0u;
+    var node_offset = 0u;
+    var triangle_offset = 0u;
+    var stack: array<vec2<u32>, RT_STACK_SIZE>;
     var sp = 0u;
-    var current = rt_tlas_visit(0u, ray.origin, dir, oct_inv4, ray.tmin, best.t);
+    var tlas_sp = 0u;
+    // Inner children still to visit (base, hit bits 24..31 in octant order | imask bits 0..7), and
+    // primitives still to test (base, bits): triangles in a BLAS, entries in the TLAS. The walk
+    // starts with the TLAS root as the only inner child of a virtual parent.
+    var group = vec2<u32>(0u, 0x80000000u);
+    var prims = vec2<u32>(0u, 0u);
     loop {
-        if (current.z & 0xff000000u) == 0u {
-            if sp == 0u {
-                break;
-            }
-            sp -= 1u;
-            current = stack[sp];
-            continue;
-        }
-        let child_bit = firstLeadingBit(current.z);
-        let slot = (child_bit - 24u) ^ (oct_inv4 & 0xffu);
-        let group = current;
-        current.z &= ~(1u << child_bit);
-        if ((group.z >> slot) & 1u) != 0u {
-            // An inner child: keep the rest of the group for later, visit the child.
-            if (current.z & 0xff000000u) != 0u && sp < RT_TLAS_STACK_SIZE {
-                stack[sp] = current;
+        if (group.y & 0xff000000u) != 0u && prims.y == 0u {
+            let hits = group.y;
+            let child_bit = firstLeadingBit(hits);
+            group.y &= ~(1u << child_bit);
+            if (group.y & 0xff000000u) != 0u && sp < RT_STACK_SIZE {
+                stack[sp] = group;
                 sp += 1u;
             }
-            let node = group.x + countOneBits(group.z & ((1u << slot) - 1u));
-            current = rt_tlas_visit(node, ray.origin, dir, oct_inv4, ray.tmin, best.t);
-        } else {
-            let entry = rt_tlas_entry(group.y + slot);
-            // Only the two fields traversal needs, not the whole instance record.
-            let blas = blas_info[instances[entry.instance].mesh];
-            if blas.node_offset != RT_NO_HIT {
+            let slot = (child_bit - 24u) ^ (oct_inv4 & 0xffu);
+            let node = group.x + countOneBits(hits & ~(0xffffffffu << slot));
+            var n0: vec4<u32>;
+            var n1: vec4<u32>;
+            var n2: vec4<u32>;
+            var n3: vec4<u32>;
+            var n4: vec4<u32>;
+            if in_blas {
+                let b = (node_offset + node) * 5u;
+                n0 = blas_nodes[b];
+                n1 = blas_nodes[b + 1u];
+                n2 = blas_nodes[b + 2u];
+                n3 = blas_nodes[b + 3u];
+                n4 = blas_nodes[b + 4u];
                 if RT_COUNT_WORK {
-                    rt_work.y += 1u;
+                    rt_work.z += 1u;
                 }
-                let local_from_world = instances[entry.instance].local_from_world;
-                let origin = (local_from_world * vec4<f32>(ray.origin, 1.0)).xyz;
-                let local_dir = (local_from_world * vec4<f32>(ray.direction, 0.0)).xyz;
-                let h = rt_traverse_blas(blas, entry, origin, local_dir, ray.tmin, best.t, any_hit);
+            } else {
+                let b = node * 5u;
+                n0 = tlas_nodes[b];
+                n1 = tlas_nodes[b + 1u];
+                n2 = tlas_nodes[b + 2u];
+                n3 = tlas_nodes[b + 3u];
+                n4 = tlas_nodes[b + 4u];
+                if RT_COUNT_WORK {
+                    rt_work.x += 1u;
+                }
+            }
+            let hit_mask = rt_cwbvh_node_hits(n0, n1, n2, n3, n4, origin, dir, oct_inv4, ray.tmin, best.t);
+            group = vec2<u32>(n1.x, (hit_mask & 0xff000000u) | (n0.w >> 24u));
+            prims = vec2<u32>(n1.y, hit_mask & 0x00ffffffu);
+        }
+        if in_blas {
+            while prims.y != 0u {
+                let local = firstLeadingBit(prims.y);
+                prims.y &= ~(1u << local);
+                let index = triangle_offset + prims.x + local;
+                if RT_COUNT_WORK {
+                    rt_work.w += 1u;
+                }
+                let h = rt_intersect_triangle(index, origin, tri_dir, ray.tmin, best.t);
                 if h.hit {
                     best.t = h.t;
-                    best.instance = entry.instance;
-                    best.primitive = bitcast<u32>(blas_triangles[h.triangle * 3u].w);
+                    best.instance = instance;
                     best.barycentrics = h.barycentrics;
                     best.front_face = h.front_face;
+                    best_triangle = index;
                     if any_hit {
+                        best.primitive = bitcast<u32>(blas_triangles[best_triangle * 3u].w);
                         return best;
                     }
                 }
             }
+        } else if prims.y != 0u {
+            let local = firstLeadingBit(prims.y);
+            prims.y &= ~(1u << local);
+            let entry = rt_tlas_entry(prims.x + local);
+            // Only the two fields traversal needs, not the whole instance record.
+            let info = blas_info[instances[entry.instance].mesh];
+            if info.node_offset != RT_NO_HIT {
+                if RT_COUNT_WORK {
+                    rt_work.y += 1u;
+                }
+                // What is left of the TLAS walk waits on the stack; entries before nodes.
+                if (group.y & 0xff000000u) != 0u && sp < RT_STACK_SIZE {
+                    stack[sp] = group;
+                    sp += 1u;
+                }
+                if prims.y != 0u && sp < RT_STACK_SIZE {
+                    stack[sp] = prims;
+                    sp += 1u;
+                }
+                tlas_sp = sp;
+                in_blas = true;
+                instance = entry.instance;
+                node_offset = info.node_offset;
+                triangle_offset = info.triangle_offset;
+                let local_from_world = instances[entry.instance].local_from_world;
+                origin = (local_from_world * vec4<f32>(ray.origin, 1.0)).xyz;
+                tri_dir = (local_from_world * vec4<f32>(ray.direction, 0.0)).xyz;
+                dir = rt_safe_direction(tri_dir);
+                oct_inv4 = rt_octant_inv4(dir);
+                let at_node = entry.node != RT_NO_HIT;
+                group = select(vec2<u32>(0u, 0u), vec2<u32>(entry.node, 0x80000000u), at_node);
+                prims = select(vec2<u32>(entry.triangle_base, entry.triangle_mask), vec2<u32>(0u, 0u), at_node);
+                continue;
+            }
         }
+        if (group.y & 0xff000000u) == 0u && prims.y == 0u {
+            if in_blas && sp == tlas_sp {
+                in_blas = false;
+                origin = ray.origin;
+                dir = world_dir;
+                oct_inv4 = world_oct;
+            }
+            if sp == 0u {
+                break;
+            }
+            sp -= 1u;
+            let e = stack[sp];
+            // Node groups have inner hit bits; TLAS entry groups do not.
+            if (e.y & 0xff000000u) != 0u {
+                group = e;
+            } else {
+                group = vec2<u32>(0u, 0u);
+                prims = e;
+            }
+        }
+    }
+    if best.instance != RT_NO_HIT {
+        best.primitive = bitcast<u32>(blas_triangles[best_triangle * 3u].w);
     }
     return best;
 }

@@ -229,7 +229,7 @@ pub struct RayTracingScene {
     slot_prims: Vec<(u32, u32)>,
     /// The Bvh2 leaf of each primitive.
     prim_leaf: Vec<u32>,
-    /// The wide TLAS as uploaded: CWBVH nodes, then eight entries per node (one per child slot).
+    /// The wide TLAS as uploaded: CWBVH nodes, then eight entries per node (its leaves' entries first).
     gpu_tlas: Vec<CwBvhNode>,
     gpu_entries: Vec<TlasEntry>,
     /// For each wide node: the Bvh2 node it stands for, and the Bvh2 node in each child slot.
@@ -265,7 +265,7 @@ impl RayTracingScene {
             results: Mutex::new(results),
             sender,
             progress: BlasBuildProgress::default(),
-            split_blas_roots: std::env::var("RT_TLAS_SPLIT").map_or(true, |v| v != "0"),
+            split_blas_roots: std::env::var("RT_TLAS_SPLIT").is_ok_and(|v| v == "1"),
             tlas: None,
             tlas_prims: Vec::new(),
             slot_prims: Vec::new(),
@@ -523,13 +523,18 @@ impl RayTracingScene {
             }
             let slots = order_slots(bvh, source, &children);
             let mut node = CwBvhNode { child_base_idx: self.wide_source.len() as u32, ..Default::default() };
+            let mut leaves = 0;
             for (s, &c) in slots.iter().enumerate() {
                 if c == NONE {
                     continue;
                 }
                 self.wide_owner[c as usize] = w as u32;
-                node.child_meta[s] = 0b0010_0000 | (24 + s as u8);
-                if !bvh.nodes[c as usize].is_leaf() {
+                if bvh.nodes[c as usize].is_leaf() {
+                    // One entry, the node's leaves-th (CWBVH leaf metadata: count 1 in unary, offset).
+                    node.child_meta[s] = 0b0010_0000 | leaves;
+                    leaves += 1;
+                } else {
+                    node.child_meta[s] = 0b0010_0000 | (24 + s as u8);
                     node.imask |= 1 << s;
                     self.wide_source.push(c);
                     depth.push(depth[w] + 1);
@@ -545,7 +550,8 @@ impl RayTracingScene {
             for (s, &c) in self.wide_children[w].iter().enumerate() {
                 if c != NONE && bvh.nodes[c as usize].is_leaf() {
                     let prim = bvh.primitive_indices[bvh.nodes[c as usize].first_index as usize];
-                    self.gpu_entries[8 * w + s] = self.tlas_prims[prim as usize].entry;
+                    let k = usize::from(self.gpu_tlas[w].child_meta[s] & 0x1f);
+                    self.gpu_entries[8 * w + k] = self.tlas_prims[prim as usize].entry;
                 }
             }
             encode_bounds(bvh, self.wide_source[w] as usize, &self.wide_children[w], &mut self.gpu_tlas[w]);
@@ -636,8 +642,9 @@ impl RayTracingScene {
     }
 }
 
-/// Depth of the TLAS walk's stack in `ray_tracing.inc.wgsl` (`RT_TLAS_STACK_SIZE`).
-pub const TLAS_STACK_SIZE: usize = 32;
+/// The share of the traversal stack in `ray_tracing.inc.wgsl` (`RT_STACK_SIZE`, shared by both
+/// levels) that a TLAS this deep leaves to the BLAS walks.
+pub const TLAS_STACK_SIZE: usize = 24;
 
 /// Places up to eight children in the slots of a wide node so that, for a ray of octant `s`, the
 /// child in slot `s` is the one nearest the ray's start (greedy assignment on the offsets of the
