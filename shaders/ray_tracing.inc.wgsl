@@ -34,10 +34,8 @@ struct TlasEntry {
 // Three vec4 a triangle, in leaf order: (v0, mesh triangle index as bits), (v1 - v0, 0), (v2 - v0, 0).
 @group(0) @binding(8) var<storage, read> blas_triangles: array<vec4<f32>>;
 @group(0) @binding(9) var<storage, read> blas_info: array<GpuBlas>;
-// The TLAS: CWBVH nodes (5 × vec4<u32> each). Every child of a TLAS node is marked inner (its
-// metadata and imask), so leaves too come in octant order and have an index: child_base_idx + the
-// number of children in lower slots. primitive_base_idx holds the mask of the slots that are leaves;
-// at a leaf's index the first vec4 is its TlasEntry.
+// The TLAS: CWBVH nodes (5 × vec4<u32> each) whose leaves hold one TlasEntry each, then the entries
+// (one vec4 each; a node's primitive_base_idx is an index into this array).
 @group(0) @binding(10) var<storage, read> tlas_nodes: array<vec4<u32>>;
 @group(0) @binding(11) var<storage, read> indices: array<u32>;
 
@@ -169,18 +167,17 @@ fn rt_intersect_triangle(index: u32, origin: vec3<f32>, dir: vec3<f32>, tmin: f3
     return out;
 }
 
-// The entry stored at TLAS leaf `index`.
 fn rt_tlas_entry(index: u32) -> TlasEntry {
-    let v = tlas_nodes[index * 5u];
+    let v = tlas_nodes[index];
     return TlasEntry(v.x, v.y, v.z, v.w);
 }
 
 // Closest hit (or any hit) of a ray: one loop over both levels, so that the lanes of a warp test
-// nodes together whether they are in the TLAS or in an instance's BLAS. Each step takes the next
-// child of the current group in octant order: a node (TLAS or BLAS, tested by the same code, then
-// the triangles it hit when in a BLAS), or a TLAS leaf: entering its instance pushes what is left of
-// the TLAS walk, takes the ray into instance space and starts the BLAS walk at the leaf's entry; the
-// walk returns to the TLAS when the stack is back at the level it entered at.
+// nodes together whether they are in the TLAS or in an instance's BLAS. Each step tests one CWBVH
+// node (TLAS or BLAS, same code), then either the triangles it hit (in a BLAS) or one of the TLAS
+// entries it hit: entering an instance pushes what is left of the TLAS walk, takes the ray into
+// instance space and starts the BLAS walk at the entry; the walk returns to the TLAS when the stack
+// is back at the level it entered at.
 fn rt_trace(ray: Ray, any_hit: bool) -> RayHit {
     var best = rt_no_hit(ray.tmax);
     var best_triangle = 0u;
@@ -199,34 +196,91 @@ fn rt_trace(ray: Ray, any_hit: bool) -> RayHit {
     var stack: array<vec2<u32>, RT_STACK_SIZE>;
     var sp = 0u;
     var tlas_sp = 0u;
-    // Children still to visit: (first child's index, hit bits 24..31 in octant order | TLAS leaf
-    // mask in bits 8..15 | child mask in bits 0..7), and triangles still to test in a BLAS. The walk
-    // starts with the TLAS root as the only child of a virtual parent.
+    // Inner children still to visit (base, hit bits 24..31 in octant order | imask bits 0..7), and
+    // primitives still to test (base, bits): triangles in a BLAS, entries in the TLAS. The walk
+    // starts with the TLAS root as the only inner child of a virtual parent.
     var group = vec2<u32>(0u, 0x80000000u);
-    var triangles = vec2<u32>(0u, 0u);
+    var prims = vec2<u32>(0u, 0u);
     loop {
-        if (group.y & 0xff000000u) != 0u {
+        if (group.y & 0xff000000u) != 0u && prims.y == 0u {
             let hits = group.y;
             let child_bit = firstLeadingBit(hits);
             group.y &= ~(1u << child_bit);
-            let slot = (child_bit - 24u) ^ (oct_inv4 & 0xffu);
-            let child = group.x + countOneBits(hits & ~(0xffffffffu << slot));
-            let tlas_leaf = ((hits >> (8u + slot)) & 1u) != 0u;
-            var entry: TlasEntry;
-            var info: GpuBlas;
-            if tlas_leaf {
-                entry = rt_tlas_entry(child);
-                // Only the two fields traversal needs, not the whole instance record.
-                info = blas_info[instances[entry.instance].mesh];
-            }
-            let enter = tlas_leaf && info.node_offset != RT_NO_HIT;
-            if (!tlas_leaf || enter) && (group.y & 0xff000000u) != 0u && sp < RT_STACK_SIZE {
+            if (group.y & 0xff000000u) != 0u && sp < RT_STACK_SIZE {
                 stack[sp] = group;
                 sp += 1u;
             }
-            if enter {
+            let slot = (child_bit - 24u) ^ (oct_inv4 & 0xffu);
+            let node = group.x + countOneBits(hits & ~(0xffffffffu << slot));
+            var n0: vec4<u32>;
+            var n1: vec4<u32>;
+            var n2: vec4<u32>;
+            var n3: vec4<u32>;
+            var n4: vec4<u32>;
+            if in_blas {
+                let b = (node_offset + node) * 5u;
+                n0 = blas_nodes[b];
+                n1 = blas_nodes[b + 1u];
+                n2 = blas_nodes[b + 2u];
+                n3 = blas_nodes[b + 3u];
+                n4 = blas_nodes[b + 4u];
+                if RT_COUNT_WORK {
+                    rt_work.z += 1u;
+                }
+            } else {
+                let b = node * 5u;
+                n0 = tlas_nodes[b];
+                n1 = tlas_nodes[b + 1u];
+                n2 = tlas_nodes[b + 2u];
+                n3 = tlas_nodes[b + 3u];
+                n4 = tlas_nodes[b + 4u];
+                if RT_COUNT_WORK {
+                    rt_work.x += 1u;
+                }
+            }
+            let hit_mask = rt_cwbvh_node_hits(n0, n1, n2, n3, n4, origin, dir, oct_inv4, ray.tmin, best.t);
+            group = vec2<u32>(n1.x, (hit_mask & 0xff000000u) | (n0.w >> 24u));
+            prims = vec2<u32>(n1.y, hit_mask & 0x00ffffffu);
+        }
+        if in_blas {
+            while prims.y != 0u {
+                let local = firstLeadingBit(prims.y);
+                prims.y &= ~(1u << local);
+                let index = triangle_offset + prims.x + local;
+                if RT_COUNT_WORK {
+                    rt_work.w += 1u;
+                }
+                let h = rt_intersect_triangle(index, origin, tri_dir, ray.tmin, best.t);
+                if h.hit {
+                    best.t = h.t;
+                    best.instance = instance;
+                    best.barycentrics = h.barycentrics;
+                    best.front_face = h.front_face;
+                    best_triangle = index;
+                    if any_hit {
+                        best.primitive = bitcast<u32>(blas_triangles[best_triangle * 3u].w);
+                        return best;
+                    }
+                }
+            }
+        } else if prims.y != 0u {
+            let local = firstLeadingBit(prims.y);
+            prims.y &= ~(1u << local);
+            let entry = rt_tlas_entry(prims.x + local);
+            // Only the two fields traversal needs, not the whole instance record.
+            let info = blas_info[instances[entry.instance].mesh];
+            if info.node_offset != RT_NO_HIT {
                 if RT_COUNT_WORK {
                     rt_work.y += 1u;
+                }
+                // What is left of the TLAS walk waits on the stack; entries before nodes.
+                if (group.y & 0xff000000u) != 0u && sp < RT_STACK_SIZE {
+                    stack[sp] = group;
+                    sp += 1u;
+                }
+                if prims.y != 0u && sp < RT_STACK_SIZE {
+                    stack[sp] = prims;
+                    sp += 1u;
                 }
                 tlas_sp = sp;
                 in_blas = true;
@@ -240,61 +294,11 @@ fn rt_trace(ray: Ray, any_hit: bool) -> RayHit {
                 oct_inv4 = rt_octant_inv4(dir);
                 let at_node = entry.node != RT_NO_HIT;
                 group = select(vec2<u32>(0u, 0u), vec2<u32>(entry.node, 0x80000000u), at_node);
-                triangles = select(vec2<u32>(entry.triangle_base, entry.triangle_mask), vec2<u32>(0u, 0u), at_node);
-            } else if !tlas_leaf {
-                var n0: vec4<u32>;
-                var n1: vec4<u32>;
-                var n2: vec4<u32>;
-                var n3: vec4<u32>;
-                var n4: vec4<u32>;
-                if in_blas {
-                    let b = (node_offset + child) * 5u;
-                    n0 = blas_nodes[b];
-                    n1 = blas_nodes[b + 1u];
-                    n2 = blas_nodes[b + 2u];
-                    n3 = blas_nodes[b + 3u];
-                    n4 = blas_nodes[b + 4u];
-                    if RT_COUNT_WORK {
-                        rt_work.z += 1u;
-                    }
-                } else {
-                    let b = child * 5u;
-                    n0 = tlas_nodes[b];
-                    n1 = tlas_nodes[b + 1u];
-                    n2 = tlas_nodes[b + 2u];
-                    n3 = tlas_nodes[b + 3u];
-                    n4 = tlas_nodes[b + 4u];
-                    if RT_COUNT_WORK {
-                        rt_work.x += 1u;
-                    }
-                }
-                let hit_mask = rt_cwbvh_node_hits(n0, n1, n2, n3, n4, origin, dir, oct_inv4, ray.tmin, best.t);
-                // TLAS nodes keep their leaf mask where BLAS nodes keep their first triangle.
-                group = vec2<u32>(n1.x, (hit_mask & 0xff000000u) | select((n1.y & 0xffu) << 8u, 0u, in_blas) | (n0.w >> 24u));
-                triangles = vec2<u32>(n1.y, select(0u, hit_mask & 0x00ffffffu, in_blas));
+                prims = select(vec2<u32>(entry.triangle_base, entry.triangle_mask), vec2<u32>(0u, 0u), at_node);
+                continue;
             }
         }
-        while triangles.y != 0u {
-            let local = firstLeadingBit(triangles.y);
-            triangles.y &= ~(1u << local);
-            let index = triangle_offset + triangles.x + local;
-            if RT_COUNT_WORK {
-                rt_work.w += 1u;
-            }
-            let h = rt_intersect_triangle(index, origin, tri_dir, ray.tmin, best.t);
-            if h.hit {
-                best.t = h.t;
-                best.instance = instance;
-                best.barycentrics = h.barycentrics;
-                best.front_face = h.front_face;
-                best_triangle = index;
-                if any_hit {
-                    best.primitive = bitcast<u32>(blas_triangles[best_triangle * 3u].w);
-                    return best;
-                }
-            }
-        }
-        if (group.y & 0xff000000u) == 0u {
+        if (group.y & 0xff000000u) == 0u && prims.y == 0u {
             if in_blas && sp == tlas_sp {
                 in_blas = false;
                 origin = ray.origin;
@@ -305,7 +309,14 @@ fn rt_trace(ray: Ray, any_hit: bool) -> RayHit {
                 break;
             }
             sp -= 1u;
-            group = stack[sp];
+            let e = stack[sp];
+            // Node groups have inner hit bits; TLAS entry groups do not.
+            if (e.y & 0xff000000u) != 0u {
+                group = e;
+            } else {
+                group = vec2<u32>(0u, 0u);
+                prims = e;
+            }
         }
     }
     if best.instance != RT_NO_HIT {

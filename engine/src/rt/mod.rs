@@ -229,9 +229,10 @@ pub struct RayTracingScene {
     slot_prims: Vec<(u32, u32)>,
     /// The Bvh2 leaf of each primitive.
     prim_leaf: Vec<u32>,
-    /// The wide TLAS as uploaded: CWBVH nodes, and at each leaf's index its entry (first 16 bytes).
+    /// The wide TLAS as uploaded: CWBVH nodes, then eight entries per node (its leaves' entries first).
     gpu_tlas: Vec<CwBvhNode>,
-    /// For each wide index: the Bvh2 node it stands for, and (inner nodes) the Bvh2 node in each child slot.
+    gpu_entries: Vec<TlasEntry>,
+    /// For each wide node: the Bvh2 node it stands for, and the Bvh2 node in each child slot.
     wide_source: Vec<u32>,
     wide_children: Vec<[u32; 8]>,
     /// For each Bvh2 node: the wide node that has it as a child (`NONE` for inner nodes collapsed away).
@@ -270,6 +271,7 @@ impl RayTracingScene {
             slot_prims: Vec::new(),
             prim_leaf: Vec::new(),
             gpu_tlas: Vec::new(),
+            gpu_entries: Vec::new(),
             wide_source: Vec::new(),
             wide_children: Vec::new(),
             wide_owner: Vec::new(),
@@ -298,6 +300,11 @@ impl RayTracingScene {
         let mut all = scene.bindings();
         all.extend(self.bindings());
         all
+    }
+
+    /// The TLAS as uploaded (CPU copy): its 8-wide nodes and their entries, eight per node.
+    pub fn tlas_cpu(&self) -> (&[CwBvhNode], &[TlasEntry]) {
+        (&self.gpu_tlas, &self.gpu_entries)
     }
 
     /// The BLAS of mesh `index`, once built.
@@ -481,33 +488,22 @@ impl RayTracingScene {
 
     /// Collapses the binary TLAS into the 8-wide one the GPU walks: each wide node takes the Bvh2
     /// node it stands for and opens its largest inner descendants until it has eight children,
-    /// placed in the slots of the ray octants they are nearest for. A node's children, inner nodes
-    /// and leaves alike, get consecutive indices (breadth first); a leaf's index holds its entry.
+    /// placed in the slots of the ray octants they are nearest for. Nodes are numbered breadth
+    /// first, so each node's inner children are consecutive.
     fn collapse_tlas(&mut self) {
         self.wide_source.clear();
         self.wide_children.clear();
         self.gpu_tlas.clear();
+        self.gpu_entries.clear();
         let Some(bvh) = &self.tlas else { return };
         self.wide_owner = vec![NONE; bvh.nodes.len()];
-        // The root is a wide node even when the Bvh2 is a single leaf.
         self.wide_source.push(0);
-        self.wide_children.push([NONE; 8]);
-        self.gpu_tlas.push(CwBvhNode::default());
-        let mut is_leaf = vec![false];
         let mut depth = vec![1usize];
         let mut next = 0;
         while next < self.wide_source.len() {
             let w = next;
             next += 1;
             let source = self.wide_source[w] as usize;
-            if is_leaf[w] {
-                let prim = bvh.primitive_indices[bvh.nodes[source].first_index as usize];
-                let e = self.tlas_prims[prim as usize].entry;
-                let mut raw = [0u32; 20];
-                raw[..4].copy_from_slice(&[e.instance, e.node, e.triangle_base, e.triangle_mask]);
-                self.gpu_tlas[w] = bytemuck::cast(raw);
-                continue;
-            }
             let mut children: Vec<u32> = if bvh.nodes[source].is_leaf() {
                 vec![source as u32]
             } else {
@@ -526,29 +522,39 @@ impl RayTracingScene {
                 children.push(first + 1);
             }
             let slots = order_slots(bvh, source, &children);
-            // Every child is marked inner in the CWBVH metadata (so the ray visits leaves too in
-            // octant order) and in imask (so it gets an index); primitive_base_idx holds the leaf mask.
             let mut node = CwBvhNode { child_base_idx: self.wide_source.len() as u32, ..Default::default() };
+            let mut leaves = 0;
             for (s, &c) in slots.iter().enumerate() {
                 if c == NONE {
                     continue;
                 }
                 self.wide_owner[c as usize] = w as u32;
-                node.child_meta[s] = 0b0010_0000 | (24 + s as u8);
-                node.imask |= 1 << s;
-                let leaf = bvh.nodes[c as usize].is_leaf();
-                if leaf {
-                    node.primitive_base_idx |= 1 << s;
+                if bvh.nodes[c as usize].is_leaf() {
+                    // One entry, the node's leaves-th (CWBVH leaf metadata: count 1 in unary, offset).
+                    node.child_meta[s] = 0b0010_0000 | leaves;
+                    leaves += 1;
+                } else {
+                    node.child_meta[s] = 0b0010_0000 | (24 + s as u8);
+                    node.imask |= 1 << s;
+                    self.wide_source.push(c);
+                    depth.push(depth[w] + 1);
                 }
-                self.wide_source.push(c);
-                self.wide_children.push([NONE; 8]);
-                self.gpu_tlas.push(CwBvhNode::default());
-                is_leaf.push(leaf);
-                depth.push(depth[w] + 1);
             }
-            encode_bounds(bvh, source, &slots, &mut node);
-            self.gpu_tlas[w] = node;
-            self.wide_children[w] = slots;
+            self.gpu_tlas.push(node);
+            self.wide_children.push(slots);
+        }
+        let entries_base = (self.gpu_tlas.len() * 5) as u32;
+        self.gpu_entries = vec![TlasEntry::zeroed(); self.gpu_tlas.len() * 8];
+        for w in 0..self.gpu_tlas.len() {
+            self.gpu_tlas[w].primitive_base_idx = entries_base + 8 * w as u32;
+            for (s, &c) in self.wide_children[w].iter().enumerate() {
+                if c != NONE && bvh.nodes[c as usize].is_leaf() {
+                    let prim = bvh.primitive_indices[bvh.nodes[c as usize].first_index as usize];
+                    let k = usize::from(self.gpu_tlas[w].child_meta[s] & 0x1f);
+                    self.gpu_entries[8 * w + k] = self.tlas_prims[prim as usize].entry;
+                }
+            }
+            encode_bounds(bvh, self.wide_source[w] as usize, &self.wide_children[w], &mut self.gpu_tlas[w]);
         }
         let depth = depth.into_iter().max().unwrap_or(0);
         if depth > TLAS_STACK_SIZE {
@@ -560,8 +566,12 @@ impl RayTracingScene {
         if self.gpu_tlas.is_empty() {
             // An empty TLAS: a root without children.
             self.gpu_tlas = vec![CwBvhNode::default()];
+            self.gpu_entries = vec![TlasEntry::zeroed(); 8];
         }
-        self.tlas_nodes.write(gpu, bytemuck::cast_slice(&self.gpu_tlas));
+        let mut bytes: Vec<u8> = Vec::with_capacity(size_of_val(self.gpu_tlas.as_slice()) + size_of_val(self.gpu_entries.as_slice()));
+        bytes.extend_from_slice(bytemuck::cast_slice(&self.gpu_tlas));
+        bytes.extend_from_slice(bytemuck::cast_slice(&self.gpu_entries));
+        self.tlas_nodes.write(gpu, &bytes);
         self.stats.tlas_nodes_uploaded += self.gpu_tlas.len();
     }
 
