@@ -23,11 +23,16 @@ struct GpuBlas {
 // Where a ray enters an instance at a TLAS leaf. node: the BLAS node to start at (relative to the
 // BLAS's first), or RT_NO_HIT for a leaf of the BLAS root: then the triangles of triangle_mask (bit k:
 // triangle triangle_base + k, relative to the BLAS's first triangle).
+// node_offset and triangle_offset: where the BLAS lives, as in GpuBlas.
 struct TlasEntry {
     instance: u32,
     node: u32,
     triangle_base: u32,
     triangle_mask: u32,
+    node_offset: u32,
+    triangle_offset: u32,
+    _pad0: u32,
+    _pad1: u32,
 }
 
 @group(0) @binding(7) var<storage, read> blas_nodes: array<vec4<u32>>;
@@ -35,7 +40,8 @@ struct TlasEntry {
 @group(0) @binding(8) var<storage, read> blas_triangles: array<vec4<f32>>;
 @group(0) @binding(9) var<storage, read> blas_info: array<GpuBlas>;
 // The TLAS: CWBVH nodes (5 × vec4<u32> each) whose leaves hold one TlasEntry each, then the entries
-// (one vec4 each; a node's primitive_base_idx is an index into this array).
+// (two vec4 each, eight a node, one per child slot; primitive_base_idx counts in entries from the
+// start of this array).
 @group(0) @binding(10) var<storage, read> tlas_nodes: array<vec4<u32>>;
 @group(0) @binding(11) var<storage, read> indices: array<u32>;
 
@@ -168,8 +174,9 @@ fn rt_intersect_triangle(index: u32, origin: vec3<f32>, dir: vec3<f32>, tmin: f3
 }
 
 fn rt_tlas_entry(index: u32) -> TlasEntry {
-    let v = tlas_nodes[index];
-    return TlasEntry(v.x, v.y, v.z, v.w);
+    let a = tlas_nodes[2u * index];
+    let b = tlas_nodes[2u * index + 1u];
+    return TlasEntry(a.x, a.y, a.z, a.w, b.x, b.y, b.z, b.w);
 }
 
 // Closest hit (or any hit) of a ray: one loop over both levels, so that the lanes of a warp test
@@ -267,36 +274,32 @@ fn rt_trace(ray: Ray, any_hit: bool) -> RayHit {
             let local = firstLeadingBit(prims.y);
             prims.y &= ~(1u << local);
             let entry = rt_tlas_entry(prims.x + local);
-            // Only the two fields traversal needs, not the whole instance record.
-            let info = blas_info[instances[entry.instance].mesh];
-            if info.node_offset != RT_NO_HIT {
-                if RT_COUNT_WORK {
-                    rt_work.y += 1u;
-                }
-                // What is left of the TLAS walk waits on the stack; entries before nodes.
-                if (group.y & 0xff000000u) != 0u && sp < RT_STACK_SIZE {
-                    stack[sp] = group;
-                    sp += 1u;
-                }
-                if prims.y != 0u && sp < RT_STACK_SIZE {
-                    stack[sp] = prims;
-                    sp += 1u;
-                }
-                tlas_sp = sp;
-                in_blas = true;
-                instance = entry.instance;
-                node_offset = info.node_offset;
-                triangle_offset = info.triangle_offset;
-                let local_from_world = instances[entry.instance].local_from_world;
-                origin = (local_from_world * vec4<f32>(ray.origin, 1.0)).xyz;
-                tri_dir = (local_from_world * vec4<f32>(ray.direction, 0.0)).xyz;
-                dir = rt_safe_direction(tri_dir);
-                oct_inv4 = rt_octant_inv4(dir);
-                let at_node = entry.node != RT_NO_HIT;
-                group = select(vec2<u32>(0u, 0u), vec2<u32>(entry.node, 0x80000000u), at_node);
-                prims = select(vec2<u32>(entry.triangle_base, entry.triangle_mask), vec2<u32>(0u, 0u), at_node);
-                continue;
+            if RT_COUNT_WORK {
+                rt_work.y += 1u;
             }
+            // What is left of the TLAS walk waits on the stack; entries before nodes.
+            if (group.y & 0xff000000u) != 0u && sp < RT_STACK_SIZE {
+                stack[sp] = group;
+                sp += 1u;
+            }
+            if prims.y != 0u && sp < RT_STACK_SIZE {
+                stack[sp] = prims;
+                sp += 1u;
+            }
+            tlas_sp = sp;
+            in_blas = true;
+            instance = entry.instance;
+            node_offset = entry.node_offset;
+            triangle_offset = entry.triangle_offset;
+            let local_from_world = instances[entry.instance].local_from_world;
+            origin = (local_from_world * vec4<f32>(ray.origin, 1.0)).xyz;
+            tri_dir = (local_from_world * vec4<f32>(ray.direction, 0.0)).xyz;
+            dir = rt_safe_direction(tri_dir);
+            oct_inv4 = rt_octant_inv4(dir);
+            let at_node = entry.node != RT_NO_HIT;
+            group = select(vec2<u32>(0u, 0u), vec2<u32>(entry.node, 0x80000000u), at_node);
+            prims = select(vec2<u32>(entry.triangle_base, entry.triangle_mask), vec2<u32>(0u, 0u), at_node);
+            continue;
         }
         if (group.y & 0xff000000u) == 0u && prims.y == 0u {
             if in_blas && sp == tlas_sp {

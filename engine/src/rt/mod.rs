@@ -110,6 +110,8 @@ pub struct GpuBlas {
 /// WGSL `TlasEntry`. `node` is the BLAS node to start at (relative to the BLAS's first node), or
 /// `u32::MAX` when the entry is a leaf of the BLAS root: then the ray tests the triangles of
 /// `triangle_mask` (bit k: triangle `triangle_base + k`, relative to the BLAS's first triangle).
+/// `node_offset` and `triangle_offset` say where the BLAS lives (as in [`GpuBlas`]), so that entering
+/// an instance does not wait for its mesh's record.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct TlasEntry {
@@ -117,6 +119,10 @@ pub struct TlasEntry {
     pub node: u32,
     pub triangle_base: u32,
     pub triangle_mask: u32,
+    pub node_offset: u32,
+    pub triangle_offset: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
 }
 
 /// One TLAS primitive: the part of a BLAS an entry covers, with its local-space bounds.
@@ -229,7 +235,7 @@ pub struct RayTracingScene {
     slot_prims: Vec<(u32, u32)>,
     /// The Bvh2 leaf of each primitive.
     prim_leaf: Vec<u32>,
-    /// The wide TLAS as uploaded: CWBVH nodes, then eight entries per node (its leaves' entries first).
+    /// The wide TLAS as uploaded: CWBVH nodes, then eight entries per node (one per child slot).
     gpu_tlas: Vec<CwBvhNode>,
     gpu_entries: Vec<TlasEntry>,
     /// For each wide node: the Bvh2 node it stands for, and the Bvh2 node in each child slot.
@@ -423,12 +429,24 @@ impl RayTracingScene {
     /// empty mesh) or a transform that gives no valid bounds.
     fn instance_prims(&self, slot: u32, mesh: u32, world: &Affine3A) -> Option<Vec<(TlasPrim, Aabb)>> {
         let blas = self.blas(mesh as usize)?;
+        // A BLAS that is not on the GPU (over the buffer limit) is not traced.
+        let info = self.gpu_blas.get(mesh as usize).filter(|b| b.node_offset != u32::MAX)?;
         let entries = blas_entries(blas, self.split_blas_roots);
         let prims: Option<Vec<_>> = entries
             .into_iter()
             .map(|(local, node, triangle_base, triangle_mask)| {
                 let aabb = world_aabb(local, world)?;
-                Some((TlasPrim { local, entry: TlasEntry { instance: slot, node, triangle_base, triangle_mask } }, aabb))
+                let entry = TlasEntry {
+                    instance: slot,
+                    node,
+                    triangle_base,
+                    triangle_mask,
+                    node_offset: info.node_offset,
+                    triangle_offset: info.triangle_offset,
+                    _pad0: 0,
+                    _pad1: 0,
+                };
+                Some((TlasPrim { local, entry }, aabb))
             })
             .collect();
         prims.filter(|p| !p.is_empty())
@@ -523,16 +541,14 @@ impl RayTracingScene {
             }
             let slots = order_slots(bvh, source, &children);
             let mut node = CwBvhNode { child_base_idx: self.wide_source.len() as u32, ..Default::default() };
-            let mut leaves = 0;
             for (s, &c) in slots.iter().enumerate() {
                 if c == NONE {
                     continue;
                 }
                 self.wide_owner[c as usize] = w as u32;
                 if bvh.nodes[c as usize].is_leaf() {
-                    // One entry, the node's leaves-th (CWBVH leaf metadata: count 1 in unary, offset).
-                    node.child_meta[s] = 0b0010_0000 | leaves;
-                    leaves += 1;
+                    // One entry, at the slot's offset (CWBVH leaf metadata: count 1 in unary, offset).
+                    node.child_meta[s] = 0b0010_0000 | s as u8;
                 } else {
                     node.child_meta[s] = 0b0010_0000 | (24 + s as u8);
                     node.imask |= 1 << s;
@@ -543,15 +559,15 @@ impl RayTracingScene {
             self.gpu_tlas.push(node);
             self.wide_children.push(slots);
         }
-        let entries_base = (self.gpu_tlas.len() * 5) as u32;
+        // Entries (two vec4 each) follow the nodes (five each, padded to an even count).
+        let entries_base = (self.gpu_tlas.len() * 5).div_ceil(2) as u32;
         self.gpu_entries = vec![TlasEntry::zeroed(); self.gpu_tlas.len() * 8];
         for w in 0..self.gpu_tlas.len() {
             self.gpu_tlas[w].primitive_base_idx = entries_base + 8 * w as u32;
             for (s, &c) in self.wide_children[w].iter().enumerate() {
                 if c != NONE && bvh.nodes[c as usize].is_leaf() {
                     let prim = bvh.primitive_indices[bvh.nodes[c as usize].first_index as usize];
-                    let k = usize::from(self.gpu_tlas[w].child_meta[s] & 0x1f);
-                    self.gpu_entries[8 * w + k] = self.tlas_prims[prim as usize].entry;
+                    self.gpu_entries[8 * w + s] = self.tlas_prims[prim as usize].entry;
                 }
             }
             encode_bounds(bvh, self.wide_source[w] as usize, &self.wide_children[w], &mut self.gpu_tlas[w]);
@@ -570,6 +586,9 @@ impl RayTracingScene {
         }
         let mut bytes: Vec<u8> = Vec::with_capacity(size_of_val(self.gpu_tlas.as_slice()) + size_of_val(self.gpu_entries.as_slice()));
         bytes.extend_from_slice(bytemuck::cast_slice(&self.gpu_tlas));
+        if self.gpu_tlas.len() % 2 == 1 {
+            bytes.extend_from_slice(&[0; 16]);
+        }
         bytes.extend_from_slice(bytemuck::cast_slice(&self.gpu_entries));
         self.tlas_nodes.write(gpu, &bytes);
         self.stats.tlas_nodes_uploaded += self.gpu_tlas.len();
