@@ -173,6 +173,23 @@ fn rt_intersect_triangle(index: u32, origin: vec3<f32>, dir: vec3<f32>, tmin: f3
     return out;
 }
 
+// Moves bit k of the 8-bit mask m to bit k ^ x. A TLAS node's leaf entries sit at their slots; their
+// hit mask permuted by the ray octant and walked from the top bit enters them in octant order
+// (nearest first, as inner children are visited).
+fn rt_xor_permute8(m: u32, x: u32) -> u32 {
+    var r = m;
+    if (x & 1u) != 0u {
+        r = ((r & 0x55u) << 1u) | ((r >> 1u) & 0x55u);
+    }
+    if (x & 2u) != 0u {
+        r = ((r & 0x33u) << 2u) | ((r >> 2u) & 0x33u);
+    }
+    if (x & 4u) != 0u {
+        r = ((r & 0x0fu) << 4u) | ((r >> 4u) & 0x0fu);
+    }
+    return r;
+}
+
 fn rt_tlas_entry(index: u32) -> TlasEntry {
     let a = tlas_nodes[2u * index];
     let b = tlas_nodes[2u * index + 1u];
@@ -247,7 +264,7 @@ fn rt_trace(ray: Ray, any_hit: bool) -> RayHit {
             }
             let hit_mask = rt_cwbvh_node_hits(n0, n1, n2, n3, n4, origin, dir, oct_inv4, ray.tmin, best.t);
             group = vec2<u32>(n1.x, (hit_mask & 0xff000000u) | (n0.w >> 24u));
-            prims = vec2<u32>(n1.y, hit_mask & 0x00ffffffu);
+            prims = vec2<u32>(n1.y, select(rt_xor_permute8(hit_mask & 0xffu, oct_inv4 & 7u), hit_mask & 0x00ffffffu, in_blas));
         }
         if in_blas {
             while prims.y != 0u {
@@ -271,9 +288,10 @@ fn rt_trace(ray: Ray, any_hit: bool) -> RayHit {
                 }
             }
         } else if prims.y != 0u {
-            let local = firstLeadingBit(prims.y);
-            prims.y &= ~(1u << local);
-            let entry = rt_tlas_entry(prims.x + local);
+            // TLAS entry bits are permuted by the octant (rt_xor_permute8).
+            let bit = firstLeadingBit(prims.y);
+            prims.y &= ~(1u << bit);
+            let entry = rt_tlas_entry(prims.x + (bit ^ (oct_inv4 & 7u)));
             if RT_COUNT_WORK {
                 rt_work.y += 1u;
             }

@@ -705,7 +705,15 @@ fn order_slots(bvh: &Bvh2, source: usize, children: &[u32]) -> [u32; 8] {
 fn encode_bounds(bvh: &Bvh2, source: usize, children: &[u32; 8], node: &mut CwBvhNode) {
     let aabb = bvh.nodes[source].aabb();
     let p = aabb.min;
-    let e = ((aabb.max - aabb.min).max(Vec3A::splat(1e-20)) * (1.0 / 255.0)).log2().ceil().exp2();
+    // The smallest power of two at least extent / 255 (from the float's bits: refits re-encode
+    // many nodes), so that 255 steps span the node.
+    let step = |extent: f32| {
+        let bits = (extent.max(1e-20) * (1.0 / 255.0)).to_bits();
+        let exponent = bits & 0x7f80_0000;
+        f32::from_bits(if bits & 0x007f_ffff != 0 { exponent + 0x0080_0000 } else { exponent })
+    };
+    let extent = aabb.max - aabb.min;
+    let e = Vec3A::new(step(extent.x), step(extent.y), step(extent.z));
     let rcp_e = 1.0 / e;
     node.p = p.into();
     node.e = [(e.x.to_bits() >> 23) as u8, (e.y.to_bits() >> 23) as u8, (e.z.to_bits() >> 23) as u8];
