@@ -1,10 +1,9 @@
 // The ray-tracing core: closest-hit and any-hit traversal of the two-level BVH.
 //
-// TLAS and BLASes: 8-wide compressed BVHs (CWBVH, Ylitie, Karras and Laine 2017), traversed with
-// node groups in ray-octant order. The TLAS's leaves are entries into instances: at the BLAS root,
-// or at one of its children (so a ray skips the empty parts of a mesh's bounds). BLASes: one per mesh. The ray is taken into instance space with the
-// instance's inverse transform and its direction is NOT normalized, so t means the same thing in
-// every instance and in the world.
+// TLAS and BLASes (one per mesh): 8-wide compressed BVHs (CWBVH, Ylitie, Karras and Laine 2017),
+// walked in one loop with node groups in ray-octant order. The TLAS's leaves are instances; the ray
+// is taken into instance space with the instance's inverse transform and its direction is NOT
+// normalized, so t means the same thing in every instance and in the world.
 #include "scene.inc.wgsl"
 
 // Where a mesh's BLAS lives in blas_nodes (5 × vec4<u32> = 80 bytes a node) and blas_triangles.
@@ -20,19 +19,12 @@ struct GpuBlas {
     _pad1: u32,
 }
 
-// Where a ray enters an instance at a TLAS leaf. node: the BLAS node to start at (relative to the
-// BLAS's first), or RT_NO_HIT for a leaf of the BLAS root: then the triangles of triangle_mask (bit k:
-// triangle triangle_base + k, relative to the BLAS's first triangle).
-// node_offset and triangle_offset: where the BLAS lives, as in GpuBlas.
+// A TLAS leaf: the instance a ray enters there, and where its BLAS lives (as in GpuBlas).
 struct TlasEntry {
     instance: u32,
-    node: u32,
-    triangle_base: u32,
-    triangle_mask: u32,
     node_offset: u32,
     triangle_offset: u32,
-    _pad0: u32,
-    _pad1: u32,
+    _pad: u32,
 }
 
 @group(0) @binding(7) var<storage, read> blas_nodes: array<vec4<u32>>;
@@ -40,8 +32,7 @@ struct TlasEntry {
 @group(0) @binding(8) var<storage, read> blas_triangles: array<vec4<f32>>;
 @group(0) @binding(9) var<storage, read> blas_info: array<GpuBlas>;
 // The TLAS: CWBVH nodes (5 × vec4<u32> each) whose leaves hold one TlasEntry each, then the entries
-// (two vec4 each, eight a node, one per child slot; primitive_base_idx counts in entries from the
-// start of this array).
+// (one vec4 each, eight a node, one per child slot; primitive_base_idx is an index into this array).
 @group(0) @binding(10) var<storage, read> tlas_nodes: array<vec4<u32>>;
 @group(0) @binding(11) var<storage, read> indices: array<u32>;
 
@@ -191,9 +182,8 @@ fn rt_xor_permute8(m: u32, x: u32) -> u32 {
 }
 
 fn rt_tlas_entry(index: u32) -> TlasEntry {
-    let a = tlas_nodes[2u * index];
-    let b = tlas_nodes[2u * index + 1u];
-    return TlasEntry(a.x, a.y, a.z, a.w, b.x, b.y, b.z, b.w);
+    let v = tlas_nodes[index];
+    return TlasEntry(v.x, v.y, v.z, v.w);
 }
 
 // Closest hit (or any hit) of a ray: one loop over both levels, so that the lanes of a warp test
@@ -314,9 +304,8 @@ fn rt_trace(ray: Ray, any_hit: bool) -> RayHit {
             tri_dir = (local_from_world * vec4<f32>(ray.direction, 0.0)).xyz;
             dir = rt_safe_direction(tri_dir);
             oct_inv4 = rt_octant_inv4(dir);
-            let at_node = entry.node != RT_NO_HIT;
-            group = select(vec2<u32>(0u, 0u), vec2<u32>(entry.node, 0x80000000u), at_node);
-            prims = select(vec2<u32>(entry.triangle_base, entry.triangle_mask), vec2<u32>(0u, 0u), at_node);
+            // The BLAS root, as the only inner child of a virtual parent.
+            group = vec2<u32>(0u, 0x80000000u);
             continue;
         }
         if (group.y & 0xff000000u) == 0u && prims.y == 0u {

@@ -6,13 +6,19 @@
 //!   full float) so that traversal reads them without indirection; each keeps its mesh triangle index.
 //!   Meshes above [`ASYNC_BLAS_TRIANGLES`] are built on a worker thread, off the frame loop, with
 //!   progress in [`BlasBuildProgress`]; until its BLAS is ready an instance is not traced.
-//! - **TLAS**: a binary BVH (obvhs PLOC) over the world bounds of the instances. When entities move
-//!   only their leaves are updated and the TLAS is refitted; it is rebuilt when instances are added
-//!   or removed, or when refitting has let its quality decay. Only changed nodes are uploaded. A static
-//!   scene does no BVH work per frame.
+//! - **TLAS**: an 8-wide CWBVH over the world bounds of the instances, encoded like a BLAS so that
+//!   one node test serves both levels. It is collapsed from a binary BVH (obvhs PLOC plus
+//!   reinsertion) that stays on the CPU: each wide node opens its largest descendants until it has
+//!   eight children, placed in the slots of the ray octants they are nearest for. Its leaves are
+//!   [`TlasEntry`]s (instance slot and where the BLAS lives). When entities move only their leaves
+//!   are updated, the binary BVH is refitted and the wide nodes over changed children are
+//!   re-encoded; it is rebuilt when instances are added or removed, or when refitting has let its
+//!   quality decay. Only changed nodes are uploaded. A static scene does no BVH work per frame.
 //!
-//! Traversal lives in `shaders/ray_tracing.inc.wgsl`: closest hit and any hit, the ray transformed
-//! into instance space without normalizing its direction, so `t` is comparable across instances.
+//! Traversal lives in `shaders/ray_tracing.inc.wgsl`: closest hit and any hit in one loop over both
+//! levels (a warp's lanes test TLAS and BLAS nodes with the same code in the same step), the ray
+//! transformed into instance space without normalizing its direction, so `t` is comparable across
+//! instances.
 
 pub mod cpu;
 
@@ -106,64 +112,22 @@ pub struct GpuBlas {
     pub _pad1: u32,
 }
 
-/// What a ray enters at a TLAS leaf: an instance, from its BLAS root or from one child of it. Mirrors
-/// WGSL `TlasEntry`. `node` is the BLAS node to start at (relative to the BLAS's first node), or
-/// `u32::MAX` when the entry is a leaf of the BLAS root: then the ray tests the triangles of
-/// `triangle_mask` (bit k: triangle `triangle_base + k`, relative to the BLAS's first triangle).
-/// `node_offset` and `triangle_offset` say where the BLAS lives (as in [`GpuBlas`]), so that entering
-/// an instance does not wait for its mesh's record.
+/// A TLAS leaf: the instance a ray enters there and where its BLAS lives (as in [`GpuBlas`]), so
+/// that entering does not wait for the mesh's record. Mirrors WGSL `TlasEntry`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct TlasEntry {
     pub instance: u32,
-    pub node: u32,
-    pub triangle_base: u32,
-    pub triangle_mask: u32,
     pub node_offset: u32,
     pub triangle_offset: u32,
-    pub _pad0: u32,
-    pub _pad1: u32,
+    pub _pad: u32,
 }
 
-/// One TLAS primitive: the part of a BLAS an entry covers, with its local-space bounds.
+/// One TLAS primitive: an instance's entry, with its BLAS's local-space bounds.
 #[derive(Clone, Copy, Debug)]
 struct TlasPrim {
     local: (Vec3, Vec3),
     entry: TlasEntry,
-}
-
-/// The parts of a BLAS a ray can enter it by, with their local bounds: the root's children when
-/// `split` (a ray then skips the empty parts of the mesh's bounds), else the whole BLAS.
-fn blas_entries(blas: &Blas, split: bool) -> Vec<((Vec3, Vec3), u32, u32, u32)> {
-    let Some(bounds) = blas.bounds else { return Vec::new() };
-    let Some(root) = blas.nodes.first().filter(|_| split) else { return vec![(bounds, 0, 0, 0)] };
-    let p = Vec3::from(root.p);
-    let scale = Vec3::new(
-        f32::from_bits(u32::from(root.e[0]) << 23),
-        f32::from_bits(u32::from(root.e[1]) << 23),
-        f32::from_bits(u32::from(root.e[2]) << 23),
-    );
-    let mut out = Vec::new();
-    for s in 0..8 {
-        let meta = root.child_meta[s];
-        if meta == 0 {
-            continue;
-        }
-        let q = |a: [u8; 8]| f32::from(a[s]);
-        let lo = p + scale * Vec3::new(q(root.child_min_x), q(root.child_min_y), q(root.child_min_z));
-        let hi = p + scale * Vec3::new(q(root.child_max_x), q(root.child_max_y), q(root.child_max_z));
-        // Dequantized planes may round inwards by an ulp: pad them by a little more.
-        let pad = (hi - lo).max(hi.abs().max(lo.abs())) * 1e-6;
-        let local = ((lo - pad).max(bounds.0), (hi + pad).min(bounds.1));
-        if root.imask & (1 << s) != 0 {
-            let below = u32::from(root.imask & ((1u8 << s) - 1)).count_ones();
-            out.push((local, root.child_base_idx + below, 0, 0));
-        } else {
-            let mask = u32::from((meta >> 5) & 7) << (meta & 0x1f);
-            out.push((local, u32::MAX, root.primitive_base_idx, mask));
-        }
-    }
-    out
 }
 
 /// The world bounds of a local box under `world` (its eight corners transformed).
@@ -225,14 +189,12 @@ pub struct RayTracingScene {
     results: Mutex<Receiver<(usize, Arc<Blas>)>>,
     sender: Sender<(usize, Arc<Blas>)>,
     pub progress: BlasBuildProgress,
-    /// Whether TLAS leaves are the children of each BLAS root rather than whole instances.
-    pub split_blas_roots: bool,
     /// The binary BVH the 8-wide TLAS is collapsed from; refits happen here.
     tlas: Option<Bvh2>,
     /// Each TLAS primitive (the Bvh2's primitive indices point here).
     tlas_prims: Vec<TlasPrim>,
-    /// The primitives of each instance slot: `(first, count)` in `tlas_prims`.
-    slot_prims: Vec<(u32, u32)>,
+    /// The primitive of each instance slot in `tlas_prims` (`NONE`: not in the TLAS).
+    slot_prims: Vec<u32>,
     /// The Bvh2 leaf of each primitive.
     prim_leaf: Vec<u32>,
     /// The wide TLAS as uploaded: CWBVH nodes, then eight entries per node (one per child slot).
@@ -271,7 +233,6 @@ impl RayTracingScene {
             results: Mutex::new(results),
             sender,
             progress: BlasBuildProgress::default(),
-            split_blas_roots: std::env::var("RT_TLAS_SPLIT").is_ok_and(|v| v == "1"),
             tlas: None,
             tlas_prims: Vec::new(),
             slot_prims: Vec::new(),
@@ -425,31 +386,15 @@ impl RayTracingScene {
         self.stats.blas_uploaded += 1;
     }
 
-    /// The TLAS primitives of one instance under `world`; `None` when it has none (BLAS not ready,
-    /// empty mesh) or a transform that gives no valid bounds.
-    fn instance_prims(&self, slot: u32, mesh: u32, world: &Affine3A) -> Option<Vec<(TlasPrim, Aabb)>> {
-        let blas = self.blas(mesh as usize)?;
+    /// The TLAS primitive of one instance under `world`; `None` when it has none (BLAS not ready or
+    /// not on the GPU, empty mesh) or a transform that gives no valid bounds.
+    fn instance_prim(&self, slot: u32, mesh: u32, world: &Affine3A) -> Option<(TlasPrim, Aabb)> {
+        let local = self.blas(mesh as usize)?.bounds?;
         // A BLAS that is not on the GPU (over the buffer limit) is not traced.
         let info = self.gpu_blas.get(mesh as usize).filter(|b| b.node_offset != u32::MAX)?;
-        let entries = blas_entries(blas, self.split_blas_roots);
-        let prims: Option<Vec<_>> = entries
-            .into_iter()
-            .map(|(local, node, triangle_base, triangle_mask)| {
-                let aabb = world_aabb(local, world)?;
-                let entry = TlasEntry {
-                    instance: slot,
-                    node,
-                    triangle_base,
-                    triangle_mask,
-                    node_offset: info.node_offset,
-                    triangle_offset: info.triangle_offset,
-                    _pad0: 0,
-                    _pad1: 0,
-                };
-                Some((TlasPrim { local, entry }, aabb))
-            })
-            .collect();
-        prims.filter(|p| !p.is_empty())
+        let aabb = world_aabb(local, world)?;
+        let entry = TlasEntry { instance: slot, node_offset: info.node_offset, triangle_offset: info.triangle_offset, _pad: 0 };
+        Some((TlasPrim { local, entry }, aabb))
     }
 
     /// Rebuilds the TLAS from every live instance whose BLAS is ready.
@@ -458,15 +403,13 @@ impl RayTracingScene {
         self.tlas_prims.clear();
         self.slot_prims.clear();
         for &(slot, mesh, world) in instances {
-            let Some(prims) = self.instance_prims(slot, mesh, &world) else { continue };
+            let Some((prim, aabb)) = self.instance_prim(slot, mesh, &world) else { continue };
             if self.slot_prims.len() <= slot as usize {
-                self.slot_prims.resize(slot as usize + 1, (0, 0));
+                self.slot_prims.resize(slot as usize + 1, NONE);
             }
-            self.slot_prims[slot as usize] = (self.tlas_prims.len() as u32, prims.len() as u32);
-            for (prim, aabb) in prims {
-                self.tlas_prims.push(prim);
-                aabbs.push(aabb);
-            }
+            self.slot_prims[slot as usize] = self.tlas_prims.len() as u32;
+            self.tlas_prims.push(prim);
+            aabbs.push(aabb);
         }
         if aabbs.is_empty() {
             self.tlas = None;
@@ -559,8 +502,8 @@ impl RayTracingScene {
             self.gpu_tlas.push(node);
             self.wide_children.push(slots);
         }
-        // Entries (two vec4 each) follow the nodes (five each, padded to an even count).
-        let entries_base = (self.gpu_tlas.len() * 5).div_ceil(2) as u32;
+        // Entries (one vec4 each) follow the nodes (five each).
+        let entries_base = (self.gpu_tlas.len() * 5) as u32;
         self.gpu_entries = vec![TlasEntry::zeroed(); self.gpu_tlas.len() * 8];
         for w in 0..self.gpu_tlas.len() {
             self.gpu_tlas[w].primitive_base_idx = entries_base + 8 * w as u32;
@@ -586,9 +529,6 @@ impl RayTracingScene {
         }
         let mut bytes: Vec<u8> = Vec::with_capacity(size_of_val(self.gpu_tlas.as_slice()) + size_of_val(self.gpu_entries.as_slice()));
         bytes.extend_from_slice(bytemuck::cast_slice(&self.gpu_tlas));
-        if self.gpu_tlas.len() % 2 == 1 {
-            bytes.extend_from_slice(&[0; 16]);
-        }
         bytes.extend_from_slice(bytemuck::cast_slice(&self.gpu_entries));
         self.tlas_nodes.write(gpu, &bytes);
         self.stats.tlas_nodes_uploaded += self.gpu_tlas.len();
@@ -605,29 +545,23 @@ impl RayTracingScene {
         self.marked.clear();
         self.marked.resize(bvh.nodes.len(), false);
         let mut ok = true;
-        'moved: for &(slot, _, world) in moved {
-            let (first, count) = self.slot_prims.get(slot as usize).copied().unwrap_or((0, 0));
-            if count == 0 {
+        for &(slot, _, world) in moved {
+            let prim = self.slot_prims.get(slot as usize).copied().unwrap_or(NONE) as usize;
+            let Some(aabb) = self.tlas_prims.get(prim).and_then(|p| world_aabb(p.local, &world)) else {
                 ok = false;
                 break;
-            }
-            for prim in first as usize..(first + count) as usize {
-                let leaf = self.prim_leaf[prim] as usize;
-                let Some(aabb) = world_aabb(self.tlas_prims[prim].local, &world) else {
-                    ok = false;
-                    break 'moved;
-                };
-                bvh.nodes[leaf].set_aabb(aabb);
-                dirty.push(leaf);
-                let mut index = leaf;
-                while index != 0 {
-                    index = bvh.parents[index] as usize;
-                    if self.marked[index] {
-                        break;
-                    }
-                    self.marked[index] = true;
-                    inner.push(index);
+            };
+            let leaf = self.prim_leaf[prim] as usize;
+            bvh.nodes[leaf].set_aabb(aabb);
+            dirty.push(leaf);
+            let mut index = leaf;
+            while index != 0 {
+                index = bvh.parents[index] as usize;
+                if self.marked[index] {
+                    break;
                 }
+                self.marked[index] = true;
+                inner.push(index);
             }
         }
         inner.sort_unstable_by_key(|&i| std::cmp::Reverse(self.node_depth[i]));
@@ -674,11 +608,8 @@ fn order_slots(bvh: &Bvh2, source: usize, children: &[u32]) -> [u32; 8] {
     for (c, &child) in children.iter().enumerate() {
         let v = bvh.nodes[child as usize].aabb().center() - centre;
         for (s, cost) in cost[c].iter_mut().enumerate() {
-            let d = Vec3A::new(
-                if s & 4 != 0 { -1.0 } else { 1.0 },
-                if s & 2 != 0 { -1.0 } else { 1.0 },
-                if s & 1 != 0 { -1.0 } else { 1.0 },
-            );
+            let d =
+                Vec3A::new(if s & 4 != 0 { -1.0 } else { 1.0 }, if s & 2 != 0 { -1.0 } else { 1.0 }, if s & 1 != 0 { -1.0 } else { 1.0 });
             *cost = d.dot(v);
         }
     }
