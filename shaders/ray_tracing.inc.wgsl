@@ -304,8 +304,10 @@ fn rt_trace(ray: Ray, any_hit: bool) -> RayHit {
             tri_dir = (local_from_world * vec4<f32>(ray.direction, 0.0)).xyz;
             dir = rt_safe_direction(tri_dir);
             oct_inv4 = rt_octant_inv4(dir);
-            // The BLAS root, as the only inner child of a virtual parent.
+            // The BLAS root, as the only inner child of a virtual parent; the TLAS entries left
+            // wait on the stack.
             group = vec2<u32>(0u, 0x80000000u);
+            prims = vec2<u32>(0u, 0u);
             continue;
         }
         if (group.y & 0xff000000u) == 0u && prims.y == 0u {
