@@ -190,7 +190,7 @@ fn rt_tlas_entry(index: u32) -> TlasEntry {
 // nodes together whether they are in the TLAS or in an instance's BLAS. Each step tests one CWBVH
 // node (TLAS or BLAS, same code), then either the triangles it hit (in a BLAS) or one of the TLAS
 // entries it hit: entering an instance pushes what is left of the TLAS walk, takes the ray into
-// instance space and starts the BLAS walk at the entry; the walk returns to the TLAS when the stack
+// instance space and starts the BLAS walk at its root; the walk returns to the TLAS when the stack
 // is back at the level it entered at.
 fn rt_trace(ray: Ray, any_hit: bool) -> RayHit {
     var best = rt_no_hit(ray.tmax);
