@@ -1,10 +1,9 @@
 // The ray-tracing core: closest-hit and any-hit traversal of the two-level BVH.
 //
-// TLAS: a binary BVH over instance bounds (stack traversal, nearer child first).
-// BLAS: one 8-wide compressed BVH (CWBVH, Ylitie, Karras and Laine 2017) per mesh, traversed with
-// node and triangle groups in ray-octant order. The ray is taken into instance space with the
-// instance's inverse transform and its direction is NOT normalized, so t means the same thing in
-// every instance and in the world.
+// TLAS and BLASes (one per mesh): 8-wide compressed BVHs (CWBVH, Ylitie, Karras and Laine 2017),
+// walked in one loop with node groups in ray-octant order. The TLAS's leaves are instances; the ray
+// is taken into instance space with the instance's inverse transform and its direction is NOT
+// normalized, so t means the same thing in every instance and in the world.
 #include "scene.inc.wgsl"
 
 // Where a mesh's BLAS lives in blas_nodes (5 × vec4<u32> = 80 bytes a node) and blas_triangles.
@@ -20,19 +19,21 @@ struct GpuBlas {
     _pad1: u32,
 }
 
-// Leaves: count > 0 and index = instance slot. Inner nodes: children at index and index + 1.
-struct TlasNode {
-    min: vec3<f32>,
-    count: u32,
-    max: vec3<f32>,
-    index: u32,
+// A TLAS leaf: the instance a ray enters there, and where its BLAS lives (as in GpuBlas).
+struct TlasEntry {
+    instance: u32,
+    node_offset: u32,
+    triangle_offset: u32,
+    _pad: u32,
 }
 
 @group(0) @binding(7) var<storage, read> blas_nodes: array<vec4<u32>>;
 // Three vec4 a triangle, in leaf order: (v0, mesh triangle index as bits), (v1 - v0, 0), (v2 - v0, 0).
 @group(0) @binding(8) var<storage, read> blas_triangles: array<vec4<f32>>;
 @group(0) @binding(9) var<storage, read> blas_info: array<GpuBlas>;
-@group(0) @binding(10) var<storage, read> tlas_nodes: array<TlasNode>;
+// The TLAS: CWBVH nodes (5 × vec4<u32> each) whose leaves hold one TlasEntry each, then the entries
+// (one vec4 each, eight a node, one per child slot; primitive_base_idx is an index into this array).
+@group(0) @binding(10) var<storage, read> tlas_nodes: array<vec4<u32>>;
 @group(0) @binding(11) var<storage, read> indices: array<u32>;
 
 const RT_NO_HIT: u32 = 0xffffffffu;
@@ -41,10 +42,9 @@ const RT_NO_HIT: u32 = 0xffffffffu;
 // (x: TLAS nodes, y: instances entered, z: BLAS nodes, w: triangles tested). Off, it costs nothing.
 override RT_COUNT_WORK: bool = false;
 var<private> rt_work: vec4<u32>;
-// Far children waiting in the TLAS walk (a PLOC tree of 100k instances is ~40 deep), and node groups
-// waiting in a CWBVH walk (8-wide trees are shallow).
-const RT_TLAS_STACK_SIZE: u32 = 48u;
-const RT_BLAS_STACK_SIZE: u32 = 24u;
+// Groups waiting in the walk of both levels (8-wide trees are shallow; the TLAS's depth is checked
+// against its share on the CPU, engine::rt::TLAS_STACK_SIZE).
+const RT_STACK_SIZE: u32 = 48u;
 
 struct Ray {
     origin: vec3<f32>,
@@ -92,12 +92,8 @@ fn rt_octant_inv4(d: vec3<f32>) -> u32 {
 
 // Intersects the ray with the eight quantized child boxes of a CWBVH node. Returns the hit mask:
 // bits 24..31 inner children (in octant order), bits 0..23 triangles of the hit leaves.
-fn rt_cwbvh_node_hits(node: u32, origin: vec3<f32>, dir: vec3<f32>, oct_inv4: u32, tmin: f32, tmax: f32) -> u32 {
-    let n0 = blas_nodes[node * 5u];
-    let n1 = blas_nodes[node * 5u + 1u];
-    let n2 = blas_nodes[node * 5u + 2u];
-    let n3 = blas_nodes[node * 5u + 3u];
-    let n4 = blas_nodes[node * 5u + 4u];
+// n0..n4: the node's five vec4 (from blas_nodes or tlas_nodes).
+fn rt_cwbvh_node_hits(n0: vec4<u32>, n1: vec4<u32>, n2: vec4<u32>, n3: vec4<u32>, n4: vec4<u32>, origin: vec3<f32>, dir: vec3<f32>, oct_inv4: u32, tmin: f32, tmax: f32) -> u32 {
     let p = bitcast<vec3<f32>>(n0.xyz);
     let e = vec3<u32>(n0.w & 0xffu, (n0.w >> 8u) & 0xffu, (n0.w >> 16u) & 0xffu);
     // Child planes are p + 2^(e - 127) · q: fold the scale and origin into the ray instead.
@@ -168,145 +164,175 @@ fn rt_intersect_triangle(index: u32, origin: vec3<f32>, dir: vec3<f32>, tmin: f3
     return out;
 }
 
-struct BlasHit {
-    hit: bool,
-    t: f32,
-    // Index into blas_triangles.
-    triangle: u32,
-    barycentrics: vec2<f32>,
-    front_face: bool,
+// Moves bit k of the 8-bit mask m to bit k ^ x. A TLAS node's leaf entries sit at their slots; their
+// hit mask permuted by the ray octant and walked from the top bit enters them in octant order
+// (nearest first, as inner children are visited).
+fn rt_xor_permute8(m: u32, x: u32) -> u32 {
+    var r = m;
+    if (x & 1u) != 0u {
+        r = ((r & 0x55u) << 1u) | ((r >> 1u) & 0x55u);
+    }
+    if (x & 2u) != 0u {
+        r = ((r & 0x33u) << 2u) | ((r >> 2u) & 0x33u);
+    }
+    if (x & 4u) != 0u {
+        r = ((r & 0x0fu) << 4u) | ((r >> 4u) & 0x0fu);
+    }
+    return r;
 }
 
-fn rt_traverse_blas(blas: GpuBlas, origin: vec3<f32>, dir_in: vec3<f32>, tmin: f32, tmax: f32, any_hit: bool) -> BlasHit {
-    var best = BlasHit(false, tmax, 0u, vec2<f32>(0.0), false);
-    let dir = rt_safe_direction(dir_in);
-    let oct_inv4 = rt_octant_inv4(dir);
-    var stack: array<vec2<u32>, RT_BLAS_STACK_SIZE>;
+fn rt_tlas_entry(index: u32) -> TlasEntry {
+    let v = tlas_nodes[index];
+    return TlasEntry(v.x, v.y, v.z, v.w);
+}
+
+// Closest hit (or any hit) of a ray: one loop over both levels, so that the lanes of a warp test
+// nodes together whether they are in the TLAS or in an instance's BLAS. Each step tests one CWBVH
+// node (TLAS or BLAS, same code), then either the triangles it hit (in a BLAS) or one of the TLAS
+// entries it hit: entering an instance pushes what is left of the TLAS walk, takes the ray into
+// instance space and starts the BLAS walk at its root; the walk returns to the TLAS when the stack
+// is back at the level it entered at.
+fn rt_trace(ray: Ray, any_hit: bool) -> RayHit {
+    var best = rt_no_hit(ray.tmax);
+    var best_triangle = 0u;
+    let world_dir = rt_safe_direction(ray.direction);
+    let world_oct = rt_octant_inv4(world_dir);
+    // The ray in the space of the level being walked: world for the TLAS, instance space in a BLAS
+    // (`dir` nudged off zero for slab tests, `tri_dir` as given for triangle tests).
+    var origin = ray.origin;
+    var dir = world_dir;
+    var tri_dir = ray.direction;
+    var oct_inv4 = world_oct;
+    var in_blas = false;
+    var instance = 0u;
+    var node_offset = 0u;
+    var triangle_offset = 0u;
+    var stack: array<vec2<u32>, RT_STACK_SIZE>;
     var sp = 0u;
-    // Start with the root as the only inner child of a virtual parent.
-    var current = vec2<u32>(0u, 0x80000000u);
+    var tlas_sp = 0u;
+    // Inner children still to visit (base, hit bits 24..31 in octant order | imask bits 0..7), and
+    // primitives still to test (base, bits): triangles in a BLAS, entries in the TLAS. The walk
+    // starts with the TLAS root as the only inner child of a virtual parent.
+    var group = vec2<u32>(0u, 0x80000000u);
+    var prims = vec2<u32>(0u, 0u);
     loop {
-        var triangles = vec2<u32>(0u, 0u);
-        if (current.y & 0xff000000u) != 0u {
-            let hits = current.y;
+        if (group.y & 0xff000000u) != 0u && prims.y == 0u {
+            let hits = group.y;
             let child_bit = firstLeadingBit(hits);
-            current.y &= ~(1u << child_bit);
-            if (current.y & 0xff000000u) != 0u && sp < RT_BLAS_STACK_SIZE {
-                stack[sp] = current;
+            group.y &= ~(1u << child_bit);
+            if (group.y & 0xff000000u) != 0u && sp < RT_STACK_SIZE {
+                stack[sp] = group;
                 sp += 1u;
             }
             let slot = (child_bit - 24u) ^ (oct_inv4 & 0xffu);
-            let relative = countOneBits(hits & ~(0xffffffffu << slot));
-            let node = blas.node_offset + current.x + relative;
-            if RT_COUNT_WORK {
-                rt_work.z += 1u;
-            }
-            let hit_mask = rt_cwbvh_node_hits(node, origin, dir, oct_inv4, tmin, best.t);
-            let n0w = blas_nodes[node * 5u].w;
-            let n1 = blas_nodes[node * 5u + 1u];
-            current = vec2<u32>(n1.x, (hit_mask & 0xff000000u) | (n0w >> 24u));
-            triangles = vec2<u32>(n1.y, hit_mask & 0x00ffffffu);
-        }
-        while triangles.y != 0u {
-            let local = firstLeadingBit(triangles.y);
-            triangles.y &= ~(1u << local);
-            let index = blas.triangle_offset + triangles.x + local;
-            if RT_COUNT_WORK {
-                rt_work.w += 1u;
-            }
-            let h = rt_intersect_triangle(index, origin, dir_in, tmin, best.t);
-            if h.hit {
-                best = BlasHit(true, h.t, index, h.barycentrics, h.front_face);
-                if any_hit {
-                    return best;
-                }
-            }
-        }
-        if (current.y & 0xff000000u) == 0u {
-            if sp == 0u {
-                break;
-            }
-            sp -= 1u;
-            current = stack[sp];
-        }
-    }
-    return best;
-}
-
-// Traverses the TLAS; for each instance leaf, the BLAS in instance space.
-fn rt_trace(ray: Ray, any_hit: bool) -> RayHit {
-    var best = rt_no_hit(ray.tmax);
-    let inv_dir = 1.0 / rt_safe_direction(ray.direction);
-    let root = tlas_nodes[0];
-    if rt_aabb_entry(root.min, root.max, ray.origin, inv_dir, ray.tmin, ray.tmax) > ray.tmax {
-        return best;
-    }
-    var stack: array<vec2<u32>, RT_TLAS_STACK_SIZE>;
-    var sp = 0u;
-    var node = 0u;
-    loop {
-        let n = tlas_nodes[node];
-        var descend = false;
-        if RT_COUNT_WORK {
-            rt_work.x += 1u;
-        }
-        if n.count > 0u {
-            // Only the two fields traversal needs, not the whole instance record.
-            let blas = blas_info[instances[n.index].mesh];
-            if blas.node_offset != RT_NO_HIT {
+            let node = group.x + countOneBits(hits & ~(0xffffffffu << slot));
+            var n0: vec4<u32>;
+            var n1: vec4<u32>;
+            var n2: vec4<u32>;
+            var n3: vec4<u32>;
+            var n4: vec4<u32>;
+            if in_blas {
+                let b = (node_offset + node) * 5u;
+                n0 = blas_nodes[b];
+                n1 = blas_nodes[b + 1u];
+                n2 = blas_nodes[b + 2u];
+                n3 = blas_nodes[b + 3u];
+                n4 = blas_nodes[b + 4u];
                 if RT_COUNT_WORK {
-                    rt_work.y += 1u;
+                    rt_work.z += 1u;
                 }
-                let local_from_world = instances[n.index].local_from_world;
-                let origin = (local_from_world * vec4<f32>(ray.origin, 1.0)).xyz;
-                let dir = (local_from_world * vec4<f32>(ray.direction, 0.0)).xyz;
-                let h = rt_traverse_blas(blas, origin, dir, ray.tmin, best.t, any_hit);
+            } else {
+                let b = node * 5u;
+                n0 = tlas_nodes[b];
+                n1 = tlas_nodes[b + 1u];
+                n2 = tlas_nodes[b + 2u];
+                n3 = tlas_nodes[b + 3u];
+                n4 = tlas_nodes[b + 4u];
+                if RT_COUNT_WORK {
+                    rt_work.x += 1u;
+                }
+            }
+            let hit_mask = rt_cwbvh_node_hits(n0, n1, n2, n3, n4, origin, dir, oct_inv4, ray.tmin, best.t);
+            group = vec2<u32>(n1.x, (hit_mask & 0xff000000u) | (n0.w >> 24u));
+            prims = vec2<u32>(n1.y, select(rt_xor_permute8(hit_mask & 0xffu, oct_inv4 & 7u), hit_mask & 0x00ffffffu, in_blas));
+        }
+        if in_blas {
+            while prims.y != 0u {
+                let local = firstLeadingBit(prims.y);
+                prims.y &= ~(1u << local);
+                let index = triangle_offset + prims.x + local;
+                if RT_COUNT_WORK {
+                    rt_work.w += 1u;
+                }
+                let h = rt_intersect_triangle(index, origin, tri_dir, ray.tmin, best.t);
                 if h.hit {
                     best.t = h.t;
-                    best.instance = n.index;
-                    best.primitive = bitcast<u32>(blas_triangles[h.triangle * 3u].w);
+                    best.instance = instance;
                     best.barycentrics = h.barycentrics;
                     best.front_face = h.front_face;
+                    best_triangle = index;
                     if any_hit {
+                        best.primitive = bitcast<u32>(blas_triangles[best_triangle * 3u].w);
                         return best;
                     }
                 }
             }
-        } else {
-            let a = tlas_nodes[n.index];
-            let b = tlas_nodes[n.index + 1u];
-            let ta = rt_aabb_entry(a.min, a.max, ray.origin, inv_dir, ray.tmin, best.t);
-            let tb = rt_aabb_entry(b.min, b.max, ray.origin, inv_dir, ray.tmin, best.t);
-            let hit_a = ta <= best.t;
-            let hit_b = tb <= best.t;
-            if hit_a && hit_b {
-                let a_first = ta <= tb;
-                node = select(n.index + 1u, n.index, a_first);
-                if sp < RT_TLAS_STACK_SIZE {
-                    stack[sp] = vec2<u32>(select(n.index, n.index + 1u, a_first), bitcast<u32>(max(ta, tb)));
-                    sp += 1u;
-                }
-                descend = true;
-            } else if hit_a || hit_b {
-                node = select(n.index + 1u, n.index, hit_a);
-                descend = true;
+        } else if prims.y != 0u {
+            // TLAS entry bits are permuted by the octant (rt_xor_permute8).
+            let bit = firstLeadingBit(prims.y);
+            prims.y &= ~(1u << bit);
+            let entry = rt_tlas_entry(prims.x + (bit ^ (oct_inv4 & 7u)));
+            if RT_COUNT_WORK {
+                rt_work.y += 1u;
             }
+            // What is left of the TLAS walk waits on the stack; entries before nodes.
+            if (group.y & 0xff000000u) != 0u && sp < RT_STACK_SIZE {
+                stack[sp] = group;
+                sp += 1u;
+            }
+            if prims.y != 0u && sp < RT_STACK_SIZE {
+                stack[sp] = prims;
+                sp += 1u;
+            }
+            tlas_sp = sp;
+            in_blas = true;
+            instance = entry.instance;
+            node_offset = entry.node_offset;
+            triangle_offset = entry.triangle_offset;
+            let local_from_world = instances[entry.instance].local_from_world;
+            origin = (local_from_world * vec4<f32>(ray.origin, 1.0)).xyz;
+            tri_dir = (local_from_world * vec4<f32>(ray.direction, 0.0)).xyz;
+            dir = rt_safe_direction(tri_dir);
+            oct_inv4 = rt_octant_inv4(dir);
+            // The BLAS root, as the only inner child of a virtual parent; the TLAS entries left
+            // wait on the stack.
+            group = vec2<u32>(0u, 0x80000000u);
+            prims = vec2<u32>(0u, 0u);
+            continue;
         }
-        if !descend {
-            // Pop the next subtree that can still hold a nearer hit.
-            var found = false;
-            while sp > 0u {
-                sp -= 1u;
-                if bitcast<f32>(stack[sp].y) <= best.t {
-                    node = stack[sp].x;
-                    found = true;
-                    break;
-                }
+        if (group.y & 0xff000000u) == 0u && prims.y == 0u {
+            if in_blas && sp == tlas_sp {
+                in_blas = false;
+                origin = ray.origin;
+                dir = world_dir;
+                oct_inv4 = world_oct;
             }
-            if !found {
+            if sp == 0u {
                 break;
             }
+            sp -= 1u;
+            let e = stack[sp];
+            // Node groups have inner hit bits; TLAS entry groups do not.
+            if (e.y & 0xff000000u) != 0u {
+                group = e;
+            } else {
+                group = vec2<u32>(0u, 0u);
+                prims = e;
+            }
         }
+    }
+    if best.instance != RT_NO_HIT {
+        best.primitive = bitcast<u32>(blas_triangles[best_triangle * 3u].w);
     }
     return best;
 }

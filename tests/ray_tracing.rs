@@ -122,10 +122,50 @@ fn cuboid_scene() -> SceneDescription {
     s
 }
 
+/// A wavy sheet of `n` × `n` cells (2n² triangles) over [-1, 1]² in XZ.
+fn sheet(n: usize) -> Mesh {
+    let mut mesh = Mesh { name: "sheet".into(), ..Default::default() };
+    for j in 0..=n {
+        for i in 0..=n {
+            let (x, z) = (2.0 * i as f32 / n as f32 - 1.0, 2.0 * j as f32 / n as f32 - 1.0);
+            mesh.positions.push(Vec3::new(x, 0.2 * (5.0 * x).sin() * (4.0 * z).cos(), z));
+        }
+    }
+    for j in 0..n as u32 {
+        for i in 0..n as u32 {
+            let a = j * (n as u32 + 1) + i;
+            let (b, c, d) = (a + 1, a + n as u32 + 2, a + n as u32 + 1);
+            mesh.indices.extend([a, d, c, a, c, b]);
+        }
+    }
+    mesh.compute_normals();
+    mesh
+}
+
+/// Hundreds of overlapping instances of three meshes (a TLAS several levels deep, nodes with several
+/// instance leaves that one ray hits, BLASes of several levels).
+fn crowd_scene() -> SceneDescription {
+    let mut s = SceneDescription { name: "crowd".into(), ..Default::default() };
+    let meshes = [
+        s.add_mesh(engine::builtin::cuboid("cube", Vec3::splat(0.5))),
+        s.add_mesh(sheet(12)),
+        s.add_mesh(engine::builtin::quad("plate", Vec2::new(1.0, 1.0))),
+    ];
+    let m = s.add_material(Material::diffuse("grey", Vec3::splat(0.5)));
+    let mut rng = SplitMix64::new(0xC0_0D);
+    for i in 0..400 {
+        let t = Transform::from_xyz(rng.range(-5.0, 5.0), rng.range(0.0, 3.0), rng.range(-5.0, 5.0))
+            .with_rotation(Quat::from_axis_angle(rng.direction(), rng.range(0.0, 6.0)))
+            .with_scale(Vec3::new(rng.range(0.1, 0.8), rng.range(0.1, 0.8), rng.range(0.1, 0.8)));
+        s.add_node(&format!("item{i}"), t, None, vec![NodeContent::Meshes(vec![(meshes[i % 3], m)])]);
+    }
+    s
+}
+
 #[test]
 fn gpu_closest_hits_match_the_cpu_reference() {
     let Some(gpu) = workspace_tests::gpu("gpu_closest_hits_match_the_cpu_reference") else { return };
-    let mut scenes = vec![cuboid_scene()];
+    let mut scenes = vec![cuboid_scene(), crowd_scene()];
     for name in ["cornell", "color_bleed", "door_room"] {
         scenes.push(engine::builtin::builtin_scene(name).expect("built-in"));
     }

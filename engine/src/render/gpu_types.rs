@@ -84,7 +84,7 @@ pub const GPU_STRUCTS: &[(&str, usize, &str)] = &[
     ("GpuMaterial", size_of::<GpuMaterial>(), "scene.inc.wgsl"),
     ("GpuLight", size_of::<GpuLight>(), "scene.inc.wgsl"),
     ("GpuBlas", size_of::<crate::rt::GpuBlas>(), "ray_tracing.inc.wgsl"),
-    ("TlasNode", size_of::<crate::rt::TlasNode>(), "ray_tracing.inc.wgsl"),
+    ("TlasEntry", size_of::<crate::rt::TlasEntry>(), "ray_tracing.inc.wgsl"),
     ("Ray", size_of::<crate::rt::cpu::GpuRay>(), "ray_tracing.inc.wgsl"),
     ("TraceResult", size_of::<crate::rt::cpu::TraceResult>(), "trace_rays.wgsl"),
 ];

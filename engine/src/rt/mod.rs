@@ -6,13 +6,19 @@
 //!   full float) so that traversal reads them without indirection; each keeps its mesh triangle index.
 //!   Meshes above [`ASYNC_BLAS_TRIANGLES`] are built on a worker thread, off the frame loop, with
 //!   progress in [`BlasBuildProgress`]; until its BLAS is ready an instance is not traced.
-//! - **TLAS**: a binary BVH (obvhs PLOC) over the world bounds of the instances. When entities move
-//!   only their leaves are updated and the TLAS is refitted; it is rebuilt when instances are added
-//!   or removed, or when refitting has let its quality decay. Only changed nodes are uploaded. A static
-//!   scene does no BVH work per frame.
+//! - **TLAS**: an 8-wide CWBVH over the world bounds of the instances, encoded like a BLAS so that
+//!   one node test serves both levels. It is collapsed from a binary BVH (obvhs PLOC plus
+//!   reinsertion) that stays on the CPU: each wide node opens its largest descendants until it has
+//!   eight children, placed in the slots of the ray octants they are nearest for. Its leaves are
+//!   [`TlasEntry`]s (instance slot and where the BLAS lives). When entities move only their leaves
+//!   are updated, the binary BVH is refitted and the wide nodes over changed children are
+//!   re-encoded; it is rebuilt when instances are added or removed, or when refitting has let its
+//!   quality decay. Only changed nodes are uploaded. A static scene does no BVH work per frame.
 //!
-//! Traversal lives in `shaders/ray_tracing.inc.wgsl`: closest hit and any hit, the ray transformed
-//! into instance space without normalizing its direction, so `t` is comparable across instances.
+//! Traversal lives in `shaders/ray_tracing.inc.wgsl`: closest hit and any hit in one loop over both
+//! levels (a warp's lanes test TLAS and BLAS nodes with the same code in the same step), the ray
+//! transformed into instance space without normalizing its direction, so `t` is comparable across
+//! instances.
 
 pub mod cpu;
 
@@ -28,6 +34,7 @@ use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
 use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
 use obvhs::cwbvh::CwBvh;
+use obvhs::cwbvh::node::CwBvhNode;
 use obvhs::ploc::{PlocBuilder, PlocSearchDistance, SortPrecision};
 use obvhs::triangle::Triangle;
 
@@ -105,16 +112,37 @@ pub struct GpuBlas {
     pub _pad1: u32,
 }
 
-/// A TLAS node as the GPU reads it. Mirrors WGSL `TlasNode`. Leaves have `count > 0` and `index` is
-/// the instance slot; inner nodes have `count == 0` and their children at `index` and `index + 1`.
+/// A TLAS leaf: the instance a ray enters there and where its BLAS lives (as in [`GpuBlas`]), so
+/// that entering does not wait for the mesh's record. Mirrors WGSL `TlasEntry`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
-pub struct TlasNode {
-    pub min: [f32; 3],
-    pub count: u32,
-    pub max: [f32; 3],
-    pub index: u32,
+pub struct TlasEntry {
+    pub instance: u32,
+    pub node_offset: u32,
+    pub triangle_offset: u32,
+    pub _pad: u32,
 }
+
+/// One TLAS primitive: an instance's entry, with its BLAS's local-space bounds.
+#[derive(Clone, Copy, Debug)]
+struct TlasPrim {
+    local: (Vec3, Vec3),
+    entry: TlasEntry,
+}
+
+/// The world bounds of a local box under `world` (its eight corners transformed).
+fn world_aabb((lo, hi): (Vec3, Vec3), world: &Affine3A) -> Option<Aabb> {
+    let mut aabb = Aabb::empty();
+    for i in 0..8 {
+        let corner =
+            Vec3::new(if i & 1 == 0 { lo.x } else { hi.x }, if i & 2 == 0 { lo.y } else { hi.y }, if i & 4 == 0 { lo.z } else { hi.z });
+        aabb.extend(world.transform_point3a(corner.into()));
+    }
+    aabb.valid().then_some(aabb)
+}
+
+/// Sentinel for "none" in the TLAS's index tables.
+const NONE: u32 = u32::MAX;
 
 /// Progress of BLAS builds, for loading screens and logs.
 #[derive(Resource, Clone, Default)]
@@ -163,12 +191,22 @@ pub struct RayTracingScene {
     pub progress: BlasBuildProgress,
     /// The BVH over the adapter's buffer limits, when it is (nothing is traced then).
     pub over_limit: Option<crate::scene::SceneDataError>,
+    /// The binary BVH the 8-wide TLAS is collapsed from; refits happen here.
     tlas: Option<Bvh2>,
-    /// Instance slot of each TLAS primitive.
-    tlas_slots: Vec<u32>,
-    /// The TLAS leaf of each instance slot (`u32::MAX`: not in the TLAS).
-    slot_leaf: Vec<u32>,
-    gpu_tlas: Vec<TlasNode>,
+    /// Each TLAS primitive (the Bvh2's primitive indices point here).
+    tlas_prims: Vec<TlasPrim>,
+    /// The primitive of each instance slot in `tlas_prims` (`NONE`: not in the TLAS).
+    slot_prims: Vec<u32>,
+    /// The Bvh2 leaf of each primitive.
+    prim_leaf: Vec<u32>,
+    /// The wide TLAS as uploaded: CWBVH nodes, then eight entries per node (one per child slot).
+    gpu_tlas: Vec<CwBvhNode>,
+    gpu_entries: Vec<TlasEntry>,
+    /// For each wide node: the Bvh2 node it stands for, and the Bvh2 node in each child slot.
+    wide_source: Vec<u32>,
+    wide_children: Vec<[u32; 8]>,
+    /// For each Bvh2 node: the wide node that has it as a child (`NONE` for inner nodes collapsed away).
+    wide_owner: Vec<u32>,
     /// Sum of the half areas of the TLAS's inner nodes, now and right after its last build, each
     /// over the root's: the normalized SAH cost. Refitting lets it decay; past
     /// [`TLAS_REBUILD_COST_RATIO`] times its built value the TLAS is rebuilt.
@@ -199,9 +237,14 @@ impl RayTracingScene {
             progress: BlasBuildProgress::default(),
             over_limit: None,
             tlas: None,
-            tlas_slots: Vec::new(),
-            slot_leaf: Vec::new(),
+            tlas_prims: Vec::new(),
+            slot_prims: Vec::new(),
+            prim_leaf: Vec::new(),
             gpu_tlas: Vec::new(),
+            gpu_entries: Vec::new(),
+            wide_source: Vec::new(),
+            wide_children: Vec::new(),
+            wide_owner: Vec::new(),
             inner_area: 0.0,
             built_cost: 0.0,
             node_depth: Vec::new(),
@@ -229,9 +272,9 @@ impl RayTracingScene {
         all
     }
 
-    /// The TLAS as uploaded (CPU copy).
-    pub fn tlas_nodes_cpu(&self) -> &[TlasNode] {
-        &self.gpu_tlas
+    /// The TLAS as uploaded (CPU copy): its 8-wide nodes and their entries, eight per node.
+    pub fn tlas_cpu(&self) -> (&[CwBvhNode], &[TlasEntry]) {
+        (&self.gpu_tlas, &self.gpu_entries)
     }
 
     /// The BLAS of mesh `index`, once built.
@@ -357,28 +400,31 @@ impl RayTracingScene {
         self.stats.blas_uploaded += 1;
     }
 
-    fn instance_aabb(&self, mesh: u32, world: &Affine3A) -> Option<Aabb> {
-        let (lo, hi) = self.blas(mesh as usize)?.bounds?;
-        let mut aabb = Aabb::empty();
-        for i in 0..8 {
-            let corner =
-                Vec3::new(if i & 1 == 0 { lo.x } else { hi.x }, if i & 2 == 0 { lo.y } else { hi.y }, if i & 4 == 0 { lo.z } else { hi.z });
-            aabb.extend(world.transform_point3a(corner.into()));
-        }
-        aabb.valid().then_some(aabb)
+    /// The TLAS primitive of one instance under `world`; `None` when it has none (BLAS not ready or
+    /// not on the GPU, empty mesh) or a transform that gives no valid bounds.
+    fn instance_prim(&self, slot: u32, mesh: u32, world: &Affine3A) -> Option<(TlasPrim, Aabb)> {
+        let local = self.blas(mesh as usize)?.bounds?;
+        // A BLAS that is not on the GPU (over the buffer limit) is not traced.
+        let info = self.gpu_blas.get(mesh as usize).filter(|b| b.node_offset != u32::MAX)?;
+        let aabb = world_aabb(local, world)?;
+        let entry = TlasEntry { instance: slot, node_offset: info.node_offset, triangle_offset: info.triangle_offset, _pad: 0 };
+        Some((TlasPrim { local, entry }, aabb))
     }
 
     /// Rebuilds the TLAS from every live instance whose BLAS is ready.
     fn rebuild_tlas(&mut self, gpu: &GpuContext, instances: &[(u32, u32, Affine3A)]) {
         let mut aabbs = Vec::with_capacity(instances.len());
-        self.tlas_slots.clear();
+        self.tlas_prims.clear();
+        self.slot_prims.clear();
         for &(slot, mesh, world) in instances {
-            if let Some(aabb) = self.instance_aabb(mesh, &world) {
-                aabbs.push(aabb);
-                self.tlas_slots.push(slot);
+            let Some((prim, aabb)) = self.instance_prim(slot, mesh, &world) else { continue };
+            if self.slot_prims.len() <= slot as usize {
+                self.slot_prims.resize(slot as usize + 1, NONE);
             }
+            self.slot_prims[slot as usize] = self.tlas_prims.len() as u32;
+            self.tlas_prims.push(prim);
+            aabbs.push(aabb);
         }
-        self.slot_leaf.clear();
         if aabbs.is_empty() {
             self.tlas = None;
         } else {
@@ -390,10 +436,15 @@ impl RayTracingScene {
             bvh.update_parents();
             // Reinsertion leaves nodes in no particular order: walk down from the root.
             self.node_depth = vec![0; bvh.nodes.len()];
+            self.prim_leaf = vec![NONE; self.tlas_prims.len()];
             let mut stack = vec![0usize];
             while let Some(i) = stack.pop() {
                 let n = bvh.nodes[i];
-                if !n.is_leaf() {
+                if n.is_leaf() {
+                    for k in 0..n.prim_count {
+                        self.prim_leaf[bvh.primitive_indices[(n.first_index + k) as usize] as usize] = i as u32;
+                    }
+                } else {
                     let d = self.node_depth[i].saturating_add(1);
                     for child in [n.first_index as usize, n.first_index as usize + 1] {
                         self.node_depth[child] = d;
@@ -405,40 +456,101 @@ impl RayTracingScene {
             self.built_cost = self.inner_area / f64::from(bvh.nodes[0].aabb().half_area()).max(f64::MIN_POSITIVE);
             self.tlas = Some(bvh);
         }
+        self.collapse_tlas();
         self.stats.tlas_rebuilt = true;
         self.upload_tlas_all(gpu);
     }
 
-    fn gpu_node(&self, bvh: &Bvh2, i: usize) -> TlasNode {
-        let n = &bvh.nodes[i];
-        let a = n.aabb();
-        let index = if n.is_leaf() { self.tlas_slots[bvh.primitive_indices[n.first_index as usize] as usize] } else { n.first_index };
-        TlasNode { min: a.min.into(), count: n.prim_count, max: a.max.into(), index }
+    /// Collapses the binary TLAS into the 8-wide one the GPU walks: each wide node takes the Bvh2
+    /// node it stands for and opens its largest inner descendants until it has eight children,
+    /// placed in the slots of the ray octants they are nearest for. Nodes are numbered breadth
+    /// first, so each node's inner children are consecutive.
+    fn collapse_tlas(&mut self) {
+        self.wide_source.clear();
+        self.wide_children.clear();
+        self.gpu_tlas.clear();
+        self.gpu_entries.clear();
+        let Some(bvh) = &self.tlas else { return };
+        self.wide_owner = vec![NONE; bvh.nodes.len()];
+        self.wide_source.push(0);
+        let mut depth = vec![1usize];
+        let mut next = 0;
+        while next < self.wide_source.len() {
+            let w = next;
+            next += 1;
+            let source = self.wide_source[w] as usize;
+            let mut children: Vec<u32> = if bvh.nodes[source].is_leaf() {
+                vec![source as u32]
+            } else {
+                let first = bvh.nodes[source].first_index;
+                vec![first, first + 1]
+            };
+            while children.len() < 8 {
+                let largest = children
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, c)| !bvh.nodes[**c as usize].is_leaf())
+                    .max_by(|a, b| bvh.nodes[*a.1 as usize].aabb().half_area().total_cmp(&bvh.nodes[*b.1 as usize].aabb().half_area()));
+                let Some((k, &c)) = largest else { break };
+                let first = bvh.nodes[c as usize].first_index;
+                children[k] = first;
+                children.push(first + 1);
+            }
+            let slots = order_slots(bvh, source, &children);
+            let mut node = CwBvhNode { child_base_idx: self.wide_source.len() as u32, ..Default::default() };
+            for (s, &c) in slots.iter().enumerate() {
+                if c == NONE {
+                    continue;
+                }
+                self.wide_owner[c as usize] = w as u32;
+                if bvh.nodes[c as usize].is_leaf() {
+                    // One entry, at the slot's offset (CWBVH leaf metadata: count 1 in unary, offset).
+                    node.child_meta[s] = 0b0010_0000 | s as u8;
+                } else {
+                    node.child_meta[s] = 0b0010_0000 | (24 + s as u8);
+                    node.imask |= 1 << s;
+                    self.wide_source.push(c);
+                    depth.push(depth[w] + 1);
+                }
+            }
+            self.gpu_tlas.push(node);
+            self.wide_children.push(slots);
+        }
+        // Entries (one vec4 each) follow the nodes (five each).
+        let entries_base = (self.gpu_tlas.len() * 5) as u32;
+        self.gpu_entries = vec![TlasEntry::zeroed(); self.gpu_tlas.len() * 8];
+        for w in 0..self.gpu_tlas.len() {
+            self.gpu_tlas[w].primitive_base_idx = entries_base + 8 * w as u32;
+            for (s, &c) in self.wide_children[w].iter().enumerate() {
+                if c != NONE && bvh.nodes[c as usize].is_leaf() {
+                    let prim = bvh.primitive_indices[bvh.nodes[c as usize].first_index as usize];
+                    self.gpu_entries[8 * w + s] = self.tlas_prims[prim as usize].entry;
+                }
+            }
+            encode_bounds(bvh, self.wide_source[w] as usize, &self.wide_children[w], &mut self.gpu_tlas[w]);
+        }
+        let depth = depth.into_iter().max().unwrap_or(0);
+        if depth > TLAS_STACK_SIZE {
+            log::warn!("the TLAS is {depth} nodes deep, over the traversal stack of {TLAS_STACK_SIZE}: some hits may be missed");
+        }
     }
 
     fn upload_tlas_all(&mut self, gpu: &GpuContext) {
-        self.gpu_tlas = match &self.tlas {
-            Some(bvh) => (0..bvh.nodes.len()).map(|i| self.gpu_node(bvh, i)).collect(),
-            // An empty TLAS: a root whose inverted bounds no ray can hit.
-            None => vec![TlasNode { min: [f32::MAX; 3], count: 0, max: [f32::MIN; 3], index: 0 }],
-        };
-        if let Some(bvh) = &self.tlas {
-            for (i, n) in bvh.nodes.iter().enumerate() {
-                if n.is_leaf() {
-                    let slot = self.tlas_slots[bvh.primitive_indices[n.first_index as usize] as usize] as usize;
-                    if self.slot_leaf.len() <= slot {
-                        self.slot_leaf.resize(slot + 1, u32::MAX);
-                    }
-                    self.slot_leaf[slot] = i as u32;
-                }
-            }
+        if self.gpu_tlas.is_empty() {
+            // An empty TLAS: a root without children.
+            self.gpu_tlas = vec![CwBvhNode::default()];
+            self.gpu_entries = vec![TlasEntry::zeroed(); 8];
         }
-        self.tlas_nodes.write(gpu, bytemuck::cast_slice(&self.gpu_tlas));
+        let mut bytes: Vec<u8> = Vec::with_capacity(size_of_val(self.gpu_tlas.as_slice()) + size_of_val(self.gpu_entries.as_slice()));
+        bytes.extend_from_slice(bytemuck::cast_slice(&self.gpu_tlas));
+        bytes.extend_from_slice(bytemuck::cast_slice(&self.gpu_entries));
+        self.tlas_nodes.write(gpu, &bytes);
         self.stats.tlas_nodes_uploaded += self.gpu_tlas.len();
     }
 
-    /// Moves the leaves of the given instances and refits their ancestors; uploads the changed nodes.
-    /// Returns false when the TLAS should be rebuilt instead (an instance is not in it, or quality decayed).
+    /// Moves the leaves of the given instances, refits their ancestors in the binary TLAS and
+    /// re-encodes the wide nodes whose children changed; uploads those nodes. Returns false when the
+    /// TLAS should be rebuilt instead (an instance is not in it, or quality decayed).
     fn refit_tlas(&mut self, gpu: &GpuContext, uploads: &mut Uploads, moved: &[(u32, u32, Affine3A)]) -> bool {
         let Some(mut bvh) = self.tlas.take() else { return moved.is_empty() };
         // Move the leaves, then refit each affected inner node once, deepest first.
@@ -447,12 +559,13 @@ impl RayTracingScene {
         self.marked.clear();
         self.marked.resize(bvh.nodes.len(), false);
         let mut ok = true;
-        for &(slot, mesh, world) in moved {
-            let leaf = self.slot_leaf.get(slot as usize).copied().unwrap_or(u32::MAX) as usize;
-            let (true, Some(aabb)) = (leaf != u32::MAX as usize, self.instance_aabb(mesh, &world)) else {
+        for &(slot, _, world) in moved {
+            let prim = self.slot_prims.get(slot as usize).copied().unwrap_or(NONE) as usize;
+            let Some(aabb) = self.tlas_prims.get(prim).and_then(|p| world_aabb(p.local, &world)) else {
                 ok = false;
                 break;
             };
+            let leaf = self.prim_leaf[prim] as usize;
             bvh.nodes[leaf].set_aabb(aabb);
             dirty.push(leaf);
             let mut index = leaf;
@@ -477,22 +590,91 @@ impl RayTracingScene {
         }
         let cost = self.inner_area / f64::from(bvh.nodes[0].aabb().half_area()).max(f64::MIN_POSITIVE);
         let decayed = cost > TLAS_REBUILD_COST_RATIO * self.built_cost;
-        self.tlas = Some(bvh);
         if !ok || decayed {
+            self.tlas = Some(bvh);
             return false;
         }
-        dirty.sort_unstable();
-        dirty.dedup();
-        let bvh = self.tlas.as_ref().expect("just put back");
-        let updated: Vec<TlasNode> = dirty.iter().map(|&i| self.gpu_node(bvh, i)).collect();
-        for (&i, node) in dirty.iter().zip(updated) {
-            self.gpu_tlas[i] = node;
+        let mut wide: Vec<usize> = dirty.iter().map(|&i| self.wide_owner[i]).filter(|&w| w != NONE).map(|w| w as usize).collect();
+        wide.sort_unstable();
+        wide.dedup();
+        for &w in &wide {
+            encode_bounds(&bvh, self.wide_source[w] as usize, &self.wide_children[w], &mut self.gpu_tlas[w]);
         }
-        let uploaded = dirty.len();
-        uploads.write_dirty_ranges(gpu, &self.tlas_nodes.buffer, &self.gpu_tlas, &mut dirty);
+        self.tlas = Some(bvh);
+        let uploaded = wide.len();
+        uploads.write_dirty_ranges(gpu, &self.tlas_nodes.buffer, &self.gpu_tlas, &mut wide);
         self.stats.tlas_refitted_leaves += moved.len();
         self.stats.tlas_nodes_uploaded += uploaded;
         true
+    }
+}
+
+/// The share of the traversal stack in `ray_tracing.inc.wgsl` (`RT_STACK_SIZE`, shared by both
+/// levels) that a TLAS this deep leaves to the BLAS walks.
+pub const TLAS_STACK_SIZE: usize = 24;
+
+/// Places up to eight children in the slots of a wide node so that, for a ray of octant `s`, the
+/// child in slot `s` is the one nearest the ray's start (greedy assignment on the offsets of the
+/// children's centres from the node's, as obvhs orders its CWBVH children).
+fn order_slots(bvh: &Bvh2, source: usize, children: &[u32]) -> [u32; 8] {
+    let centre = bvh.nodes[source].aabb().center();
+    let mut cost = [[f32::MAX; 8]; 8];
+    for (c, &child) in children.iter().enumerate() {
+        let v = bvh.nodes[child as usize].aabb().center() - centre;
+        for (s, cost) in cost[c].iter_mut().enumerate() {
+            let d =
+                Vec3A::new(if s & 4 != 0 { -1.0 } else { 1.0 }, if s & 2 != 0 { -1.0 } else { 1.0 }, if s & 1 != 0 { -1.0 } else { 1.0 });
+            *cost = d.dot(v);
+        }
+    }
+    let mut slots = [NONE; 8];
+    let mut placed = [false; 8];
+    loop {
+        let mut best: Option<(usize, usize, f32)> = None;
+        for c in (0..children.len()).filter(|&c| !placed[c]) {
+            for s in (0..8).filter(|&s| slots[s] == NONE) {
+                if best.is_none_or(|(_, _, b)| cost[c][s] < b) {
+                    best = Some((c, s, cost[c][s]));
+                }
+            }
+        }
+        let Some((c, s, _)) = best else { break };
+        placed[c] = true;
+        slots[s] = children[c];
+    }
+    slots
+}
+
+/// Sets a wide node's bounds (origin, exponents) and its children's quantized boxes from the Bvh2's
+/// current bounds, rounding outwards (as obvhs encodes a CWBVH node).
+fn encode_bounds(bvh: &Bvh2, source: usize, children: &[u32; 8], node: &mut CwBvhNode) {
+    let aabb = bvh.nodes[source].aabb();
+    let p = aabb.min;
+    // The smallest power of two at least extent / 255 (from the float's bits: refits re-encode
+    // many nodes), so that 255 steps span the node.
+    let step = |extent: f32| {
+        let bits = (extent.max(1e-20) * (1.0 / 255.0)).to_bits();
+        let exponent = bits & 0x7f80_0000;
+        f32::from_bits(if bits & 0x007f_ffff != 0 { exponent + 0x0080_0000 } else { exponent })
+    };
+    let extent = aabb.max - aabb.min;
+    let e = Vec3A::new(step(extent.x), step(extent.y), step(extent.z));
+    let rcp_e = 1.0 / e;
+    node.p = p.into();
+    node.e = [(e.x.to_bits() >> 23) as u8, (e.y.to_bits() >> 23) as u8, (e.z.to_bits() >> 23) as u8];
+    for (s, &c) in children.iter().enumerate() {
+        if c == NONE {
+            continue;
+        }
+        let child = bvh.nodes[c as usize].aabb();
+        let lo = ((child.min - p) * rcp_e).floor().clamp(Vec3A::ZERO, Vec3A::splat(255.0));
+        let hi = ((child.max - p) * rcp_e).ceil().clamp(Vec3A::ZERO, Vec3A::splat(255.0));
+        node.child_min_x[s] = lo.x as u8;
+        node.child_min_y[s] = lo.y as u8;
+        node.child_min_z[s] = lo.z as u8;
+        node.child_max_x[s] = hi.x as u8;
+        node.child_max_y[s] = hi.y as u8;
+        node.child_max_z[s] = hi.z as u8;
     }
 }
 
