@@ -211,7 +211,8 @@ fn generate_rays(@builtin(global_invocation_id) id: vec3<u32>) {
     ddgi_rays[i] = DdgiRay(safe_normalize(direction, vec3<f32>(0.0, 0.0, 1.0)), probe);
 }
 
-// Trace: closest hit, back faces included (they mark probes inside geometry). Writes the surfel.
+// Trace: closest hit, back faces included (they mark probes inside geometry). Writes the surfel,
+// and the hit's emission and direct light (shadow rays) into the radiance buffer.
 @compute @workgroup_size(64)
 fn trace_rays(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = ddgi_ray_index(id);
@@ -219,63 +220,64 @@ fn trace_rays(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let ray_info = ddgi_rays[i];
-    let ray = Ray(ddgi_probe_position(ray_info.probe), 0.0, ray_info.direction, ddgi_volume.max_ray_distance);
+    let origin = ddgi_probe_position(ray_info.probe);
+    let ray = Ray(origin, 0.0, ray_info.direction, ddgi_volume.max_ray_distance);
     let hit = trace_closest(ray);
     if hit.instance == RT_NO_HIT {
+        // Misses see the sky.
         ddgi_surfels[i] = vec4<u32>(bitcast<u32>(DDGI_MISS), 0u, 0u, 0u);
-        return;
-    }
-    if !hit.front_face {
-        ddgi_surfels[i] = vec4<u32>(bitcast<u32>(-hit.t), 0u, 0u, 0u);
-        return;
-    }
-    let surface = hit_surface(ray, hit);
-    ddgi_surfels[i] = vec4<u32>(
-        bitcast<u32>(hit.t),
-        pack2x16snorm(ddgi_oct_encode(surface.normal)),
-        pack4x8unorm(vec4<f32>(surface.albedo, 1.0)),
-        ddgi_pack_rgb9e5(surface.emissive),
-    );
-}
-
-// Shading: emission + direct light (a shadow ray per light) + indirect light from the probes of the
-// previous frame, all Lambertian. Misses see the sky; back faces are black.
-@compute @workgroup_size(64)
-fn shade_rays(@builtin(global_invocation_id) id: vec3<u32>) {
-    let i = ddgi_ray_index(id);
-    if i >= ddgi_ray_total() {
-        return;
-    }
-    let ray_info = ddgi_rays[i];
-    let surfel = ddgi_surfels[i];
-    let t = bitcast<f32>(surfel.x);
-    if t >= DDGI_MISS {
         ddgi_radiance[i] = vec4<f32>(min(sanitize_radiance(ddgi_volume.sky_radiance), vec3<f32>(DDGI_MAX_IRRADIANCE)), DDGI_MISS);
         return;
     }
-    if t < 0.0 {
-        ddgi_radiance[i] = vec4<f32>(0.0, 0.0, 0.0, t * DDGI_BACKFACE_SCALE);
+    if !hit.front_face {
+        // Back faces are black.
+        ddgi_surfels[i] = vec4<u32>(bitcast<u32>(-hit.t), 0u, 0u, 0u);
+        ddgi_radiance[i] = vec4<f32>(0.0, 0.0, 0.0, -hit.t * DDGI_BACKFACE_SCALE);
         return;
     }
-    let origin = ddgi_probe_position(ray_info.probe);
+    let surface = hit_surface(ray, hit);
+    let t = hit.t;
     let position = origin + ray_info.direction * t;
-    let normal = ddgi_oct_decode(unpack2x16snorm(surfel.y));
-    let albedo = unpack4x8unorm(surfel.z).rgb;
-    var radiance = ddgi_unpack_rgb9e5(surfel.w);
-    var irradiance = vec3<f32>(0.0);
+    let normal = surface.normal;
+    // Every ray of the update is traced here, the shadow rays too: emission plus direct light (a
+    // shadow ray per light) land in the radiance buffer, to which shading adds the indirect light.
     // `position` comes from origin + direction · t, which is only as exact as the larger of the two
     // magnitudes: at large scales (10^4 units) that error dwarfs the float-step offset of a hit near
     // a coordinate plane, and the shadow ray would start under the surface (the floor goes dark).
     // Lift it by a few ulps of that magnitude first.
     let magnitude = max(t, max(abs(origin.x), max(abs(origin.y), abs(origin.z))));
     let shadow_origin = offset_ray_origin(position + normal * (1e-5 * magnitude), normal);
+    var irradiance = vec3<f32>(0.0);
     for (var l = 0u; l < view.light_count; l++) {
         let s = sample_light(lights[l], position, normal);
         if any(s.irradiance > vec3<f32>(0.0)) && !trace_any(Ray(shadow_origin, 0.0, s.to_light, s.distance * (1.0 - 1e-4))) {
             irradiance += s.irradiance;
         }
     }
-    irradiance += ddgi_sample_irradiance(position, normal, -ray_info.direction);
-    radiance += albedo * INV_PI * irradiance;
+    let albedo = unpack4x8unorm(pack4x8unorm(vec4<f32>(surface.albedo, 1.0))).rgb;
+    let direct = ddgi_unpack_rgb9e5(ddgi_pack_rgb9e5(surface.emissive)) + albedo * INV_PI * irradiance;
+    ddgi_surfels[i] = vec4<u32>(bitcast<u32>(t), pack2x16snorm(ddgi_oct_encode(normal)), pack4x8unorm(vec4<f32>(surface.albedo, 1.0)), 0u);
+    ddgi_radiance[i] = vec4<f32>(min(sanitize_radiance(direct), vec3<f32>(DDGI_MAX_IRRADIANCE)), t);
+}
+
+// Shading: to the emission and direct light the trace left, the indirect light from the probes of
+// the previous frame (Lambertian). Misses and back faces are final already.
+@compute @workgroup_size(64)
+fn shade_rays(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = ddgi_ray_index(id);
+    if i >= ddgi_ray_total() {
+        return;
+    }
+    let surfel = ddgi_surfels[i];
+    let t = bitcast<f32>(surfel.x);
+    if t >= DDGI_MISS || t < 0.0 {
+        return;
+    }
+    let ray_info = ddgi_rays[i];
+    let position = ddgi_probe_position(ray_info.probe) + ray_info.direction * t;
+    let normal = ddgi_oct_decode(unpack2x16snorm(surfel.y));
+    let albedo = unpack4x8unorm(surfel.z).rgb;
+    let direct = ddgi_radiance[i].rgb;
+    let radiance = direct + albedo * INV_PI * ddgi_sample_irradiance(position, normal, -ray_info.direction);
     ddgi_radiance[i] = vec4<f32>(min(sanitize_radiance(radiance), vec3<f32>(DDGI_MAX_IRRADIANCE)), t);
 }

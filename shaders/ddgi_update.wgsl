@@ -152,36 +152,59 @@ fn update_distance(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invoc
     // Rays whose weight cos^sharpness would be under 2^-20 are skipped (most of them at the usual
     // sharpness of 50: only rays within 40° of the texel count), which saves the power function.
     let cutoff = exp2(-20.0 / sharpness);
-    for (var first = 0u; first < n * n; first += DDGI_GROUP) {
-        let texel = first + local;
-        let valid = texel < n * n;
-        let direction = ddgi_texel_direction(ddgi_texel_coords(texel, n), n);
-        var sum = vec3<f32>(0.0);
+    // Each thread sums four texels at once (the 16 × 16 map in one sweep of the rays): each ray is
+    // loaded into workgroup memory, and read from it, once per sweep. Four named sums, not an array:
+    // a private array indexed in a loop may live in (slow) local memory.
+    let last = n * n - 1u;
+    for (var first = 0u; first < n * n; first += 4u * DDGI_GROUP) {
+        let t = vec4<u32>(first + local, first + DDGI_GROUP + local, first + 2u * DDGI_GROUP + local, first + 3u * DDGI_GROUP + local);
+        let d0 = ddgi_texel_direction(ddgi_texel_coords(min(t.x, last), n), n);
+        let d1 = ddgi_texel_direction(ddgi_texel_coords(min(t.y, last), n), n);
+        let d2 = ddgi_texel_direction(ddgi_texel_coords(min(t.z, last), n), n);
+        let d3 = ddgi_texel_direction(ddgi_texel_coords(min(t.w, last), n), n);
+        var s0 = vec3<f32>(0.0);
+        var s1 = vec3<f32>(0.0);
+        var s2 = vec3<f32>(0.0);
+        var s3 = vec3<f32>(0.0);
         for (var base = 0u; base < m; base += DDGI_GROUP) {
             ddgi_load_rays(data, base, local);
             workgroupBarrier();
             let count = min(DDGI_GROUP, m - base);
             for (var j = 0u; j < count; j++) {
-                let c = dot(direction, wg_direction[j]);
-                if c > cutoff {
-                    let w = exp2(sharpness * log2(c));
+                let r = wg_direction[j];
+                let c = vec4<f32>(dot(d0, r), dot(d1, r), dot(d2, r), dot(d3, r));
+                if any(c > vec4<f32>(cutoff)) {
                     let d = min(abs(wg_value[j].w), scale) / scale;
-                    sum += vec3<f32>(w * d, w * d * d, w);
+                    let moments = vec3<f32>(d, d * d, 1.0);
+                    // cos^sharpness where over the cutoff, 0 elsewhere.
+                    let w = select(vec4<f32>(0.0), exp2(sharpness * log2(max(c, vec4<f32>(1e-30)))), c > vec4<f32>(cutoff));
+                    s0 += w.x * moments;
+                    s1 += w.y * moments;
+                    s2 += w.z * moments;
+                    s3 += w.w * moments;
                 }
             }
             workgroupBarrier();
         }
-        if valid {
-            let slot = probe * n * n + texel;
-            let old = ddgi_distance_history[slot];
-            var result = old;
-            if sum.z > 1e-6 {
-                let sample = sum.xy / sum.z;
-                result = mix(sample, old, h);
-            }
-            ddgi_distance_history[slot] = clamp(select(old, result, result == result), vec2<f32>(0.0), vec2<f32>(1.0));
-        }
+        ddgi_store_distance(probe, t.x, n, s0, h);
+        ddgi_store_distance(probe, t.y, n, s1, h);
+        ddgi_store_distance(probe, t.z, n, s2, h);
+        ddgi_store_distance(probe, t.w, n, s3, h);
     }
+}
+
+// Blends texel `texel`'s weighted moment sums (Σ w·d, Σ w·d², Σ w) into its distance map.
+fn ddgi_store_distance(probe: u32, texel: u32, n: u32, sum: vec3<f32>, h: f32) {
+    if texel >= n * n {
+        return;
+    }
+    let slot = probe * n * n + texel;
+    let old = ddgi_distance_history[slot];
+    var result = old;
+    if sum.z > 1e-6 {
+        result = mix(sum.xy / sum.z, old, h);
+    }
+    ddgi_distance_history[slot] = clamp(select(old, result, result == result), vec2<f32>(0.0), vec2<f32>(1.0));
 }
 
 // The interior texel whose value border texel `t` of an (n + 2)² tile repeats: each edge of the

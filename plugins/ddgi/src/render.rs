@@ -697,6 +697,7 @@ fn add_volume_update(
         pass.read(&counters);
         pass.read(&rays);
         pass.write(&mut surfels);
+        pass.write(&mut radiance);
         pass.note(&specialization.note());
         let g = groups(&trace, &common);
         pass.render(record_rays(trace, g));
@@ -708,6 +709,7 @@ fn add_volume_update(
         }
         pass.read(&irradiance);
         pass.read(&distance);
+        pass.read(&radiance);
         pass.write(&mut radiance);
         pass.note(&specialization.note());
         let g = groups(&shade, &common);
