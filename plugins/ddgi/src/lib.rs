@@ -9,10 +9,11 @@
 //! 1. **Ray generation**: `rays_per_probe` spherical Fibonacci directions (Keinert et al. 2015),
 //!    turned by a new random rotation each frame so that successive frames see new directions.
 //! 2. **Trace** against the scene's BVH (the engine's ray-tracing core). Back-face hits are kept:
-//!    a probe that sees many of them sits inside geometry.
-//! 3. **Shade** each hit as a Lambertian surface: emission, direct light with a shadow ray per
-//!    light, and indirect light read from *last frame's* probes — so each frame adds one bounce,
-//!    and the field converges to all bounces. Misses see the sky.
+//!    a probe that sees many of them sits inside geometry. Every ray of the update is traced here:
+//!    at a front-face hit, a shadow ray per light gives the hit's direct light.
+//! 3. **Shade** each hit as a Lambertian surface: emission, that direct light, and indirect light
+//!    read from *last frame's* probes — so each frame adds one bounce, and the field converges to
+//!    all bounces. Misses see the sky.
 //! 4. **Update** each probe's two octahedral maps (Cigolle et al. 2014): irradiance (8×8 texels,
 //!    the cosine-weighted mean of the rays' radiance over each texel's hemisphere) and distance
 //!    (16×16 texels, the mean and mean square of the hit distance, with a sharp cosine-power
