@@ -46,8 +46,11 @@ fn ddgi_hysteresis(data: DdgiProbeData) -> f32 {
     }
     // 1 − h in proportion to the share of rays keeps the variance of the maps, (1 − h) / r; a
     // quiet probe converges slower, and a change gives it its rays (and its hysteresis) back.
-    let share = f32(data.ray_count) / f32(max(ddgi_volume.rays_per_probe, 1u));
-    return 1.0 - (1.0 - h) * clamp(share, 0.0, 1.0);
+    let share = clamp(f32(data.ray_count) / f32(max(ddgi_volume.rays_per_probe, 1u)), 0.0, 1.0);
+    // A probe whose lighting is changing (its error over the target, its budget full) follows the
+    // change at twice the rate, and settles back once the error falls.
+    let rate = select(1.0, 2.0, data.error > ddgi_volume.error_target && share >= 1.0);
+    return 1.0 - min((1.0 - h) * share * rate, 1.0);
 }
 
 fn ddgi_texel_coords(texel: u32, n: u32) -> vec2<u32> {
