@@ -47,7 +47,9 @@ impl Default for DdgiWeights {
 /// gets `min_rays + (rays_per_probe − min_rays) · min(error / error_target, 1)` rays: at once when
 /// its error rises, shrinking by `decay` per frame when it falls. With fewer rays its hysteresis
 /// rises in proportion (1 − h scales with the share of rays, which keeps the noise of its maps), so
-/// a small budget does not flicker. Probes that, like their six neighbours,
+/// a small budget does not flicker; a probe over the error target at its full budget blends at
+/// twice the rate (1 − h doubled) until its error falls, so it follows a change sooner. Probes
+/// that, like their six neighbours,
 /// see almost no light are switched off (and woken by the re-checks).
 #[derive(Clone, Debug, PartialEq)]
 pub struct DdgiAdaptive {
