@@ -120,6 +120,17 @@ impl Drop for Xvfb {
     }
 }
 
+/// Runs the headless walk into `out/headless` and compares its last frame with the window's
+/// screenshot (which must have the size asked for): mean FLIP.
+fn flip_against_headless(out: &Path, screenshot: &Path) -> f32 {
+    headless(&out.join("headless"), FRAMES);
+    let (window, w, h) = rgba(screenshot);
+    let (reference, rw, rh) = rgba(&out.join("headless").join(format!("frame_{:05}.png", FRAMES - 1)));
+    assert_eq!((w, h), (rw, rh), "the window's last frame is not at the size asked for");
+    let rgb = |rgba: &[u8]| -> Vec<u8> { rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect() };
+    engine::metrics::flip_rgb8(&rgb(&reference), &rgb(&window), w, h).0
+}
+
 fn which(program: &str) -> Result<PathBuf, ()> {
     std::env::var_os("PATH").and_then(|paths| std::env::split_paths(&paths).map(|p| p.join(program)).find(|p| p.is_file())).ok_or(())
 }
@@ -140,12 +151,7 @@ fn windowed_demo_under_xvfb_matches_the_headless_frame() {
         .output()
         .expect("run game_demo play --script");
     assert!(output.status.success(), "windowed play failed: {}", String::from_utf8_lossy(&output.stderr));
-    headless(&out.join("headless"), FRAMES);
-    let (window, w, h) = rgba(&screenshot);
-    let (reference, rw, rh) = rgba(&out.join("headless").join(format!("frame_{:05}.png", FRAMES - 1)));
-    assert_eq!((w, h), (rw, rh), "the window rendered at another size than asked");
-    let rgb = |rgba: &[u8]| -> Vec<u8> { rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect() };
-    let (mean, _) = engine::metrics::flip_rgb8(&rgb(&reference), &rgb(&window), w, h);
+    let mean = flip_against_headless(&out, &screenshot);
     eprintln!("windowed vs headless frame {}: mean FLIP {mean:.5}", FRAMES - 1);
     assert!(mean < 0.01, "the windowed frame differs from the headless one: mean FLIP {mean}");
 }
@@ -206,12 +212,7 @@ fn windowed_demo_survives_minimizing_resizing_and_losing_its_surface_and_device(
     for expected in ["5 redraws skipped while minimized", "Shrink", "the lost surface was replaced", "the level runs on a new GPU device"] {
         assert!(stderr.contains(expected), "no '{expected}' in the log:\n{stderr}");
     }
-    headless(&out.join("headless"), FRAMES);
-    let (window, w, h) = rgba(&screenshot);
-    let (reference, rw, rh) = rgba(&out.join("headless").join(format!("frame_{:05}.png", FRAMES - 1)));
-    assert_eq!((w, h), (rw, rh), "the window did not come back to its size");
-    let rgb = |rgba: &[u8]| -> Vec<u8> { rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect() };
-    let (mean, _) = engine::metrics::flip_rgb8(&rgb(&reference), &rgb(&window), w, h);
+    let mean = flip_against_headless(&out, &screenshot);
     eprintln!("windowed with faults vs headless frame {}: mean FLIP {mean:.5}", FRAMES - 1);
     // The player and the clock carry over; the probes restart on the new device and have 26 frames to
     // converge again instead of 48: measured 0.024 on lavapipe (a player left behind by one step of
