@@ -95,7 +95,15 @@ impl Xvfb {
             eprintln!("SKIPPED the windowed test: {message}");
             return None;
         };
-        let number = 90 + std::process::id() % 800;
+        // A display of our own: the windowed tests run in parallel in one process, and other test
+        // processes may run their own servers. Skip numbers whose lock file exists.
+        static NEXT: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+        let number = loop {
+            let n = 90 + (std::process::id() % 200) * 8 + NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed) % 1000;
+            if !Path::new(&format!("/tmp/.X{n}-lock")).exists() && !Path::new(&format!("/tmp/.X11-unix/X{n}")).exists() {
+                break n;
+            }
+        };
         let display = format!(":{number}");
         let child = Command::new(path)
             .args([display.as_str(), "-screen", "0", "640x480x24", "-nolisten", "tcp"])
