@@ -75,15 +75,7 @@ impl WindowedRunner {
     /// on it, the clock going on (at most [`MAX_DEVICE_RECOVERIES`] times in a row).
     fn recover(&mut self) -> Result<(), WindowError> {
         let Some(state) = &mut self.state else { return Ok(()) };
-        replace_lost_surface(state.app.world_mut(), &state.window)?;
-        let Some(lost) = state.app.world().get_resource::<GpuLost>().cloned() else {
-            self.recoveries = 0;
-            return Ok(());
-        };
-        self.recoveries += 1;
-        if self.recoveries > MAX_DEVICE_RECOVERIES {
-            return Err(WindowError::DeviceLost { count: self.recoveries, reason: lost.reason });
-        }
+        let Some(lost) = check_surface_and_device(state.app.world_mut(), &state.window, &mut self.recoveries)? else { return Ok(()) };
         log::warn!("the GPU device was lost ({}): opening a new one and rebuilding the scene", lost.reason);
         let time = state.app.world().resource::<Time>().continuing();
         let window = state.window.clone();
@@ -176,6 +168,23 @@ pub fn replace_lost_surface(world: &mut World, window: &Arc<Window>) -> Result<b
 
 /// How many times in a row a runner reopens the GPU after losing it before it gives up.
 pub const MAX_DEVICE_RECOVERIES: u32 = 3;
+
+/// What a windowed runner checks after each frame: a lost surface is replaced
+/// ([`replace_lost_surface`]); a lost device is returned for the runner to rebuild its app on a new
+/// one, counted in `recoveries` (reset by a frame that rendered), and an error once it has been
+/// lost more than [`MAX_DEVICE_RECOVERIES`] times in a row.
+pub fn check_surface_and_device(world: &mut World, window: &Arc<Window>, recoveries: &mut u32) -> Result<Option<GpuLost>, WindowError> {
+    replace_lost_surface(world, window)?;
+    let Some(lost) = world.get_resource::<GpuLost>().cloned() else {
+        *recoveries = 0;
+        return Ok(None);
+    };
+    *recoveries += 1;
+    if *recoveries > MAX_DEVICE_RECOVERIES {
+        return Err(WindowError::DeviceLost { count: *recoveries, reason: lost.reason });
+    }
+    Ok(Some(lost))
+}
 
 impl ApplicationHandler for WindowedRunner {
     fn resumed(&mut self, event_loop: &ActiveEventLoop) {

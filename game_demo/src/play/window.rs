@@ -14,11 +14,10 @@ use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use bevy_app::App;
-use engine::app::GpuLost;
 use engine::app::Time;
 use engine::gpu::GpuContext;
 use engine::render::{SurfaceOverlay, SurfaceOverlayHook};
-use engine::window::{MAX_DEVICE_RECOVERIES, WindowError, WindowedApp, replace_lost_surface, resize_surface, windowed_app};
+use engine::window::{WindowError, WindowedApp, check_surface_and_device, resize_surface, windowed_app};
 use glam::Vec2;
 use winit::application::ApplicationHandler;
 use winit::dpi::PhysicalSize;
@@ -254,19 +253,12 @@ impl Runner {
     }
 
     /// After a frame: a lost surface is replaced; a lost device is reopened and the level rebuilt
-    /// on it where the player stood, its clock going on (at most [`MAX_DEVICE_RECOVERIES`] times
+    /// on it where the player stood, its clock going on (at most [`engine::window::MAX_DEVICE_RECOVERIES`] times
     /// in a row).
     fn recover(&mut self) -> Result<(), String> {
         let Some(state) = &mut self.state else { return Ok(()) };
-        replace_lost_surface(state.app.world_mut(), &state.window).map_err(|e| e.to_string())?;
-        let Some(lost) = state.app.world().get_resource::<GpuLost>().cloned() else {
-            self.recoveries = 0;
-            return Ok(());
-        };
-        self.recoveries += 1;
-        if self.recoveries > MAX_DEVICE_RECOVERIES {
-            return Err(WindowError::DeviceLost { count: self.recoveries, reason: lost.reason }.to_string());
-        }
+        let lost = check_surface_and_device(state.app.world_mut(), &state.window, &mut self.recoveries).map_err(|e| e.to_string())?;
+        let Some(lost) = lost else { return Ok(()) };
         log::warn!("the GPU device was lost ({}): opening a new one and rebuilding the level where the player stood", lost.reason);
         let mut old = self.state.take().expect("state checked above");
         let world = old.app.world_mut();
