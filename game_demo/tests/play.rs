@@ -128,6 +128,21 @@ impl Drop for Xvfb {
     }
 }
 
+/// Runs the scripted walk in a window on `x` for FRAMES frames (with `extra` options), its last
+/// frame saved to `screenshot`; warnings logged to standard error.
+fn scripted_window(x: &Xvfb, screenshot: &Path, extra: &[&str]) -> std::process::Output {
+    game_demo()
+        .env("DISPLAY", &x.display)
+        .env("RUST_LOG", "warn")
+        .args(["play", "--frames", &FRAMES.to_string()])
+        .args(extra)
+        .arg("--script")
+        .arg(screenshot)
+        .args(SMALL)
+        .output()
+        .expect("run game_demo play --script")
+}
+
 /// Runs the headless walk into `out/headless` and compares its last frame with the window's
 /// screenshot (which must have the size asked for): mean FLIP.
 fn flip_against_headless(out: &Path, screenshot: &Path) -> f32 {
@@ -151,13 +166,7 @@ fn windowed_demo_under_xvfb_matches_the_headless_frame() {
     let Some(x) = Xvfb::start() else { return };
     let out = out_dir("play_window");
     let screenshot = out.join("window.png");
-    let output = game_demo()
-        .env("DISPLAY", &x.display)
-        .args(["play", "--frames", &FRAMES.to_string(), "--script"])
-        .arg(&screenshot)
-        .args(SMALL)
-        .output()
-        .expect("run game_demo play --script");
+    let output = scripted_window(&x, &screenshot, &[]);
     assert!(output.status.success(), "windowed play failed: {}", String::from_utf8_lossy(&output.stderr));
     let mean = flip_against_headless(&out, &screenshot);
     eprintln!("windowed vs headless frame {}: mean FLIP {mean:.5}", FRAMES - 1);
@@ -207,14 +216,7 @@ fn windowed_demo_survives_minimizing_resizing_and_losing_its_surface_and_device(
     let Some(x) = Xvfb::start() else { return };
     let out = out_dir("play_window_faults");
     let screenshot = out.join("window.png");
-    let output = game_demo()
-        .env("DISPLAY", &x.display)
-        .env("RUST_LOG", "warn")
-        .args(["play", "--frames", &FRAMES.to_string(), "--inject-faults", "--script"])
-        .arg(&screenshot)
-        .args(SMALL)
-        .output()
-        .expect("run game_demo play --script --inject-faults");
+    let output = scripted_window(&x, &screenshot, &["--inject-faults"]);
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(output.status.success(), "windowed play with faults failed: {stderr}");
     for expected in ["5 redraws skipped while minimized", "Shrink", "the lost surface was replaced", "the level runs on a new GPU device"] {

@@ -134,7 +134,7 @@ pub fn run_soak(gpu: &GpuContext, options: &PlayOptions, soak: &SoakOptions) -> 
             continue;
         }
         let first_in_window = u64::from(frame + 1).saturating_sub(cpu_window.len() as u64);
-        let rays: Vec<f64> = timings.counter("ddgi_rays").into_iter().filter(|(f, _)| *f >= first_in_window).map(|(_, v)| v).collect();
+        let mut rays: Vec<f64> = timings.counter("ddgi_rays").into_iter().filter(|(f, _)| *f >= first_in_window).map(|(_, v)| v).collect();
         let non_finite = count_non_finite(gpu, world);
         samples.push(SoakSample {
             frame: frame + 1,
@@ -143,7 +143,7 @@ pub fn run_soak(gpu: &GpuContext, options: &PlayOptions, soak: &SoakOptions) -> 
             gpu_bytes: gpu.device.generate_allocator_report().map(|r| r.total_allocated_bytes),
             gpu_ms: median(&mut gpu_window),
             cpu_ms: median(&mut cpu_window).unwrap_or(0.0),
-            rays: median(&mut rays.clone()),
+            rays: median(&mut rays),
             non_finite,
         });
         cpu_window.clear();
