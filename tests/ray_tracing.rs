@@ -311,11 +311,6 @@ fn after_many_moves_and_refits_hits_still_match_the_cpu_reference() {
     compare("moved", &app, &gpu, &random_rays(bounds, 3000, 4242));
 }
 
-fn srgb_to_linear(c: u8) -> f32 {
-    let c = f32::from(c) / 255.0;
-    if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
-}
-
 #[test]
 fn hits_report_the_material_with_texture_and_texture_transform() {
     use engine::scene::{Handle, Image, TextureRef, UvTransform};
@@ -352,7 +347,11 @@ fn hits_report_the_material_with_texture_and_texture_transform() {
         for (k, hit) in got.iter().enumerate() {
             // The transform's offset of half the texture swaps the columns.
             let texel = texels[row * 2 + if k == 0 { col } else { 1 - col }];
-            let expected = Vec3::new(srgb_to_linear(texel[0]), srgb_to_linear(texel[1]), srgb_to_linear(texel[2])) * factor.truncate();
+            let expected = Vec3::new(
+                engine::metrics::srgb8_to_linear(texel[0]),
+                engine::metrics::srgb8_to_linear(texel[1]),
+                engine::metrics::srgb8_to_linear(texel[2]),
+            ) * factor.truncate();
             let albedo = Vec3::from_slice(&hit.albedo[..3]);
             assert!(
                 (albedo - expected).abs().max_element() < 0.01,

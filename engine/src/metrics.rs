@@ -30,6 +30,12 @@ pub fn srgb8(linear: f32) -> u8 {
     (s * 255.0 + 0.5) as u8
 }
 
+/// An 8-bit sRGB value decoded to linear, in [0, 1] (the inverse of [`srgb8`]).
+pub fn srgb8_to_linear(v: u8) -> f32 {
+    let c = f32::from(v) / 255.0;
+    if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+}
+
 /// Mean FLIP between two sRGB RGB8 images of `width × height`, and the per-pixel error map.
 pub fn flip_rgb8(reference: &[u8], test: &[u8], width: u32, height: u32) -> (f32, nv_flip::FlipImageFloat) {
     let reference = nv_flip::FlipImageRgb8::with_data(width, height, reference);

@@ -387,11 +387,6 @@ fn centre_luminance(hdr: &[f32], size: u32, half: u32) -> f32 {
     sum / count as f32
 }
 
-fn srgb_to_linear(v: u8) -> f32 {
-    let c = v as f32 / 255.0;
-    if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
-}
-
 /// DDGI with the paper's settings for `scene` against a stored path-traced reference: its mean
 /// FLIP, the mean FLIP of direct light alone (the error DDGI is there to remove), the DDGI image
 /// and the reference.
@@ -450,8 +445,13 @@ fn door_room_matches_the_reference_and_its_dark_corner_does_not_leak() {
     assert!(flip < 0.75 * direct, "DDGI ({flip}) must remove a quarter of direct light's error ({direct}) at least");
     // The camera looks at the interior corner through the door: it is the centre of the image.
     let ddgi = centre_luminance(&frame.hdr, REFERENCE_SIZE, 3);
-    let reference_linear: Vec<f32> =
-        reference.as_raw().chunks_exact(4).flat_map(|p| [srgb_to_linear(p[0]), srgb_to_linear(p[1]), srgb_to_linear(p[2]), 1.0]).collect();
+    let reference_linear: Vec<f32> = reference
+        .as_raw()
+        .chunks_exact(4)
+        .flat_map(|p| {
+            [engine::metrics::srgb8_to_linear(p[0]), engine::metrics::srgb8_to_linear(p[1]), engine::metrics::srgb8_to_linear(p[2]), 1.0]
+        })
+        .collect();
     // The reference PNG holds exposure × radiance (the camera's exposure is 1.5).
     let expected = centre_luminance(&reference_linear, REFERENCE_SIZE, 3) / 1.5;
     eprintln!("door_room: mean FLIP {flip:.4}; interior corner luminance DDGI {ddgi:.4}, reference {expected:.4}");
