@@ -58,6 +58,12 @@ struct DdgiVolumeGpu {
     error_floor: f32,
     dark_fraction: f32,
     frame_budget: u32,
+    // Resting (adaptive budgets): the longest rest of a quiet probe between two updates, in frames
+    // (≤ 1: no resting), and the share of error_target under which a probe counts as quiet.
+    max_rest_frames: u32,
+    rest_error: f32,
+    _pad_rest0: u32,
+    _pad_rest1: u32,
 }
 
 // Per-probe state: relocation and classification write offset and state, the irradiance update
@@ -81,7 +87,9 @@ struct DdgiProbeData {
     // Classifications in a row whose rays found no front face in the probe's region (see
     // DDGI_EMPTY_CHECKS).
     empty_checks: u32,
-    _pad1: u32,
+    // Resting (adaptive budgets): bits 0–15 the probe's rest period (an update every that many
+    // frames; 0 or 1: every frame), bits 16–31 the frames left before its next update.
+    rest: u32,
 }
 
 // A probe counts as affecting no surface only after this many classifications in a row found none
@@ -89,11 +97,14 @@ struct DdgiProbeData {
 // edge of the region, and each frame rotates them anew.
 const DDGI_EMPTY_CHECKS: u32 = 8u;
 
-// What the budget pass leaves for the rest of the frame: the indirect dispatch of the ray passes,
-// the number of rays and the brightest probe's luma.
+// What the budget pass leaves for the rest of the frame: the indirect dispatch of the ray passes
+// and the number of rays, the indirect dispatch of the per-probe passes (one workgroup per probe
+// updated this frame, listed in ddgi_updated) and their number, and the brightest probe's luma.
 struct DdgiCounters {
     dispatch: vec3<u32>,
     total_rays: u32,
+    probe_dispatch: vec3<u32>,
+    updated_probes: u32,
     max_luma: f32,
     // The share of each probe's rays kept this frame under the frame budget.
     budget_scale: f32,
@@ -102,12 +113,15 @@ struct DdgiCounters {
 }
 
 // One block of 256 probes in the budget's prefix sum: its rays (after and before the frame
-// budget), its brightest probe and where its rays start.
+// budget), its brightest probe, where its rays start, its probes with rays this frame and where
+// they start in ddgi_updated.
 struct DdgiBlock {
     rays: u32,
     unscaled_rays: u32,
     max_luma: f32,
     offset: u32,
+    probes: u32,
+    probe_offset: u32,
 }
 
 // One probe ray of the frame's packed rays: its direction and its probe.
@@ -176,6 +190,10 @@ struct DdgiTexel {
 // (a dispatch may not write a buffer it reads its arguments from).
 @group(1) @binding(12) var<storage, read> ddgi_counters_in: DdgiCounters;
 @group(1) @binding(13) var<storage, read_write> ddgi_blocks: array<DdgiBlock>;
+// The probes with rays this frame (ddgi_counters.updated_probes of them), in probe order: the
+// per-probe passes run one workgroup for each, so a resting or switched-off probe costs them
+// nothing.
+@group(1) @binding(14) var<storage, read_write> ddgi_updated: array<u32>;
 
 fn ddgi_has(flag: u32) -> bool {
     return (ddgi_volume.flags & flag) != 0u;

@@ -74,15 +74,83 @@ fn ddgi_scan(value: u32, local: u32) -> vec2<u32> {
 // 4. plan_ray_blocks: one workgroup scans the blocks' sums, writes the indirect dispatch of the ray
 //    passes and the brightest probe's luma;
 // 5. place_rays: each probe's offset plus its block's.
+// Resting (adaptive budgets). A probe whose error at its last update was under
+// rest_error × error_target is quiet: its maps have converged and further rays would only stir
+// their noise, so it rests — keeps its maps, traces nothing, costs no per-probe pass — for a period
+// that doubles at each quiet update (up to max_rest_frames) and falls back to every frame at the
+// first update that is not quiet. A resting probe wakes at once when one of its six neighbours
+// sees its lighting change (error over the target): a change anywhere in the scene is caught
+// within a frame or two by the probes that are awake or due. Returns (rays, new rest word).
+fn ddgi_rest(p: u32, data: DdgiProbeData, rays: u32) -> vec2<u32> {
+    let v = ddgi_volume;
+    let quiet_allowed = ddgi_has(DDGI_ADAPTIVE) && v.max_rest_frames > 1u && rays > 0u
+        && (data.state & (DDGI_PROBE_INACTIVE | DDGI_PROBE_FRESH)) == 0u && data.pinned_rays == DDGI_NO_PIN;
+    if !quiet_allowed {
+        return vec2<u32>(rays, 1u);
+    }
+    let period = clamp(data.rest & 0xffffu, 1u, v.max_rest_frames);
+    let left = data.rest >> 16u;
+    if left > 0u {
+        if !ddgi_neighbour_changing(p) {
+            return vec2<u32>(0u, period | ((left - 1u) << 16u));
+        }
+        return vec2<u32>(rays, 1u);
+    }
+    // Due: the error of the last update decides the next rest.
+    if data.error >= v.rest_error * v.error_target {
+        return vec2<u32>(rays, 1u);
+    }
+    let next = min(period * 2u, v.max_rest_frames);
+    // A first rest of random length in [0, next), so that probes that settle together do not all
+    // update on the same frames afterwards.
+    var wait = next - 1u;
+    if next > period {
+        wait = ddgi_hash(p ^ (next * 0x9e3779b9u)) % next;
+    }
+    return vec2<u32>(rays, next | (wait << 16u));
+}
+
+// Whether one of probe p's six neighbours (active, updated at some point) is over the error target.
+fn ddgi_neighbour_changing(p: u32) -> bool {
+    let c = vec3<i32>(ddgi_probe_coords(p));
+    let counts = vec3<i32>(ddgi_volume.counts);
+    for (var k = 0u; k < 6u; k++) {
+        var step = vec3<i32>(0);
+        step[k / 2u] = select(-1, 1, (k & 1u) == 1u);
+        let q = c + step;
+        if all(q >= vec3<i32>(0)) && all(q < counts) {
+            let n = ddgi_probes[ddgi_probe_index(vec3<u32>(q))];
+            if (n.state & (DDGI_PROBE_INACTIVE | DDGI_PROBE_FRESH)) == 0u && n.error > ddgi_volume.error_target {
+                return true;
+            }
+        }
+    }
+    return false;
+}
+
+// A 32-bit integer hash (lowbias32, Chris Wellons).
+fn ddgi_hash(x_in: u32) -> u32 {
+    var x = x_in;
+    x ^= x >> 16u;
+    x *= 0x7feb352du;
+    x ^= x >> 15u;
+    x *= 0x846ca68bu;
+    x ^= x >> 16u;
+    return x;
+}
+
 @compute @workgroup_size(256)
 fn plan_rays(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) local: u32) {
     let p = group.x * DDGI_SCAN + local;
     var count = 0u;
     var luma = 0.0;
     if p < ddgi_volume.probe_count {
-        count = ddgi_probe_budget(p);
+        let data = ddgi_probes[p];
+        let rest = ddgi_rest(p, data, ddgi_probe_budget(p));
+        count = rest.x;
         ddgi_probes[p].ray_count = count;
-        luma = ddgi_probes[p].luma;
+        ddgi_probes[p].rest = rest.y;
+        luma = data.luma;
     }
     let total = ddgi_scan(count, local).y;
     wg_max[local] = luma;
@@ -92,7 +160,7 @@ fn plan_rays(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_
         for (var k = 0u; k < DDGI_SCAN; k++) {
             m = max(m, wg_max[k]);
         }
-        ddgi_blocks[group.x] = DdgiBlock(0u, total, m, 0u);
+        ddgi_blocks[group.x] = DdgiBlock(0u, total, m, 0u, 0u, 0u);
     }
 }
 
@@ -136,8 +204,10 @@ fn scale_rays(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation
         ddgi_probes[p].ray_count = count;
         ddgi_probes[p].ray_offset = scan.x;
     }
+    let updated = ddgi_scan(u32(count > 0u), local).y;
     if local == 0u {
         ddgi_blocks[group.x].rays = scan.y;
+        ddgi_blocks[group.x].probes = updated;
     }
 }
 
@@ -145,19 +215,23 @@ fn scale_rays(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation
 fn plan_ray_blocks(@builtin(local_invocation_index) local: u32) {
     let blocks = ddgi_block_count();
     var offset = 0u;
+    var probes = 0u;
     var brightest = 0.0;
     for (var first = 0u; first < blocks; first += DDGI_SCAN) {
         let b = first + local;
-        var block = DdgiBlock(0u, 0u, 0.0, 0u);
+        var block = DdgiBlock(0u, 0u, 0.0, 0u, 0u, 0u);
         if b < blocks {
             block = ddgi_blocks[b];
         }
         brightest = max(brightest, block.max_luma);
         let scan = ddgi_scan(block.rays, local);
+        let probe_scan = ddgi_scan(block.probes, local);
         if b < blocks {
             ddgi_blocks[b].offset = offset + scan.x;
+            ddgi_blocks[b].probe_offset = probes + probe_scan.x;
         }
         offset += scan.y;
+        probes += probe_scan.y;
     }
     wg_max[local] = brightest;
     workgroupBarrier();
@@ -169,6 +243,8 @@ fn plan_ray_blocks(@builtin(local_invocation_index) local: u32) {
         let groups = (offset + DDGI_RAY_GROUP - 1u) / DDGI_RAY_GROUP;
         ddgi_counters.dispatch = vec3<u32>(min(groups, 65535u), max((groups + 65534u) / 65535u, 1u), 1u);
         ddgi_counters.total_rays = offset;
+        ddgi_counters.probe_dispatch = vec3<u32>(min(probes, 65535u), max((probes + 65534u) / 65535u, 1u), 1u);
+        ddgi_counters.updated_probes = probes;
         ddgi_counters.max_luma = m;
     }
 }
@@ -176,8 +252,15 @@ fn plan_ray_blocks(@builtin(local_invocation_index) local: u32) {
 @compute @workgroup_size(256)
 fn place_rays(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) local: u32) {
     let p = group.x * DDGI_SCAN + local;
+    var traced = false;
     if p < ddgi_volume.probe_count {
         ddgi_probes[p].ray_offset += ddgi_blocks[group.x].offset;
+        traced = ddgi_probes[p].ray_count > 0u;
+    }
+    // The probes with rays, listed for the per-probe passes.
+    let slot = ddgi_scan(u32(traced), local).x;
+    if traced {
+        ddgi_updated[ddgi_blocks[group.x].probe_offset + slot] = p;
     }
 }
 

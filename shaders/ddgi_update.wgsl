@@ -10,9 +10,15 @@ var<workgroup> wg_value: array<vec4<f32>, 64>;
 var<workgroup> wg_probe: DdgiProbeData;
 var<workgroup> wg_error: array<vec2<f32>, 64>;
 
-// Probe of a workgroup (two-dimensional dispatches for more than 65,535 probes).
+// The probe of a workgroup: the per-probe passes are dispatched indirectly, one workgroup for each
+// probe with rays this frame (listed by the budget pass; two-dimensional beyond 65,535). Past the
+// list: 0xffffffff, which every caller rejects as ≥ probe_count.
 fn ddgi_group_probe(group: vec3<u32>) -> u32 {
-    return group.x + group.y * 65535u;
+    let i = group.x + group.y * 65535u;
+    if i >= ddgi_counters_in.updated_probes {
+        return 0xffffffffu;
+    }
+    return ddgi_updated[i];
 }
 
 // The probe's data, the same in every thread of the workgroup (so barriers stay in uniform flow).
@@ -228,44 +234,39 @@ fn ddgi_border_source(t: vec2<u32>, n: u32) -> vec2<u32> {
     return t;
 }
 
-// For atlas texel `texel` of an atlas of n × n maps: the probe whose tile holds it, if that probe
-// was updated this frame, and the slot of the map texel it shows (its own, or for a border texel
-// the mirrored interior one).
-fn ddgi_atlas_texel_source(texel: vec2<u32>, n: u32) -> vec2<u32> {
-    let tile = texel / (n + 2u);
-    if tile.x >= ddgi_volume.tiles_per_row {
-        return vec2<u32>(0u, 0u);
-    }
-    let probe = tile.y * ddgi_volume.tiles_per_row + tile.x;
+// Writes the map of the workgroup's probe (one workgroup per probe updated this frame, as the map
+// updates) into its atlas tile, the border filled from the mirrored interior: the irradiance map
+// (perceptually encoded) or the distance map. Tiles of probes that did not trace keep what they hold.
+fn ddgi_store_tile(group: vec3<u32>, local: u32, irradiance: bool) {
+    let probe = ddgi_group_probe(group);
     if probe >= ddgi_volume.probe_count || !ddgi_probe_active(probe) {
-        return vec2<u32>(0u, 0u);
-    }
-    let source = ddgi_border_source(texel - tile * (n + 2u), n) - vec2<u32>(1u);
-    return vec2<u32>(1u, probe * n * n + source.y * n + source.x);
-}
-
-// Writes the maps of the probes updated this frame into the atlases, each tile's border filled
-// from the mirrored interior.
-@compute @workgroup_size(8, 8)
-fn copy_irradiance_borders(@builtin(global_invocation_id) id: vec3<u32>) {
-    if any(vec2<f32>(id.xy) >= ddgi_volume.irradiance_atlas_size) {
         return;
     }
-    let source = ddgi_atlas_texel_source(id.xy, ddgi_volume.irradiance_texels);
-    if source.x != 0u {
-        textureStore(ddgi_atlas_out, id.xy, vec4<f32>(ddgi_encode_irradiance(ddgi_irradiance_history[source.y].irradiance.rgb), 1.0));
+    let n = select(ddgi_volume.distance_texels, ddgi_volume.irradiance_texels, irradiance);
+    let side = n + 2u;
+    let corner = vec2<u32>(probe % ddgi_volume.tiles_per_row, probe / ddgi_volume.tiles_per_row) * side;
+    for (var t = local; t < side * side; t += DDGI_GROUP) {
+        let texel = vec2<u32>(t % side, t / side);
+        let source = ddgi_border_source(texel, n) - vec2<u32>(1u);
+        let slot = probe * n * n + source.y * n + source.x;
+        var value: vec4<f32>;
+        if irradiance {
+            value = vec4<f32>(ddgi_encode_irradiance(ddgi_irradiance_history[slot].irradiance.rgb), 1.0);
+        } else {
+            value = vec4<f32>(ddgi_distance_history[slot], 0.0, 1.0);
+        }
+        textureStore(ddgi_atlas_out, corner + texel, value);
     }
 }
 
-@compute @workgroup_size(8, 8)
-fn copy_distance_borders(@builtin(global_invocation_id) id: vec3<u32>) {
-    if any(vec2<f32>(id.xy) >= ddgi_volume.distance_atlas_size) {
-        return;
-    }
-    let source = ddgi_atlas_texel_source(id.xy, ddgi_volume.distance_texels);
-    if source.x != 0u {
-        textureStore(ddgi_atlas_out, id.xy, vec4<f32>(ddgi_distance_history[source.y], 0.0, 1.0));
-    }
+@compute @workgroup_size(64)
+fn copy_irradiance_borders(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) local: u32) {
+    ddgi_store_tile(group, local, true);
+}
+
+@compute @workgroup_size(64)
+fn copy_distance_borders(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) local: u32) {
+    ddgi_store_tile(group, local, false);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -455,7 +456,7 @@ fn classify_probes(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invoc
         is_active = !ddgi_inside_geometry(s, data.ray_count) && empty < DDGI_EMPTY_CHECKS;
     }
     if is_active && ddgi_has(DDGI_ADAPTIVE) {
-        is_active = !ddgi_dark_around(probe, luma, ddgi_volume.dark_fraction * ddgi_counters.max_luma);
+        is_active = !ddgi_dark_around(probe, luma, ddgi_volume.dark_fraction * ddgi_counters_in.max_luma);
     }
     if data.pinned_state == DDGI_PIN_ACTIVE || data.pinned_state == DDGI_PIN_INACTIVE {
         is_active = data.pinned_state == DDGI_PIN_ACTIVE;

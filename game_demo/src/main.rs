@@ -50,9 +50,21 @@ enum Command {
         /// scenes: the first light moves).
         #[arg(long)]
         time_series: bool,
-        /// Frames after the change (with --time-series).
-        #[arg(long, default_value_t = 60, requires = "time_series", value_parser = clap::value_parser!(u32).range(1..))]
+        /// Frames after the change (with --time-series). The default lets DDGI at hysteresis 0.97
+        /// settle (0.97^240 ≈ 0.07% of the change left), so that "settled" means settled.
+        #[arg(long, default_value_t = 240, requires = "time_series", value_parser = clap::value_parser!(u32).range(1..))]
         frames: u32,
+        /// Frames DDGI runs before the change (with --time-series); its static phase is measured
+        /// at their end.
+        #[arg(long, default_value_t = 240, requires = "time_series", value_parser = clap::value_parser!(u32).range(1..))]
+        settle_frames: u32,
+        /// Adaptive configuration: the longest rest of a quiet probe in frames (DdgiAdaptive::max_rest_frames).
+        #[arg(long)]
+        rest_frames: Option<u32>,
+        /// Adaptive configuration: the share of the error target under which a probe rests
+        /// (DdgiAdaptive::rest_error).
+        #[arg(long)]
+        rest_error: Option<f32>,
         /// Also DDGI's experiments: quality for probe densities 8×4×8, 16×8×16, 32×16×32 × irradiance
         /// maps of 4, 8, 16 texels, and the ablation of the visibility weights (none → back-face →
         /// Chebyshev → normal bias).
@@ -553,21 +565,38 @@ fn main() -> ExitCode {
     let result = match Cli::parse().command {
         Command::Render(args) => render(args),
         Command::Bench(command) => bench(command),
-        Command::Eval { scene, width, height, reference_spp, time_series, frames, experiments, out, cache } => {
-            load(&scene).and_then(|description| {
-                let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
-                let default_out = PathBuf::from("out/eval").join(scene.replace(['/', '\\', '.'], "_"));
-                let out = out.unwrap_or_else(|| if time_series { default_out.join("time_series") } else { default_out });
-                let options = eval::EvalOptions { width, height, reference_spp, out, cache, experiments };
-                if time_series {
-                    eval::time_series::run(&gpu, &scene, description, &options, frames)?;
-                } else {
-                    eval::run(&gpu, &scene, description, &options)?;
-                }
-                println!("report: {}", options.out.join("report.md").display());
-                Ok(())
-            })
-        }
+        Command::Eval {
+            scene,
+            width,
+            height,
+            reference_spp,
+            time_series,
+            frames,
+            settle_frames,
+            rest_frames,
+            rest_error,
+            experiments,
+            out,
+            cache,
+        } => load(&scene).and_then(|description| {
+            let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
+            let default_out = PathBuf::from("out/eval").join(scene.replace(['/', '\\', '.'], "_"));
+            let out = out.unwrap_or_else(|| if time_series { default_out.join("time_series") } else { default_out });
+            let defaults = ddgi::DdgiAdaptive::on();
+            let adaptive = ddgi::DdgiAdaptive {
+                max_rest_frames: rest_frames.unwrap_or(defaults.max_rest_frames),
+                rest_error: rest_error.unwrap_or(defaults.rest_error),
+                ..defaults
+            };
+            let options = eval::EvalOptions { width, height, reference_spp, out, cache, experiments, adaptive, settle_frames };
+            if time_series {
+                eval::time_series::run(&gpu, &scene, description, &options, frames)?;
+            } else {
+                eval::run(&gpu, &scene, description, &options)?;
+            }
+            println!("report: {}", options.out.join("report.md").display());
+            Ok(())
+        }),
         Command::Play(args) => play(args),
     };
     match result {

@@ -151,6 +151,23 @@ pub struct StaticPhase {
     pub config: String,
     pub rays: Option<f64>,
     pub update_ms: Option<f64>,
+    /// The median GPU ms of each pass of the probe update.
+    pub passes: Vec<(String, f64)>,
+}
+
+/// Frames a configuration runs before the change: DDGI `settle_frames` (it must have converged
+/// for its static phase to be static), the others as many as their still image needs.
+fn settle_frames_of(config: &Config, settle_frames: u32) -> u32 {
+    match config {
+        Config::Ddgi { .. } => settle_frames,
+        _ => config.frames(),
+    }
+}
+
+/// Whether a pass belongs to DDGI's probe update (every DDGI pass but the camera's gather and
+/// composite).
+fn is_probe_update(label: &str) -> bool {
+    label.starts_with("ddgi_") && !label.starts_with("ddgi_gather") && !label.starts_with("ddgi_composite")
 }
 
 fn mean(v: &[f64]) -> Option<f64> {
@@ -159,13 +176,22 @@ fn mean(v: &[f64]) -> Option<f64> {
 
 /// GPU milliseconds of DDGI's probe update in one frame, if it ran.
 fn probe_update_ms(frame: &engine::render::FrameTiming) -> Option<f64> {
-    let update: Vec<f64> = frame
-        .passes
-        .iter()
-        .filter(|p| p.ran && p.label.starts_with("ddgi_") && !p.label.starts_with("ddgi_gather") && !p.label.starts_with("ddgi_composite"))
-        .filter_map(|p| p.gpu_ms)
-        .collect();
+    let update: Vec<f64> = frame.passes.iter().filter(|p| p.ran && is_probe_update(&p.label)).filter_map(|p| p.gpu_ms).collect();
     (!update.is_empty()).then(|| update.iter().sum())
+}
+
+/// Whether a series of errors had settled by its end: the mean of its last tenth is within 2% of
+/// the mean of the tenth before (a series still falling at its end has no settled value yet, and
+/// the frames to within 10% of its last values would flatter it). Series of under 20 frames: unknown.
+pub fn still_falling(errors: &[f32]) -> Option<bool> {
+    let tail = errors.len() / 10;
+    if tail < 2 {
+        return None;
+    }
+    let mean = |s: &[f32]| s.iter().sum::<f32>() / s.len() as f32;
+    let last = mean(&errors[errors.len() - tail..]);
+    let before = mean(&errors[errors.len() - 2 * tail..errors.len() - tail]);
+    Some(last < 0.98 * before)
 }
 
 /// The settled error of a series of errors (frames 0, 1, … after the change): the mean of its last
@@ -189,7 +215,7 @@ pub fn run(
     options: &EvalOptions,
     frames: u32,
 ) -> Result<Vec<SeriesRow>, String> {
-    let EvalOptions { width, height, reference_spp, ref out, ref cache, .. } = *options;
+    let EvalOptions { width, height, reference_spp, ref out, ref cache, ref adaptive, settle_frames, .. } = *options;
     std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
     let change = scene_change(name, &mut scene)?;
     println!("change: {}", change.description);
@@ -199,11 +225,12 @@ pub fn run(
     let seed = pathtrace::PathTraceSettings::default().seed;
     let mut rows = Vec::new();
     let mut statics = Vec::new();
-    for config in Config::time_series_list(name) {
-        // Probe-update GPU ms of the static phase: the STATIC_FRAMES frames before the last one
-        // before the change.
+    for config in Config::time_series_list(name, adaptive) {
+        // Probe-update GPU ms of the static phase, in all and by pass: the STATIC_FRAMES frames
+        // before the last one before the change.
         let mut static_ms = Vec::new();
-        let settle = config.frames();
+        let mut static_passes: Vec<(String, Vec<f64>)> = Vec::new();
+        let settle = settle_frames_of(&config, settle_frames);
         let settings = HeadlessSettings { width, height, frames: settle + frames, ..Default::default() };
         let mut app = scene_app(gpu, before.clone(), &settings, |app| config.configure(app, seed)).map_err(|e| e.to_string())?;
         let world = app.world_mut();
@@ -217,9 +244,17 @@ pub fn run(
             let frame = i64::from(frame) - i64::from(settle);
             if frame < -1 {
                 if frame >= -1 - STATIC_FRAMES
-                    && let Some(ms) = world.resource::<FrameTimings>().frames.last().and_then(probe_update_ms)
+                    && let Some(last) = world.resource::<FrameTimings>().frames.last()
+                    && let Some(ms) = probe_update_ms(last)
                 {
                     static_ms.push(ms);
+                    for pass in last.passes.iter().filter(|p| p.ran && is_probe_update(&p.label)) {
+                        let Some(ms) = pass.gpu_ms else { continue };
+                        match static_passes.iter_mut().find(|(l, _)| *l == pass.label) {
+                            Some((_, v)) => v.push(ms),
+                            None => static_passes.push((pass.label.clone(), vec![ms])),
+                        }
+                    }
                 }
                 return;
             }
@@ -237,7 +272,8 @@ pub fn run(
         let rays = app.world().resource::<FrameTimings>().counter("ddgi_rays");
         let first_static = u64::from(settle).saturating_sub(1 + STATIC_FRAMES as u64);
         let static_rays: Vec<f64> = rays.iter().filter(|(f, _)| (first_static..u64::from(settle)).contains(f)).map(|(_, r)| *r).collect();
-        statics.push(StaticPhase { config: config.name(), rays: mean(&static_rays), update_ms: median(static_ms) });
+        let passes = static_passes.into_iter().filter_map(|(label, ms)| median(ms).map(|m| (label, m))).collect();
+        statics.push(StaticPhase { config: config.name(), rays: mean(&static_rays), update_ms: median(static_ms), passes });
         for row in rows.iter_mut().filter(|r| r.config == config.name()) {
             let app_frame = (row.frame + i64::from(settle)) as u64;
             row.rays = rays.iter().find(|(f, _)| *f == app_frame).map(|(_, v)| *v);
@@ -310,7 +346,10 @@ fn write_report(
     statics: &[StaticPhase],
     plot_note: &str,
 ) -> Result<(), String> {
-    let settle: Vec<String> = Config::time_series_list(name).iter().map(|c| format!("{} {}", c.name(), c.frames())).collect();
+    let settle: Vec<String> = Config::time_series_list(name, &options.adaptive)
+        .iter()
+        .map(|c| format!("{} {}", c.name(), settle_frames_of(c, options.settle_frames)))
+        .collect();
     let mut md = format!(
         "# Time series: {name}\n\nBefore frame 0, {}.\n\n{}×{} on {adapter}, {frames} frames after the change. Reference: the scene after the change, \
          path traced at {} paths per pixel (another seed). Every frame is compared with it (mean FLIP on sRGB at exposure 1, RMSE on \
@@ -328,7 +367,10 @@ fn write_report(
         let after: Vec<f32> = series.iter().filter(|r| r.frame >= 0).map(|r| r.flip).collect();
         let (settled, from) = settling(&after);
         let at = |frame: i64| series.iter().find(|r| r.frame == frame).map_or("n/a".into(), |r| format!("{:.4}", r.flip));
-        let from = from.map_or(format!("not within {frames} frames"), |f| f.to_string());
+        let mut from = from.map_or(format!("not within {frames} frames"), |f| f.to_string());
+        if still_falling(&after) == Some(true) {
+            from += " (still falling at the end)";
+        }
         let shown = |v: Option<f64>, digits: usize| v.map_or("n/a".to_string(), |v| format!("{v:.digits$}"));
         let phase = statics.iter().find(|p| p.config == config);
         let rays_before = shown(phase.and_then(|p| p.rays), 0);
@@ -340,19 +382,51 @@ fn write_report(
     md += &format!(
         "\nSettled FLIP: the mean over the last tenth of the frames (at least one); the path tracer keeps converging, so its \
          settled value and frame count depend on `--frames`. Frames to within 10%: the first frame after the change from which \
-         every frame's FLIP is within 10% of the settled value. Static: the 30 frames before the last one before the change \
-         (rays: their mean, as read back from the GPU; DDGI's probe update, every DDGI pass but the gather and composite: \
-         the median GPU ms).\n\n\
+         every frame's FLIP is within 10% of the settled value (\"still falling\": the last tenth's mean is more than 2% under \
+         the tenth before, so the series had not settled and needs more `--frames`). Static: the 30 frames before the last one \
+         before the change (rays: their mean, as read back from the GPU; DDGI's probe update, every DDGI pass but the gather and \
+         composite: the median GPU ms).\n\n{}\
          Mean FLIP per frame, one series per configuration, log scale{plot_note}:\n\n![mean FLIP per frame](time_series.png)\n\n\
          Every frame: [time_series.csv](time_series.csv) (frame, config, flip, rmse, gpu_ms, update_ms: DDGI's probe update, rays: \
-         DDGI's rays traced).\n"
+         DDGI's rays traced).\n",
+        pass_table(statics)
     );
     write(&out.join("report.md"), &md)
+}
+
+/// The static phase's median GPU ms of each probe-update pass, one column per DDGI configuration
+/// (empty when none ran DDGI).
+fn pass_table(statics: &[StaticPhase]) -> String {
+    let ddgi: Vec<&StaticPhase> = statics.iter().filter(|p| !p.passes.is_empty()).collect();
+    let Some(first) = ddgi.first() else { return String::new() };
+    let mut md = String::from("Static phase, median GPU ms of each pass of the probe update:\n\n| pass |");
+    for p in &ddgi {
+        md += &format!(" {} |", p.config);
+    }
+    md += &format!("\n|---|{}\n", "---:|".repeat(ddgi.len()));
+    for (label, _) in &first.passes {
+        md += &format!("| {label} |");
+        for p in &ddgi {
+            let ms = p.passes.iter().find(|(l, _)| l == label).map_or("not run".to_string(), |(_, ms)| format!("{ms:.3}"));
+            md += &format!(" {ms} |");
+        }
+        md += "\n";
+    }
+    md + "\n"
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_series_still_falling_at_its_end_is_flagged() {
+        let falling: Vec<f32> = (0..60).map(|i| 0.2 * 0.97f32.powi(i)).collect();
+        assert_eq!(still_falling(&falling), Some(true), "an exponential at 3% a frame has not settled");
+        let settled: Vec<f32> = (0..240).map(|i| 0.1 + 0.1 * 0.97f32.powi(i)).collect();
+        assert_eq!(still_falling(&settled), Some(false));
+        assert_eq!(still_falling(&[0.3; 10]), None, "too short to tell");
+    }
 
     #[test]
     fn settling_finds_the_first_frame_that_stays_within_ten_percent() {

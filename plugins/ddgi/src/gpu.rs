@@ -40,6 +40,9 @@ pub struct DdgiVolumeGpu {
     pub error_floor: f32,
     pub dark_fraction: f32,
     pub frame_budget: u32,
+    pub max_rest_frames: u32,
+    pub rest_error: f32,
+    pub _pad_rest: [u32; 2],
 }
 
 #[repr(C)]
@@ -57,7 +60,8 @@ pub struct DdgiProbeData {
     pub pinned_state: u32,
     /// Classifications in a row that found no surface in the probe's region.
     pub empty_checks: u32,
-    pub _pad1: u32,
+    /// Resting: bits 0–15 the rest period in frames, bits 16–31 the frames left to rest.
+    pub rest: u32,
 }
 
 impl DdgiProbeData {
@@ -72,7 +76,7 @@ impl DdgiProbeData {
         pinned_rays: NO_PIN,
         pinned_state: 0,
         empty_checks: 0,
-        _pad1: 0,
+        rest: 0,
     };
 }
 
@@ -82,9 +86,24 @@ pub struct DdgiCounters {
     /// Workgroups of the indirect dispatch of the ray passes.
     pub dispatch: [u32; 3],
     pub total_rays: u32,
+    /// Workgroups of the indirect dispatch of the per-probe passes (one per probe with rays).
+    pub probe_dispatch: [u32; 3],
+    pub updated_probes: u32,
     pub max_luma: f32,
     pub budget_scale: f32,
     pub _pad: [u32; 2],
+}
+
+/// One block of 256 probes in the budget pass's prefix sums (written and read on the GPU only).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct DdgiBlock {
+    pub rays: u32,
+    pub unscaled_rays: u32,
+    pub max_luma: f32,
+    pub offset: u32,
+    pub probes: u32,
+    pub probe_offset: u32,
 }
 
 #[repr(C)]
@@ -198,6 +217,9 @@ impl DdgiVolumeGpu {
             error_floor: a.error_floor,
             dark_fraction: if a.enabled { a.dark_fraction } else { 0.0 },
             frame_budget: if a.enabled { a.frame_budget.unwrap_or(0) } else { 0 },
+            max_rest_frames: if a.enabled { a.max_rest_frames.min(0xffff) } else { 0 },
+            rest_error: a.rest_error,
+            _pad_rest: [0; 2],
         }
     }
 }
@@ -208,6 +230,7 @@ pub const GPU_STRUCTS: &[(&str, usize, &str)] = &[
     ("DdgiProbeData", size_of::<DdgiProbeData>(), "ddgi.inc.wgsl"),
     ("DdgiRay", size_of::<DdgiRay>(), "ddgi.inc.wgsl"),
     ("DdgiCounters", size_of::<DdgiCounters>(), "ddgi.inc.wgsl"),
+    ("DdgiBlock", size_of::<DdgiBlock>(), "ddgi.inc.wgsl"),
     ("DdgiGatherParams", size_of::<DdgiGatherParams>(), "ddgi_gather.wgsl"),
     ("DdgiProbeViewParams", size_of::<DdgiProbeViewParams>(), "ddgi_probes.wgsl"),
 ];

@@ -17,7 +17,8 @@ use engine::wgpu;
 use glam::{Mat3, Quat, Vec3};
 
 use crate::gpu::{
-    DdgiCounters, DdgiGatherParams, DdgiProbeData, DdgiProbeViewParams, DdgiVolumeGpu, NO_PIN, PIN_ACTIVE, PIN_INACTIVE, PROBE_INACTIVE,
+    DdgiBlock, DdgiCounters, DdgiGatherParams, DdgiProbeData, DdgiProbeViewParams, DdgiVolumeGpu, NO_PIN, PIN_ACTIVE, PIN_INACTIVE,
+    PROBE_INACTIVE,
 };
 use crate::volume::{DdgiLayout, DdgiLimits, DdgiProbe, DdgiProbePin, DdgiProbeState, DdgiVolume};
 
@@ -28,6 +29,9 @@ pub const ATLAS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 
 /// Probes per block of the budget pass's prefix sum (its workgroup size).
 const BUDGET_BLOCK: u32 = 256;
+/// Where in [`DdgiCounters`] the indirect dispatches of the ray passes and of the per-probe passes are.
+const RAY_DISPATCH_OFFSET: u64 = std::mem::offset_of!(DdgiCounters, dispatch) as u64;
+const PROBE_DISPATCH_OFFSET: u64 = std::mem::offset_of!(DdgiCounters, probe_dispatch) as u64;
 
 /// What the `"ddgi"` frame script writes into the image.
 #[derive(Resource, Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -248,8 +252,10 @@ pub struct VolumeGpu {
     pub probes: wgpu::Buffer,
     /// The budget pass's results: the indirect dispatch of the ray passes and the ray count.
     pub counters: wgpu::Buffer,
-    /// The budget pass's per-block sums (16 bytes per 256 probes).
+    /// The budget pass's per-block sums (one `DdgiBlock` per 256 probes).
     blocks: wgpu::Buffer,
+    /// The probes with rays this frame, listed by the budget pass for the per-probe passes.
+    updated: wgpu::Buffer,
     pub rays: wgpu::Buffer,
     pub surfels: wgpu::Buffer,
     pub radiance: wgpu::Buffer,
@@ -305,7 +311,8 @@ impl VolumeGpu {
             uniform: buffer("ddgi_volume", size_of::<DdgiVolumeGpu>() as u64, B::UNIFORM | B::COPY_DST),
             probes,
             counters: buffer("ddgi_counters", size_of::<DdgiCounters>() as u64, B::STORAGE | B::INDIRECT | B::COPY_SRC),
-            blocks: buffer("ddgi_blocks", u64::from(layout.probe_count.div_ceil(BUDGET_BLOCK)) * 16, B::STORAGE),
+            blocks: buffer("ddgi_blocks", u64::from(layout.probe_count.div_ceil(BUDGET_BLOCK)) * size_of::<DdgiBlock>() as u64, B::STORAGE),
+            updated: buffer("ddgi_updated", u64::from(layout.probe_count) * 4, B::STORAGE),
             rays: buffer("ddgi_rays", rays, B::STORAGE | B::COPY_SRC),
             surfels: buffer("ddgi_surfels", rays, B::STORAGE),
             radiance: buffer("ddgi_radiance", rays, B::STORAGE | B::COPY_SRC),
@@ -347,6 +354,7 @@ impl VolumeGpu {
             ("ddgi_counters", self.counters.as_entire_binding()),
             ("ddgi_counters_in", self.counters.as_entire_binding()),
             ("ddgi_blocks", self.blocks.as_entire_binding()),
+            ("ddgi_updated", self.updated.as_entire_binding()),
         ]
     }
 
@@ -583,10 +591,6 @@ pub struct VolumeHandles {
     pub distance: Handle<GraphTexture>,
 }
 
-fn per_probe_groups(count: u32) -> (u32, u32) {
-    (count.clamp(1, 65535), count.div_ceil(65535).max(1))
-}
-
 /// Adds the probe update of one volume to `graph`: ray generation → trace → shading → irradiance
 /// and distance updates → borders → relocation → classification. `suffix` tells apart the labels of
 /// several volumes.
@@ -610,7 +614,6 @@ fn add_volume_update(
     let mut distance = graph.import_texture(&label("ddgi_distance"), &volume.distance);
     let mut irradiance_history = graph.import_buffer(&label("ddgi_irradiance_history"), &volume.irradiance_history);
     let mut distance_history = graph.import_buffer(&label("ddgi_distance_history"), &volume.distance_history);
-    let probe_groups = per_probe_groups(volume.layout.probe_count);
     let (trace, shade) = pipelines.ray_programs(gpu, specialization)?;
     let sampler = &pipelines.sampler;
     let [irradiance_view, distance_view] = &volume.views;
@@ -630,25 +633,24 @@ fn add_volume_update(
         g.push(program.bind_group(device, 1, group1));
         g
     };
-    let record = |program: ComputeProgram, bind: Vec<wgpu::BindGroup>, size: (u32, u32)| {
-        move |ctx: &mut engine::graph::PassContext<'_>| {
-            let refs: Vec<&wgpu::BindGroup> = bind.iter().collect();
-            dispatch(ctx.encoder, ctx.label, &program.pipeline, &refs, size);
-        }
-    };
     let common = volume.common_bindings(sampler);
-    // The ray passes run as many threads as the budget pass packed rays (indirect dispatch).
-    let record_rays = |program: ComputeProgram, bind: Vec<wgpu::BindGroup>| {
+    // The ray passes run as many threads as the budget pass packed rays, the per-probe passes one
+    // workgroup per probe it gave rays (indirect dispatches, from `DdgiCounters`).
+    let indirect = |programs: Vec<(ComputeProgram, Vec<wgpu::BindGroup>)>, offset: u64| {
         let args = volume.counters.clone();
         move |ctx: &mut engine::graph::PassContext<'_>| {
             let mut cp = ctx.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(ctx.label), timestamp_writes: None });
-            cp.set_pipeline(&program.pipeline);
-            for (i, g) in bind.iter().enumerate() {
-                cp.set_bind_group(i as u32, g, &[]);
+            for (program, bind) in &programs {
+                cp.set_pipeline(&program.pipeline);
+                for (i, g) in bind.iter().enumerate() {
+                    cp.set_bind_group(i as u32, g, &[]);
+                }
+                cp.dispatch_workgroups_indirect(&args, offset);
             }
-            cp.dispatch_workgroups_indirect(&args, 0);
         }
     };
+    let record_rays = |program: ComputeProgram, bind: Vec<wgpu::BindGroup>| indirect(vec![(program, bind)], RAY_DISPATCH_OFFSET);
+    let record_probes = |program: ComputeProgram, bind: Vec<wgpu::BindGroup>| indirect(vec![(program, bind)], PROBE_DISPATCH_OFFSET);
 
     {
         let mut pass = graph.add_pass(&label("ddgi_budget"));
@@ -715,26 +717,29 @@ fn add_volume_update(
     {
         let mut pass = graph.add_pass(&label("ddgi_irradiance_update"));
         pass.read(&probes);
+        pass.read(&counters);
         pass.read(&rays);
         pass.read(&radiance);
         pass.read(&irradiance_history);
         pass.write(&mut irradiance_history);
         let g = groups(&pipelines.update_irradiance, &common);
-        pass.render(record(pipelines.update_irradiance.clone(), g, probe_groups));
+        pass.render(record_probes(pipelines.update_irradiance.clone(), g));
     }
     {
         let mut pass = graph.add_pass(&label("ddgi_distance_update"));
         pass.read(&probes);
+        pass.read(&counters);
         pass.read(&rays);
         pass.read(&radiance);
         pass.read(&distance_history);
         pass.write(&mut distance_history);
         let g = groups(&pipelines.update_distance, &common);
-        pass.render(record(pipelines.update_distance.clone(), g, probe_groups));
+        pass.render(record_probes(pipelines.update_distance.clone(), g));
     }
     {
         let mut pass = graph.add_pass(&label("ddgi_borders"));
         pass.read(&probes);
+        pass.read(&counters);
         pass.read(&irradiance_history);
         pass.read(&distance_history);
         pass.write(&mut irradiance);
@@ -743,27 +748,23 @@ fn add_volume_update(
         // dispatch, so a single copy of each suffices.
         let irradiance_groups = groups(&pipelines.copy_irradiance_borders, &volume.bindings(sampler, irradiance_view));
         let distance_groups = groups(&pipelines.copy_distance_borders, &volume.bindings(sampler, distance_view));
-        let (copy_irradiance, copy_distance) = (pipelines.copy_irradiance_borders.clone(), pipelines.copy_distance_borders.clone());
-        let (ia, da) = (volume.layout.irradiance_atlas, volume.layout.distance_atlas);
-        pass.render(move |ctx| {
-            let mut cp = ctx.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(ctx.label), timestamp_writes: None });
-            for (program, bind, size) in [(&copy_irradiance, &irradiance_groups, ia), (&copy_distance, &distance_groups, da)] {
-                cp.set_pipeline(&program.pipeline);
-                for (i, g) in bind.iter().enumerate() {
-                    cp.set_bind_group(i as u32, g, &[]);
-                }
-                cp.dispatch_workgroups(size.x.div_ceil(8), size.y.div_ceil(8), 1);
-            }
-        });
+        pass.render(indirect(
+            vec![
+                (pipelines.copy_irradiance_borders.clone(), irradiance_groups),
+                (pipelines.copy_distance_borders.clone(), distance_groups),
+            ],
+            PROBE_DISPATCH_OFFSET,
+        ));
     }
     if volume.settings.relocation {
         let mut pass = graph.add_pass(&label("ddgi_relocation"));
+        pass.read(&counters);
         pass.read(&rays);
         pass.read(&radiance);
         pass.read(&probes);
         pass.write(&mut probes);
         let g = groups(&pipelines.relocate, &common);
-        pass.render(record(pipelines.relocate.clone(), g, probe_groups));
+        pass.render(record_probes(pipelines.relocate.clone(), g));
     } else {
         graph.leave_out(&label("ddgi_relocation"), "relocation off in the volume's settings");
     }
@@ -778,7 +779,7 @@ fn add_volume_update(
             pass.note("classification off: only clears the fresh-probe flags");
         }
         let g = groups(&pipelines.classify, &common);
-        pass.render(record(pipelines.classify.clone(), g, probe_groups));
+        pass.render(record_probes(pipelines.classify.clone(), g));
     }
     // The maps and probe states live on into the next frame.
     graph.export(&probes);

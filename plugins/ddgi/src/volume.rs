@@ -72,6 +72,16 @@ pub struct DdgiAdaptive {
     /// Largest total of rays per frame; over it, every probe's share shrinks in proportion (so
     /// the budget goes where the error asked for it). `None`: no limit.
     pub frame_budget: Option<u32>,
+    /// Longest rest of a quiet probe, in frames (≤ 1: probes never rest). A probe whose error at
+    /// an update is under `rest_error × error_target` has converged: it keeps its maps and skips
+    /// its next updates (no rays, no per-probe pass), for a period that doubles at each quiet
+    /// update up to this. A neighbour's error over the target wakes it at once. Longer: fewer rays
+    /// and less GPU time in static scenes; a change reaches a resting probe only through its
+    /// neighbours or its next update.
+    pub max_rest_frames: u32,
+    /// Share of `error_target` under which a probe's error counts as quiet (lets it rest). Lower:
+    /// only well-converged probes rest.
+    pub rest_error: f32,
 }
 
 impl Default for DdgiAdaptive {
@@ -85,6 +95,8 @@ impl Default for DdgiAdaptive {
             error_floor: 1e-3,
             dark_fraction: 1e-3,
             frame_budget: None,
+            max_rest_frames: 8,
+            rest_error: 0.25,
         }
     }
 }
@@ -262,6 +274,12 @@ impl DdgiVolume {
         // Only adaptive budgets use min_rays: a fixed budget of fewer rays than its default (16) is fine.
         if a.enabled && (a.min_rays == 0 || a.min_rays > self.rays_per_probe) {
             return Err(invalid("adaptive.min_rays", a.min_rays, "must be between 1 and rays_per_probe"));
+        }
+        if !(a.rest_error.is_finite() && a.rest_error >= 0.0) {
+            return Err(invalid("adaptive.rest_error", a.rest_error, "must be finite and not negative"));
+        }
+        if a.max_rest_frames > 0xffff {
+            return Err(invalid("adaptive.max_rest_frames", a.max_rest_frames, "must be at most 65535"));
         }
         if a.frame_budget == Some(0) {
             return Err(invalid("adaptive.frame_budget", 0, "must be positive (None: no limit)"));
