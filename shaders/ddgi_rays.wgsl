@@ -65,15 +65,17 @@ fn ddgi_scan(value: u32, local: u32) -> vec2<u32> {
     return vec2<u32>(inclusive - value, total);
 }
 
-// The budget pass, in five dispatches (a prefix sum over blocks of 256 probes):
-// 1. plan_rays: each probe's rays as its state and error ask (ray_count), and each block's sum and
-//    brightest probe;
-// 2. plan_budget_scale: one workgroup sums the blocks: the share of its rays each probe keeps under
-//    the frame budget;
-// 3. scale_rays: each probe's rays under that share, their offsets within the block, the block's sum;
-// 4. plan_ray_blocks: one workgroup scans the blocks' sums, writes the indirect dispatch of the ray
-//    passes and the brightest probe's luma;
-// 5. place_rays: each probe's offset plus its block's.
+// The budget pass, in three dispatches (a prefix sum over blocks of 256 probes), five under a
+// frame budget:
+// 1. plan_rays: each probe's rays as its state, error and rest ask (ray_count), their offsets
+//    within the block, and each block's sums (rays, probes with rays) and brightest probe;
+// 2. (frame budget) plan_budget_scale: one workgroup sums the blocks: the share of its rays each
+//    probe keeps under the frame budget;
+// 3. (frame budget) scale_rays: each probe's rays under that share, their offsets within the
+//    block, the block's sums;
+// 4. plan_ray_blocks: one workgroup scans the blocks' sums, writes the indirect dispatches of the
+//    ray passes and of the per-probe passes, and the brightest probe's luma;
+// 5. place_rays: each probe's offset plus its block's, and the list of probes with rays.
 // Resting (adaptive budgets). A probe whose error at its last update was under
 // rest_error × error_target is quiet: its maps have converged and further rays would only stir
 // their noise, so it rests — keeps its maps, traces nothing, costs no per-probe pass — for a period
@@ -152,7 +154,12 @@ fn plan_rays(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_
         ddgi_probes[p].rest = rest.y;
         luma = data.luma;
     }
-    let total = ddgi_scan(count, local).y;
+    // Offsets within the block, as if no frame budget applied (scale_rays redoes them when one does).
+    let scan = ddgi_scan(count, local);
+    if p < ddgi_volume.probe_count {
+        ddgi_probes[p].ray_offset = scan.x;
+    }
+    let updated = ddgi_scan(u32(count > 0u), local).y;
     wg_max[local] = luma;
     workgroupBarrier();
     if local == 0u {
@@ -160,7 +167,7 @@ fn plan_rays(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_
         for (var k = 0u; k < DDGI_SCAN; k++) {
             m = max(m, wg_max[k]);
         }
-        ddgi_blocks[group.x] = DdgiBlock(0u, total, m, 0u, 0u, 0u);
+        ddgi_blocks[group.x] = DdgiBlock(scan.y, scan.y, m, 0u, updated, 0u);
     }
 }
 
@@ -280,29 +287,26 @@ fn ddgi_probe_of_ray(i: u32) -> u32 {
     return lo;
 }
 
-// Ray generation: each probe's rays are spherical Fibonacci directions for its own ray count,
-// under this frame's random rotation.
-@compute @workgroup_size(64)
-fn generate_rays(@builtin(global_invocation_id) id: vec3<u32>) {
-    let i = ddgi_ray_index(id);
-    if i >= ddgi_ray_total() {
-        return;
-    }
+// Ray i of the frame: its probe, and its direction — one of the spherical Fibonacci directions for
+// the probe's own ray count, under this frame's random rotation.
+fn ddgi_generate_ray(i: u32) -> DdgiRay {
     let probe = ddgi_probe_of_ray(i);
     let data = ddgi_probes[probe];
     let direction = ddgi_volume.ray_rotation * ddgi_spherical_fibonacci(i - data.ray_offset, max(data.ray_count, 1u));
-    ddgi_rays[i] = DdgiRay(safe_normalize(direction, vec3<f32>(0.0, 0.0, 1.0)), probe);
+    return DdgiRay(safe_normalize(direction, vec3<f32>(0.0, 0.0, 1.0)), probe);
 }
 
-// Trace: closest hit, back faces included (they mark probes inside geometry). Writes the surfel,
-// and the hit's emission and direct light (shadow rays) into the radiance buffer.
+// Trace: generates ray i (kept in ddgi_rays for the passes after), traces its closest hit, back
+// faces included (they mark probes inside geometry). Writes the surfel, and the hit's emission and
+// direct light (shadow rays) into the radiance buffer.
 @compute @workgroup_size(64)
 fn trace_rays(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = ddgi_ray_index(id);
     if i >= ddgi_ray_total() {
         return;
     }
-    let ray_info = ddgi_rays[i];
+    let ray_info = ddgi_generate_ray(i);
+    ddgi_rays[i] = ray_info;
     let origin = ddgi_probe_position(ray_info.probe);
     let ray = Ray(origin, 0.0, ray_info.direction, ddgi_volume.max_ray_distance);
     let hit = trace_closest(ray);

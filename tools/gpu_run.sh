@@ -26,8 +26,8 @@ for step in "$@"; do
     bench_*) scene=${step#bench_}; run "$step" $B bench ddgi --scene "$scene" --iterations 10 ;;
     eval_*) scene=${step#eval_}; run "$step" $B eval --scene "$scene" --width 256 --height 256 --reference-spp 4096 --experiments --out "$R/$step" --cache /tmp/cache ;;
     series_*) scene=${step#series_}; run "$step" $B eval --scene "$scene" --time-series --width 256 --height 256 --reference-spp 4096 --out "$R/$step" --cache /tmp/cache ;;
-    # seriesrest_SCENE_FRAMES_ERROR: the time series with other resting parameters for the adaptive budgets.
-    seriesrest_*) IFS=_ read -r _ scene rest error <<< "$step"; run "$step" $B eval --scene "$scene" --time-series --width 256 --height 256 --reference-spp 4096 --rest-frames "$rest" --rest-error "$error" --out "$R/$step" --cache /tmp/cache ;;
+    # seriesrest-SCENE-FRAMES-ERROR: the time series with other resting parameters for the adaptive budgets.
+    seriesrest-*) IFS=- read -r _ scene rest error <<< "$step"; run "$step" $B eval --scene "$scene" --time-series --width 256 --height 256 --reference-spp 4096 --rest-frames "$rest" --rest-error "$error" --out "$R/$step" --cache /tmp/cache ;;
     classify_*) scene=${step#classify_}; run "$step" $B bench classify --scene "$scene" ;;
     classifyfine_*) scene=${step#classifyfine_}; run "$step" $B bench classify --scene "$scene" --grid 32,16,32 ;;
     reference_*) scene=${step#reference_}; run "$step" $B render --scene "$scene" --mode pathtrace --spp 4096 --width 96 --height 96 --out "$R/$step" ;;

@@ -260,9 +260,8 @@ pub fn flat_rebuild_cost(app: &mut App) -> (Duration, usize) {
 }
 
 /// The passes of DDGI's probe update (everything but the camera's gather and composite).
-pub const DDGI_UPDATE_PASSES: [&str; 9] = [
+pub const DDGI_UPDATE_PASSES: [&str; 8] = [
     "ddgi_budget",
-    "ddgi_ray_generation",
     "ddgi_trace",
     "ddgi_ray_shading",
     "ddgi_irradiance_update",

@@ -75,8 +75,22 @@ fn time_series_measures_every_frame_and_the_path_tracer_converges_after_the_chan
     let dir = std::env::temp_dir().join(format!("game_demo_time_series_test_{}", std::process::id()));
     let (out, cache) = (dir.join("report"), dir.join("cache"));
     let frames = 8;
-    let args =
-        ["eval", "--scene", "cornell", "--time-series", "--frames", "8", "--width", "32", "--height", "32", "--reference-spp", "128"];
+    let args = [
+        "eval",
+        "--scene",
+        "cornell",
+        "--time-series",
+        "--frames",
+        "8",
+        "--settle-frames",
+        "60",
+        "--width",
+        "32",
+        "--height",
+        "32",
+        "--reference-spp",
+        "128",
+    ];
     let stdout = succeeded(game_demo(&args, &out, &cache));
     assert!(stdout.contains("the lamp moves"), "{stdout}");
 
@@ -122,6 +136,13 @@ fn time_series_measures_every_frame_and_the_path_tracer_converges_after_the_chan
     assert_plot(&out.join("time_series.png"), TIME_SERIES_SIZE);
     let report = std::fs::read_to_string(out.join("report.md")).expect("report");
     assert!(report.contains("| pathtrace_4spp |") && report.contains("](time_series.png)"), "{report}");
+    // The static phase's error against the scene before the change, and its passes' GPU times.
+    for config in ["ddgi_8x8x8", "ddgi_8x8x8_adaptive"] {
+        let row = report.lines().find(|l| l.starts_with(&format!("| {config} | "))).expect("a row per DDGI configuration");
+        let static_flip: f64 = row.split('|').nth(2).and_then(|c| c.trim().parse().ok()).unwrap_or_else(|| panic!("static FLIP in {row}"));
+        assert!(static_flip > 0.0 && static_flip < 1.0, "{row}");
+    }
+    assert!(report.contains("| ddgi_trace |"), "per-pass GPU times of the static phase: {report}");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -153,6 +153,8 @@ pub struct StaticPhase {
     pub update_ms: Option<f64>,
     /// The median GPU ms of each pass of the probe update.
     pub passes: Vec<(String, f64)>,
+    /// Mean FLIP against the reference of the scene before the change (the static phase's error).
+    pub flip: Option<f64>,
 }
 
 /// Frames a configuration runs before the change: DDGI `settle_frames` (it must have converged
@@ -196,6 +198,13 @@ pub fn still_falling(errors: &[f32]) -> Option<bool> {
 
 /// The settled error of a series of errors (frames 0, 1, … after the change): the mean of its last
 /// tenth (at least one frame); and the first frame from which every error is within 10% of it.
+/// The first frame from which every error stays at most 10% above `settled` (the error has come
+/// back down from the change; dipping under the settled value on the way does not count against it).
+pub fn recovery(errors: &[f32], settled: f32) -> Option<usize> {
+    let from = errors.iter().rposition(|&e| e > 1.1 * settled).map_or(0, |i| i + 1);
+    (from < errors.len()).then_some(from)
+}
+
 pub fn settling(errors: &[f32]) -> (f32, Option<usize>) {
     let tail = (errors.len() / 10).max(1).min(errors.len());
     if tail == 0 {
@@ -220,6 +229,7 @@ pub fn run(
     let change = scene_change(name, &mut scene)?;
     println!("change: {}", change.description);
     let before = still(scene);
+    let reference_before = reference(gpu, &format!("{name}-before"), &before, width, height, reference_spp, cache)?;
     let reference = reference(gpu, &format!("{name}-changed"), &change.applied(&before), width, height, reference_spp, cache)?;
     let changed = before.nodes[change.node].name.clone();
     let seed = pathtrace::PathTraceSettings::default().seed;
@@ -230,6 +240,7 @@ pub fn run(
         // before the last one before the change.
         let mut static_ms = Vec::new();
         let mut static_passes: Vec<(String, Vec<f64>)> = Vec::new();
+        let mut static_flips = Vec::new();
         let settle = settle_frames_of(&config, settle_frames);
         let settings = HeadlessSettings { width, height, frames: settle + frames, ..Default::default() };
         let mut app = scene_app(gpu, before.clone(), &settings, |app| config.configure(app, seed)).map_err(|e| e.to_string())?;
@@ -243,6 +254,9 @@ pub fn run(
         run_frames(&mut app, settings.frames, |frame, world| {
             let frame = i64::from(frame) - i64::from(settle);
             if frame < -1 {
+                if frame >= -1 - STATIC_FRAMES {
+                    static_flips.push(f64::from(compare(&reference_before, &read_hdr(gpu, world), width, height, EXPOSURE).mean_flip));
+                }
                 if frame >= -1 - STATIC_FRAMES
                     && let Some(last) = world.resource::<FrameTimings>().frames.last()
                     && let Some(ms) = probe_update_ms(last)
@@ -273,7 +287,7 @@ pub fn run(
         let first_static = u64::from(settle).saturating_sub(1 + STATIC_FRAMES as u64);
         let static_rays: Vec<f64> = rays.iter().filter(|(f, _)| (first_static..u64::from(settle)).contains(f)).map(|(_, r)| *r).collect();
         let passes = static_passes.into_iter().filter_map(|(label, ms)| median(ms).map(|m| (label, m))).collect();
-        statics.push(StaticPhase { config: config.name(), rays: mean(&static_rays), update_ms: median(static_ms), passes });
+        statics.push(StaticPhase { config: config.name(), rays: mean(&static_rays), update_ms: median(static_ms), passes, flip: mean(&static_flips) });
         for row in rows.iter_mut().filter(|r| r.config == config.name()) {
             let app_frame = (row.frame + i64::from(settle)) as u64;
             row.rays = rays.iter().find(|(f, _)| *f == app_frame).map(|(_, v)| *v);
@@ -355,7 +369,7 @@ fn write_report(
          path traced at {} paths per pixel (another seed). Every frame is compared with it (mean FLIP on sRGB at exposure 1, RMSE on \
          linear radiance); frame -1 is the last one before the change, once the method has settled (frames before the change: {}). \
          A path tracer configuration adds its paths per pixel every frame and starts over when the scene changes.\n\n\
-         | configuration | FLIP before (frame -1) | FLIP at frame 0 | settled FLIP | frames to within 10% of it | rays/frame, static | probe update ms, static | rays/frame after |\n|---|---:|---:|---:|---:|---:|---:|---:|\n",
+         | configuration | static FLIP | FLIP before (frame -1) | FLIP at frame 0 | settled FLIP | frames to within 10% of it | frames to at most 10% over it | rays/frame, static | probe update ms, static | rays/frame after |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
         change.description,
         options.width,
         options.height,
@@ -366,6 +380,7 @@ fn write_report(
         let series: Vec<&SeriesRow> = rows.iter().filter(|r| r.config == config).collect();
         let after: Vec<f32> = series.iter().filter(|r| r.frame >= 0).map(|r| r.flip).collect();
         let (settled, from) = settling(&after);
+        let recovered = recovery(&after, settled).map_or(format!("not within {frames} frames"), |f| f.to_string());
         let at = |frame: i64| series.iter().find(|r| r.frame == frame).map_or("n/a".into(), |r| format!("{:.4}", r.flip));
         let mut from = from.map_or(format!("not within {frames} frames"), |f| f.to_string());
         if still_falling(&after) == Some(true) {
@@ -377,15 +392,22 @@ fn write_report(
         let ms_before = shown(phase.and_then(|p| p.update_ms), 3);
         let after: Vec<f64> = series.iter().filter(|r| r.frame >= 0).filter_map(|r| r.rays).collect();
         let rays_after = shown(mean(&after), 0);
-        md += &format!("| {config} | {} | {} | {settled:.4} | {from} | {rays_before} | {ms_before} | {rays_after} |\n", at(-1), at(0));
+        let static_flip = shown(phase.and_then(|p| p.flip), 4);
+        md += &format!(
+            "| {config} | {static_flip} | {} | {} | {settled:.4} | {from} | {recovered} | {rays_before} | {ms_before} | {rays_after} |\n",
+            at(-1),
+            at(0)
+        );
     }
     md += &format!(
         "\nSettled FLIP: the mean over the last tenth of the frames (at least one); the path tracer keeps converging, so its \
          settled value and frame count depend on `--frames`. Frames to within 10%: the first frame after the change from which \
          every frame's FLIP is within 10% of the settled value (\"still falling\": the last tenth's mean is more than 2% under \
          the tenth before, so the series had not settled and needs more `--frames`). Static: the 30 frames before the last one \
-         before the change (rays: their mean, as read back from the GPU; DDGI's probe update, every DDGI pass but the gather and \
-         composite: the median GPU ms).\n\n{}\
+         before the change (static FLIP: their mean FLIP against a reference of the scene before the change; rays: their mean, \
+         as read back from the GPU; DDGI's probe update, every DDGI pass but the gather and composite: the median GPU ms). \
+         Frames to at most 10% over it: the first frame from which no frame's FLIP is more than 10% above the settled value \
+         (the error has come back down; a dip under the settled value on the way does not count against it).\n\n{}\
          Mean FLIP per frame, one series per configuration, log scale{plot_note}:\n\n![mean FLIP per frame](time_series.png)\n\n\
          Every frame: [time_series.csv](time_series.csv) (frame, config, flip, rmse, gpu_ms, update_ms: DDGI's probe update, rays: \
          DDGI's rays traced).\n",
@@ -418,6 +440,14 @@ fn pass_table(statics: &[StaticPhase]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn recovery_ignores_a_dip_under_the_settled_error() {
+        let errors = [0.3, 0.2, 0.08, 0.06, 0.07, 0.1, 0.1];
+        assert_eq!(settling(&errors).1, Some(5), "within ±10% only once the dip is over");
+        assert_eq!(recovery(&errors, 0.1), Some(2), "at most 10% over from the third frame");
+        assert_eq!(recovery(&[0.3, 0.3], 0.1), None);
+    }
 
     #[test]
     fn a_series_still_falling_at_its_end_is_flagged() {

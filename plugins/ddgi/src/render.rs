@@ -154,7 +154,6 @@ pub struct DdgiPipelines {
     scale: ComputeProgram,
     plan_blocks: ComputeProgram,
     place: ComputeProgram,
-    generate: ComputeProgram,
     specialized: HashMap<Specialization, (ComputeProgram, ComputeProgram)>,
     update_irradiance: ComputeProgram,
     update_distance: ComputeProgram,
@@ -180,7 +179,6 @@ impl DdgiPipelines {
             scale: p("ddgi_rays.wgsl", "scale_rays")?,
             plan_blocks: p("ddgi_rays.wgsl", "plan_ray_blocks")?,
             place: p("ddgi_rays.wgsl", "place_rays")?,
-            generate: p("ddgi_rays.wgsl", "generate_rays")?,
             specialized: HashMap::new(),
             update_irradiance: p("ddgi_update.wgsl", "update_irradiance")?,
             update_distance: p("ddgi_update.wgsl", "update_distance")?,
@@ -661,14 +659,15 @@ fn add_volume_update(
             pass.note("adaptive: rays by each probe's temporal error");
         }
         let blocks = volume.layout.probe_count.div_ceil(BUDGET_BLOCK);
-        let steps: Vec<(ComputeProgram, Vec<wgpu::BindGroup>, u32)> = [
-            (&pipelines.plan, blocks),
-            (&pipelines.plan_scale, 1),
-            (&pipelines.scale, blocks),
-            (&pipelines.plan_blocks, 1),
-            (&pipelines.place, blocks),
-        ]
-        .into_iter()
+        // Without a frame budget the planned rays stand: the two scaling steps are left out.
+        let frame_budget = volume.settings.adaptive.enabled && volume.settings.adaptive.frame_budget.is_some();
+        let mut plan = vec![(&pipelines.plan, blocks)];
+        if frame_budget {
+            plan.extend([(&pipelines.plan_scale, 1), (&pipelines.scale, blocks)]);
+        }
+        plan.extend([(&pipelines.plan_blocks, 1), (&pipelines.place, blocks)]);
+        let steps: Vec<(ComputeProgram, Vec<wgpu::BindGroup>, u32)> = plan
+            .into_iter()
         .map(|(p, n)| (p.clone(), groups(p, &common), n))
         .collect();
         pass.render(move |ctx| {
@@ -683,18 +682,10 @@ fn add_volume_update(
         });
     }
     {
-        let mut pass = graph.add_pass(&label("ddgi_ray_generation"));
-        pass.read(&probes);
-        pass.read(&counters);
-        pass.write(&mut rays);
-        let g = groups(&pipelines.generate, &common);
-        pass.render(record_rays(pipelines.generate.clone(), g));
-    }
-    {
         let mut pass = graph.add_pass(&label("ddgi_trace"));
         pass.read(&probes);
         pass.read(&counters);
-        pass.read(&rays);
+        pass.write(&mut rays);
         pass.write(&mut surfels);
         pass.write(&mut radiance);
         pass.note(&specialization.note());
