@@ -27,6 +27,8 @@ for step in "$@"; do
     eval_*) scene=${step#eval_}; run "$step" $B eval --scene "$scene" --width 256 --height 256 --reference-spp 4096 --experiments --out "$R/$step" --cache /tmp/cache ;;
     series_*) scene=${step#series_}; run "$step" $B eval --scene "$scene" --time-series --width 256 --height 256 --reference-spp 4096 --out "$R/$step" --cache /tmp/cache ;;
     # seriesrest-SCENE-FRAMES-ERROR: the time series with other resting parameters for the adaptive budgets.
+    # seriesgrid-SCENE-X,Y,Z-FRAMES-ERROR: the same on another probe grid.
+    seriesgrid-*) IFS=- read -r _ scene grid rest error <<< "$step"; run "$step" $B eval --scene "$scene" --time-series --width 256 --height 256 --reference-spp 4096 --probes "$grid" --rest-frames "$rest" --rest-error "$error" --out "$R/$step" --cache /tmp/cache ;;
     seriesrest-*) IFS=- read -r _ scene rest error <<< "$step"; run "$step" $B eval --scene "$scene" --time-series --width 256 --height 256 --reference-spp 4096 --rest-frames "$rest" --rest-error "$error" --out "$R/$step" --cache /tmp/cache ;;
     classify_*) scene=${step#classify_}; run "$step" $B bench classify --scene "$scene" ;;
     classifyfine_*) scene=${step#classifyfine_}; run "$step" $B bench classify --scene "$scene" --grid 32,16,32 ;;

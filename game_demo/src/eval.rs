@@ -74,16 +74,16 @@ impl Config {
         Config::Ddgi { name, volume: Box::new(ddgi::DdgiVolume { bounds, ..volume }) }
     }
 
-    /// DDGI with the published grid for `scene` and the default settings.
-    pub fn ddgi_default(scene: &str) -> Config {
-        let probes = ddgi_paper_grid(scene);
+    /// DDGI with `grid` (default: the published grid for `scene`) and the default settings.
+    pub fn ddgi_default(scene: &str, grid: Option<[u32; 3]>) -> Config {
+        let probes = grid.unwrap_or_else(|| ddgi_paper_grid(scene));
         let volume = ddgi::DdgiVolume { probe_counts: probes.into(), ..Default::default() };
         Config::ddgi(format!("ddgi_{}x{}x{}", probes[0], probes[1], probes[2]), scene, volume)
     }
 
     /// [`Config::ddgi_default`] with adaptive ray budgets.
-    pub fn ddgi_adaptive(scene: &str, adaptive: &ddgi::DdgiAdaptive) -> Config {
-        let probes = ddgi_paper_grid(scene);
+    pub fn ddgi_adaptive(scene: &str, grid: Option<[u32; 3]>, adaptive: &ddgi::DdgiAdaptive) -> Config {
+        let probes = grid.unwrap_or_else(|| ddgi_paper_grid(scene));
         let adaptive = ddgi::DdgiAdaptive { enabled: true, ..adaptive.clone() };
         let volume = ddgi::DdgiVolume { probe_counts: probes.into(), adaptive, ..Default::default() };
         Config::ddgi(format!("ddgi_{}x{}x{}_adaptive", probes[0], probes[1], probes[2]), scene, volume)
@@ -123,11 +123,11 @@ impl Config {
 impl Config {
     /// The configurations of the still-image evaluation of `scene`, in report order; with
     /// `experiments`, DDGI's quality table and weight ablation too.
-    pub fn still_list(scene: &str, experiments: bool, adaptive: &ddgi::DdgiAdaptive) -> Vec<Config> {
+    pub fn still_list(scene: &str, experiments: bool, grid: Option<[u32; 3]>, adaptive: &ddgi::DdgiAdaptive) -> Vec<Config> {
         let mut list = vec![Config::Direct];
         list.extend(PATH_TRACE_LADDER.iter().map(|&spp| Config::PathTrace { spp }));
-        list.push(Config::ddgi_default(scene));
-        list.push(Config::ddgi_adaptive(scene, adaptive));
+        list.push(Config::ddgi_default(scene, grid));
+        list.push(Config::ddgi_adaptive(scene, grid, adaptive));
         if experiments {
             list.extend(Config::ddgi_experiments(scene));
         }
@@ -135,12 +135,12 @@ impl Config {
     }
 
     /// The methods of the time series: each renders frame after frame and every frame is measured.
-    pub fn time_series_list(scene: &str, adaptive: &ddgi::DdgiAdaptive) -> Vec<Config> {
+    pub fn time_series_list(scene: &str, grid: Option<[u32; 3]>, adaptive: &ddgi::DdgiAdaptive) -> Vec<Config> {
         vec![
             Config::Direct,
             Config::PathTrace { spp: TIME_SERIES_SPP },
-            Config::ddgi_default(scene),
-            Config::ddgi_adaptive(scene, adaptive),
+            Config::ddgi_default(scene, grid),
+            Config::ddgi_adaptive(scene, grid, adaptive),
         ]
     }
 
@@ -332,6 +332,8 @@ pub struct EvalOptions {
     pub experiments: bool,
     /// The parameters of the adaptive-budget configuration (switched on whatever `enabled` says).
     pub adaptive: ddgi::DdgiAdaptive,
+    /// The probe grid of the fixed- and adaptive-budget configurations (default: the published grid).
+    pub grid: Option<[u32; 3]>,
     /// Time series: frames DDGI runs before the change (it must have settled: the static phase is
     /// measured at their end).
     pub settle_frames: u32,
@@ -339,14 +341,14 @@ pub struct EvalOptions {
 
 /// Runs the evaluation of `scene` (named `name`) and writes the report.
 pub fn run(gpu: &GpuContext, name: &str, scene: SceneDescription, options: &EvalOptions) -> Result<Vec<EvalRow>, String> {
-    let EvalOptions { width, height, reference_spp, ref out, ref cache, experiments, ref adaptive, .. } = *options;
+    let EvalOptions { width, height, reference_spp, ref out, ref cache, experiments, ref adaptive, grid, .. } = *options;
     std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
     let scene = still(scene);
     let reference = reference(gpu, name, &scene, width, height, reference_spp, cache)?;
     let reference_ldr = tonemap_to_srgb8(&reference, EXPOSURE);
     let mut rows = Vec::new();
     let mut direct_ldr: Option<Vec<u8>> = None;
-    for config in Config::still_list(name, experiments, adaptive) {
+    for config in Config::still_list(name, experiments, grid, adaptive) {
         let frame = render(gpu, &scene, &config, width, height, pathtrace::PathTraceSettings::default().seed)?;
         let error = compare(&reference, &frame.hdr, width, height, EXPOSURE);
         let (per_frame, total) = gpu_ms(&frame);

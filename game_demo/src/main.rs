@@ -58,6 +58,10 @@ enum Command {
         /// at their end.
         #[arg(long, default_value_t = 240, requires = "time_series", value_parser = clap::value_parser!(u32).range(1..))]
         settle_frames: u32,
+        /// Probes along x, y and z of the fixed- and adaptive-budget DDGI configurations (default: the
+        /// published grid of the scene).
+        #[arg(long, value_parser = parse_uvec3)]
+        probes: Option<glam::UVec3>,
         /// Adaptive configuration: the longest rest of a quiet probe in frames (DdgiAdaptive::max_rest_frames).
         #[arg(long)]
         rest_frames: Option<u32>,
@@ -573,6 +577,7 @@ fn main() -> ExitCode {
             time_series,
             frames,
             settle_frames,
+            probes,
             rest_frames,
             rest_error,
             experiments,
@@ -588,7 +593,17 @@ fn main() -> ExitCode {
                 rest_error: rest_error.unwrap_or(defaults.rest_error),
                 ..defaults
             };
-            let options = eval::EvalOptions { width, height, reference_spp, out, cache, experiments, adaptive, settle_frames };
+            let options = eval::EvalOptions {
+                width,
+                height,
+                reference_spp,
+                out,
+                cache,
+                experiments,
+                adaptive,
+                settle_frames,
+                grid: probes.map(|g| g.to_array()),
+            };
             if time_series {
                 eval::time_series::run(&gpu, &scene, description, &options, frames)?;
             } else {

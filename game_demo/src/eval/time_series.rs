@@ -224,7 +224,7 @@ pub fn run(
     options: &EvalOptions,
     frames: u32,
 ) -> Result<Vec<SeriesRow>, String> {
-    let EvalOptions { width, height, reference_spp, ref out, ref cache, ref adaptive, settle_frames, .. } = *options;
+    let EvalOptions { width, height, reference_spp, ref out, ref cache, ref adaptive, settle_frames, grid, .. } = *options;
     std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
     let change = scene_change(name, &mut scene)?;
     println!("change: {}", change.description);
@@ -235,7 +235,7 @@ pub fn run(
     let seed = pathtrace::PathTraceSettings::default().seed;
     let mut rows = Vec::new();
     let mut statics = Vec::new();
-    for config in Config::time_series_list(name, adaptive) {
+    for config in Config::time_series_list(name, grid, adaptive) {
         // Probe-update GPU ms of the static phase, in all and by pass: the STATIC_FRAMES frames
         // before the last one before the change.
         let mut static_ms = Vec::new();
@@ -287,7 +287,13 @@ pub fn run(
         let first_static = u64::from(settle).saturating_sub(1 + STATIC_FRAMES as u64);
         let static_rays: Vec<f64> = rays.iter().filter(|(f, _)| (first_static..u64::from(settle)).contains(f)).map(|(_, r)| *r).collect();
         let passes = static_passes.into_iter().filter_map(|(label, ms)| median(ms).map(|m| (label, m))).collect();
-        statics.push(StaticPhase { config: config.name(), rays: mean(&static_rays), update_ms: median(static_ms), passes, flip: mean(&static_flips) });
+        statics.push(StaticPhase {
+            config: config.name(),
+            rays: mean(&static_rays),
+            update_ms: median(static_ms),
+            passes,
+            flip: mean(&static_flips),
+        });
         for row in rows.iter_mut().filter(|r| r.config == config.name()) {
             let app_frame = (row.frame + i64::from(settle)) as u64;
             row.rays = rays.iter().find(|(f, _)| *f == app_frame).map(|(_, v)| *v);
@@ -360,7 +366,7 @@ fn write_report(
     statics: &[StaticPhase],
     plot_note: &str,
 ) -> Result<(), String> {
-    let settle: Vec<String> = Config::time_series_list(name, &options.adaptive)
+    let settle: Vec<String> = Config::time_series_list(name, options.grid, &options.adaptive)
         .iter()
         .map(|c| format!("{} {}", c.name(), settle_frames_of(c, options.settle_frames)))
         .collect();

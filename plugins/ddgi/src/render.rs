@@ -666,10 +666,8 @@ fn add_volume_update(
             plan.extend([(&pipelines.plan_scale, 1), (&pipelines.scale, blocks)]);
         }
         plan.extend([(&pipelines.plan_blocks, 1), (&pipelines.place, blocks)]);
-        let steps: Vec<(ComputeProgram, Vec<wgpu::BindGroup>, u32)> = plan
-            .into_iter()
-        .map(|(p, n)| (p.clone(), groups(p, &common), n))
-        .collect();
+        let steps: Vec<(ComputeProgram, Vec<wgpu::BindGroup>, u32)> =
+            plan.into_iter().map(|(p, n)| (p.clone(), groups(p, &common), n)).collect();
         pass.render(move |ctx| {
             let mut cp = ctx.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(ctx.label), timestamp_writes: None });
             for (program, bind, n) in &steps {
