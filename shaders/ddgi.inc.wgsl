@@ -84,18 +84,19 @@ struct DdgiProbeData {
     // Pinned by the application: a ray count (DDGI_NO_PIN: none) and a state (DDGI_PIN_*).
     pinned_rays: u32,
     pinned_state: u32,
-    // Classifications in a row whose rays found no front face in the probe's region (see
-    // DDGI_EMPTY_CHECKS).
-    empty_checks: u32,
+    // Rays of the classifications in a row that found no front face in the probe's region (see
+    // DDGI_EMPTY_RAYS).
+    empty_rays: u32,
     // Resting (adaptive budgets): bits 0–15 the probe's rest period (an update every that many
     // frames; 0 or 1: every frame), bits 16–31 the frames left before its next update.
     rest: u32,
 }
 
-// A probe counts as affecting no surface only after this many classifications in a row found none
-// in its region: with few rays (adaptive budgets) one frame's rays can miss a small surface at the
-// edge of the region, and each frame rotates them anew.
-const DDGI_EMPTY_CHECKS: u32 = 8u;
+// A probe counts as affecting no surface only after this many of its rays, over classifications
+// in a row (each frame's rays rotated anew), found none in its region: one frame's few rays
+// (adaptive budgets) can miss a small surface at the edge of the region; 512 directions miss a
+// surface covering 1% of the sphere with a probability of 0.6%.
+const DDGI_EMPTY_RAYS: u32 = 512u;
 
 // What the budget pass leaves for the rest of the frame: the indirect dispatch of the ray passes
 // and the number of rays, the indirect dispatch of the per-probe passes (one workgroup per probe
@@ -146,6 +147,12 @@ const DDGI_PIN_INACTIVE: u32 = 2u;
 const DDGI_PROBE_INACTIVE: u32 = 1u;
 // The probe's maps hold nothing worth keeping: its next update takes the new value at once.
 const DDGI_PROBE_FRESH: u32 = 2u;
+// Relocation moved the probe through a back face this frame (set by relocation, read and cleared
+// by classification): a probe switched off inside geometry then traces its re-check rays at the
+// next frame from its new place, not at the next periodic re-check, so it escapes (and lights
+// again) within a frame per wall.
+const DDGI_PROBE_RELOCATED: u32 = 4u;
+const DDGI_PROBE_RECHECK: u32 = 8u;
 
 // Hit distance of a miss in the surfel and radiance buffers.
 const DDGI_MISS: f32 = 3.0e38;

@@ -317,7 +317,9 @@ fn ddgi_ray_statistics(probe: u32, data: DdgiProbeData, local: u32) -> DdgiRaySt
             if d < s.closest_frontface.w {
                 s.closest_frontface = vec4<f32>(direction, d);
             }
-            let hit = direction * d;
+            // The region is the grid point's (the cage corners sit at grid points), not the
+            // relocated probe's: measured from the probe, it would shift with the offset.
+            let hit = data.offset + direction * d;
             if all(hit >= -reach_lo) && all(hit <= reach_hi) {
                 s.frontface_in_cell = 1u;
             }
@@ -375,7 +377,8 @@ fn relocate_probes(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invoc
     let offset = data.offset;
     let min_distance = ddgi_volume.min_frontface_distance;
     var moved = offset;
-    if ddgi_inside_geometry(s, data.ray_count) && s.closest_backface.w < DDGI_MISS {
+    let inside = ddgi_inside_geometry(s, data.ray_count) && s.closest_backface.w < DDGI_MISS;
+    if inside {
         moved = offset + s.closest_backface.xyz * (s.closest_backface.w + min_distance * 0.5);
     } else if s.closest_frontface.w < min_distance {
         if dot(s.closest_frontface.xyz, s.farthest_frontface.xyz) <= 0.0 {
@@ -391,6 +394,9 @@ fn relocate_probes(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invoc
     let normalized = moved / max(ddgi_volume.spacing, vec3<f32>(1e-30));
     if dot(normalized, normalized) < 0.45 * 0.45 && all(moved == moved) {
         ddgi_probes[probe].offset = moved;
+        if inside {
+            ddgi_probes[probe].state = data.state | DDGI_PROBE_RELOCATED;
+        }
     }
 }
 
@@ -450,10 +456,10 @@ fn classify_probes(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invoc
     if ddgi_has(DDGI_CLASSIFICATION) {
         var empty = 0u;
         if s.frontface_in_cell == 0u {
-            empty = min(data.empty_checks + 1u, DDGI_EMPTY_CHECKS);
+            empty = min(data.empty_rays + data.ray_count, DDGI_EMPTY_RAYS);
         }
-        ddgi_probes[probe].empty_checks = empty;
-        is_active = !ddgi_inside_geometry(s, data.ray_count) && empty < DDGI_EMPTY_CHECKS;
+        ddgi_probes[probe].empty_rays = empty;
+        is_active = !ddgi_inside_geometry(s, data.ray_count) && empty < DDGI_EMPTY_RAYS;
     }
     if is_active && ddgi_has(DDGI_ADAPTIVE) {
         is_active = !ddgi_dark_around(probe, luma, ddgi_volume.dark_fraction * ddgi_counters_in.max_luma);
@@ -464,6 +470,9 @@ fn classify_probes(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invoc
     var next = 0u;
     if !is_active {
         next = DDGI_PROBE_INACTIVE;
+        if (state & DDGI_PROBE_RELOCATED) != 0u {
+            next |= DDGI_PROBE_RECHECK;
+        }
     } else if (state & DDGI_PROBE_INACTIVE) != 0u {
         next = DDGI_PROBE_FRESH;
     }

@@ -381,6 +381,10 @@ pub struct ClassificationCheck {
     /// Of those, the ones that saw light (luma above the dark threshold): switched off for
     /// another reason than darkness.
     pub needed_off_lit: usize,
+    /// Each needed probe switched off, for a diagnosis: (index, grid coordinates, relocation
+    /// offset in cells, share of the checker's 64 rays that hit back faces, the probe's luma, its
+    /// rays in a row that found no surface in its region).
+    pub needed_off_probes: Vec<(usize, glam::UVec3, Vec3, f32, f32, u32)>,
 }
 
 /// Runs `frames` frames of DDGI on `scene` with a `grid` of probes (the scene's bounds, adaptive
@@ -416,6 +420,8 @@ pub fn classification_check(gpu: &GpuContext, scene: SceneDescription, grid: [u3
         })
         .collect();
     let hits = tracer.trace(gpu, gpu_scene, rt, &rays, false);
+    let backface_share: Vec<f32> =
+        hits.chunks_exact(64).map(|h| h.iter().filter(|r| r.instance != u32::MAX && r.flags & 1 == 0).count() as f32 / 64.0).collect();
     let inside: Vec<bool> = hits
         .chunks_exact(64)
         .map(|h| {
@@ -471,5 +477,12 @@ pub fn classification_check(gpu: &GpuContext, scene: SceneDescription, grid: [u3
         needed: needed.iter().filter(|&&x| x).count(),
         needed_off: (0..n).filter(|&i| needed[i] && off(i)).count(),
         needed_off_lit: (0..n).filter(|&i| needed[i] && off(i) && !dark(i)).count(),
+        needed_off_probes: (0..n)
+            .filter(|&i| needed[i] && off(i))
+            .map(|i| {
+                let offset = Vec3::from_array(data[i].offset) / layout.spacing;
+                (i, layout.probe_grid(i as u32), offset, backface_share[i], data[i].luma, data[i].empty_rays)
+            })
+            .collect(),
     })
 }

@@ -501,6 +501,13 @@ fn bench(command: BenchCommand) -> Result<(), String> {
                 c.needed_off_lit,
                 share(c.needed_off_lit, c.needed)
             );
+            for (i, grid, offset, back, luma, empty) in &c.needed_off_probes {
+                println!(
+                    "  needed and off: probe {i} at {grid}, offset {offset:.2} cells, back faces {:.0}% of the checker's rays, \
+                     luma {luma:.3e}, rays in a row that found no surface in its region {empty}",
+                    100.0 * back
+                );
+            }
             return Ok(());
         }
         BenchCommand::Ddgi { scene, iterations, width, height, grid, rays } => {

@@ -58,8 +58,8 @@ pub struct DdgiProbeData {
     pub pinned_rays: u32,
     /// 0, [`PIN_ACTIVE`] or [`PIN_INACTIVE`].
     pub pinned_state: u32,
-    /// Classifications in a row that found no surface in the probe's region.
-    pub empty_checks: u32,
+    /// Rays of the classifications in a row that found no surface in the probe's region.
+    pub empty_rays: u32,
     /// Resting: bits 0–15 the rest period in frames, bits 16–31 the frames left to rest.
     pub rest: u32,
 }
@@ -75,7 +75,7 @@ impl DdgiProbeData {
         luma: 0.0,
         pinned_rays: NO_PIN,
         pinned_state: 0,
-        empty_checks: 0,
+        empty_rays: 0,
         rest: 0,
     };
 }

@@ -96,7 +96,7 @@ impl Default for DdgiAdaptive {
             dark_fraction: 1e-3,
             frame_budget: None,
             max_rest_frames: 8,
-            rest_error: 0.25,
+            rest_error: 0.35,
         }
     }
 }
