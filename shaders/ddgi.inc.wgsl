@@ -153,6 +153,13 @@ const DDGI_PROBE_FRESH: u32 = 2u;
 // again) within a frame per wall.
 const DDGI_PROBE_RELOCATED: u32 = 4u;
 const DDGI_PROBE_RECHECK: u32 = 8u;
+// Switched off because its rays found no surface in its region (DDGI_EMPTY_RAYS).
+const DDGI_PROBE_EMPTY: u32 = 16u;
+// Set by the camera's gather on a probe that is off for an empty region, or on its way there,
+// when a pixel in its cage faces it: a visible surface depends on it. The budget gives such an
+// off probe its re-check rays at the next frame, and classification then counts its region as
+// not empty (and clears the mark), so the probes the view needs come back within a frame.
+const DDGI_PROBE_SEEN: u32 = 32u;
 
 // Hit distance of a miss in the surfel and radiance buffers.
 const DDGI_MISS: f32 = 3.0e38;

@@ -30,6 +30,26 @@ fn ddgi_volume_weight(p: vec3<f32>) -> f32 {
     return w.x * w.y * w.z;
 }
 
+// Marks (DDGI_PROBE_SEEN) the probes of the cage around surface point p, normal n, that face it and
+// are switched off for an empty region or counting towards it: the view depends on them. Only
+// those few probes are written, each once (every pixel writes the same value).
+fn ddgi_mark_seen_probes(p: vec3<f32>, n: vec3<f32>) {
+    let v = ddgi_volume;
+    let spacing = max(v.spacing, vec3<f32>(1e-30));
+    let max_base = vec3<i32>(max(v.counts, vec3<u32>(2u)) - vec3<u32>(2u));
+    let base = clamp(vec3<i32>(floor((p - v.origin) / spacing)), vec3<i32>(0), max_base);
+    for (var i = 0u; i < 8u; i++) {
+        let step = vec3<u32>(i & 1u, (i >> 1u) & 1u, (i >> 2u) & 1u);
+        let probe = ddgi_probe_index(min(vec3<u32>(base) + step, v.counts - vec3<u32>(1u)));
+        let data = ddgi_probes[probe];
+        let off_empty = (data.state & (DDGI_PROBE_INACTIVE | DDGI_PROBE_EMPTY)) == (DDGI_PROBE_INACTIVE | DDGI_PROBE_EMPTY);
+        let at_risk = (data.state & DDGI_PROBE_INACTIVE) == 0u && data.empty_rays > 0u;
+        if (off_empty || at_risk) && (data.state & DDGI_PROBE_SEEN) == 0u && dot(ddgi_probe_position(probe) - p, n) > 0.0 {
+            ddgi_probes[probe].state = data.state | DDGI_PROBE_SEEN;
+        }
+    }
+}
+
 @compute @workgroup_size(8, 8)
 fn gather_irradiance(@builtin(global_invocation_id) id: vec3<u32>) {
     if any(id.xy >= view.size) {
@@ -48,6 +68,7 @@ fn gather_irradiance(@builtin(global_invocation_id) id: vec3<u32>) {
             let n = safe_normalize(textureLoad(gbuffer_normal, id.xy, 0).xyz, vec3<f32>(0.0, 1.0, 0.0));
             let to_viewer = safe_normalize(view.camera_position - p, n);
             acc += vec4<f32>(w * ddgi_sample_irradiance(p, n, to_viewer), w);
+            ddgi_mark_seen_probes(p, n);
         }
     }
     ddgi_indirect[index] = acc;

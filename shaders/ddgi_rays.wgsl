@@ -34,8 +34,10 @@ fn ddgi_probe_budget(p: u32) -> u32 {
     }
     if (data.state & DDGI_PROBE_INACTIVE) != 0u && data.pinned_state != DDGI_PIN_ACTIVE {
         // Switched off: a few rays on re-check frames, so that a change can wake it (and at the
-        // next frame after relocation moved it out of geometry).
-        let recheck = v.recheck != 0u || (data.state & DDGI_PROBE_RECHECK) != 0u;
+        // next frame after relocation moved it out of geometry, or after the camera's view came to
+        // depend on it).
+        let seen = DDGI_PROBE_EMPTY | DDGI_PROBE_SEEN;
+        let recheck = v.recheck != 0u || (data.state & DDGI_PROBE_RECHECK) != 0u || (data.state & seen) == seen;
         return select(0u, clamp(v.recheck_rays, 1u, max_rays), recheck);
     }
     if !ddgi_has(DDGI_ADAPTIVE) || (data.state & DDGI_PROBE_FRESH) != 0u {

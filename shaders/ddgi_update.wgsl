@@ -453,13 +453,18 @@ fn classify_probes(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invoc
     let luma = PI * s.luma_sum / f32(data.ray_count);
     ddgi_probes[probe].luma = select(0.0, luma, luma == luma);
     var is_active = true;
+    var empty_region = false;
     if ddgi_has(DDGI_CLASSIFICATION) {
         var empty = 0u;
-        if s.frontface_in_cell == 0u {
+        // A probe a camera pixel depends on (marked by the gather) is not empty, whatever its
+        // rays found.
+        if s.frontface_in_cell == 0u && (state & DDGI_PROBE_SEEN) == 0u {
             empty = min(data.empty_rays + data.ray_count, DDGI_EMPTY_RAYS);
         }
         ddgi_probes[probe].empty_rays = empty;
-        is_active = !ddgi_inside_geometry(s, data.ray_count) && empty < DDGI_EMPTY_RAYS;
+        let inside = ddgi_inside_geometry(s, data.ray_count);
+        empty_region = !inside && empty >= DDGI_EMPTY_RAYS;
+        is_active = !inside && !empty_region;
     }
     if is_active && ddgi_has(DDGI_ADAPTIVE) {
         is_active = !ddgi_dark_around(probe, luma, ddgi_volume.dark_fraction * ddgi_counters_in.max_luma);
@@ -472,6 +477,9 @@ fn classify_probes(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invoc
         next = DDGI_PROBE_INACTIVE;
         if (state & DDGI_PROBE_RELOCATED) != 0u {
             next |= DDGI_PROBE_RECHECK;
+        }
+        if empty_region {
+            next |= DDGI_PROBE_EMPTY;
         }
     } else if (state & DDGI_PROBE_INACTIVE) != 0u {
         next = DDGI_PROBE_FRESH;

@@ -836,10 +836,12 @@ pub fn render_ddgi_frame(
         let out = pass.write(&mut indirect);
         pass.render(move |ctx| ctx.encoder.clear_buffer(ctx.buffer(out), 0, None));
     }
-    for (i, (k, suffix, h)) in handles.iter().enumerate() {
+    for (i, (k, suffix, h)) in handles.iter_mut().enumerate() {
         let volume = &volumes.volumes[*k].1;
         let mut pass = script.graph.add_pass(&format!("ddgi_gather{suffix}"));
         pass.read(&h.probes);
+        // Marks the switched-off probes that the view depends on (DDGI_PROBE_SEEN).
+        pass.write(&mut h.probes);
         pass.read(&h.irradiance);
         pass.read(&h.distance);
         if i > 0 {
