@@ -1,6 +1,6 @@
-// DDGI probe updates: blending the shaded rays into the irradiance and distance maps (one
-// workgroup per probe), copying the border texels, relocating probes out of geometry and
-// classifying them as active or inactive.
+// DDGI probe updates: blending the shaded rays into the irradiance and distance maps, copying the
+// border texels, relocating probes out of geometry and classifying them as active or inactive —
+// each pass one workgroup per probe traced this frame (resting and switched-off probes cost none).
 #include "ddgi.inc.wgsl"
 
 const DDGI_GROUP: u32 = 64u;

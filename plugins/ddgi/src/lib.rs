@@ -35,6 +35,11 @@
 //! Hvezda and Bittner ("Dynamic Diffuse Global Illumination: Implementation and Evaluation")
 //! describe the implementation this plugin follows and its evaluation against a path tracer.
 //!
+//! Beyond the papers, [`DdgiAdaptive`] spends the rays where the lighting changes: each probe's
+//! temporal error (SMAPE in YCoCg between its maps and what each frame's rays ask of them, smoothed
+//! over frames) sets its ray count; a converged probe *rests*, updating only every few frames, and
+//! the per-probe passes run only for the probes traced that frame; dark probes are switched off.
+//!
 //! ## In the ECS
 //!
 //! Add [`DdgiPlugin`], spawn an entity with a [`DdgiVolume`] (its settings), and select the

@@ -48,9 +48,10 @@ impl Default for DdgiWeights {
 /// its error rises, shrinking by `decay` per frame when it falls. With fewer rays its hysteresis
 /// rises in proportion (1 − h scales with the share of rays, which keeps the noise of its maps), so
 /// a small budget does not flicker; a probe over the error target at its full budget blends at
-/// twice the rate (1 − h doubled) until its error falls, so it follows a change sooner. Probes
-/// that, like their six neighbours,
-/// see almost no light are switched off (and woken by the re-checks).
+/// twice the rate (1 − h doubled) until its error falls, so it follows a change sooner. A probe
+/// whose error at an update is under `rest_error · error_target` rests (see `max_rest_frames`):
+/// in a static scene most probes end up updating once every few frames. Probes that, like their
+/// six neighbours, see almost no light are switched off (and woken by the re-checks).
 #[derive(Clone, Debug, PartialEq)]
 pub struct DdgiAdaptive {
     pub enabled: bool,

@@ -588,11 +588,11 @@ fn adaptive_budgets_trace_fewer_rays_in_a_static_scene_at_the_same_error() {
     eprintln!(
         "static cornell: fixed {fixed_rays:.0} rays per frame, FLIP {fixed_flip:.4}; adaptive {adaptive_rays:.0}, FLIP {adaptive_flip:.4}"
     );
-    // Measured on lavapipe (2026-11-30): 26,758 rays and FLIP 0.1485 fixed, 13,705 and 0.1492
-    // adaptive (defaults; 15,306 and 0.1554 before changing probes followed their change at twice
-    // the rate). The error lost grows as the budget shrinks (error_target 0.25 gave about 10,000
-    // rays and FLIP 0.166), so the bound on it is what the defaults are for.
-    assert!(adaptive_rays < 0.6 * fixed_rays, "adaptive budgets traced {adaptive_rays} rays per frame against {fixed_rays}");
+    // Measured on lavapipe (2026-11-30): 26,630 rays and FLIP 0.1496 fixed, 8,746 and 0.1534
+    // adaptive with quiet probes resting (defaults; 13,705 and 0.1492 before they rested). The
+    // error lost grows as the budget shrinks (rest_error 0.5 gave 5,685 rays and FLIP 0.1567), so
+    // the bound on it is what the defaults are for.
+    assert!(adaptive_rays < 0.5 * fixed_rays, "adaptive budgets traced {adaptive_rays} rays per frame against {fixed_rays}");
     // The rays it saved did not cost the image (no black holes where probes were switched off).
     assert!(adaptive_flip <= 1.05 * fixed_flip + 0.005, "FLIP against the reference: adaptive {adaptive_flip}, fixed {fixed_flip}");
 }
