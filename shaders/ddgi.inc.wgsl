@@ -141,6 +141,7 @@ const DDGI_CLASSIFICATION: u32 = 64u;
 const DDGI_ADAPTIVE: u32 = 128u;
 
 const DDGI_NO_PIN: u32 = 0xffffffffu;
+const DDGI_NO_PROBE: u32 = 0xffffffffu;
 const DDGI_PIN_ACTIVE: u32 = 1u;
 const DDGI_PIN_INACTIVE: u32 = 2u;
 
@@ -268,6 +269,22 @@ fn ddgi_probe_index(coords: vec3<u32>) -> u32 {
 
 fn ddgi_probe_position(p: u32) -> vec3<f32> {
     return ddgi_volume.origin + ddgi_volume.spacing * vec3<f32>(ddgi_probe_coords(p)) + ddgi_probes[p].offset;
+}
+
+// Step k (0–5) towards one of a probe's six face neighbours: −x, +x, −y, +y, −z, +z.
+fn ddgi_face_step(k: u32) -> vec3<i32> {
+    var step = vec3<i32>(0);
+    step[k / 2u] = select(-1, 1, (k & 1u) == 1u);
+    return step;
+}
+
+// The probe one `step` from probe p, or DDGI_NO_PROBE past the grid's edge.
+fn ddgi_neighbour(p: u32, step: vec3<i32>) -> u32 {
+    let q = vec3<i32>(ddgi_probe_coords(p)) + step;
+    if any(q < vec3<i32>(0)) || any(q >= vec3<i32>(ddgi_volume.counts)) {
+        return DDGI_NO_PROBE;
+    }
+    return ddgi_probe_index(vec3<u32>(q));
 }
 
 fn ddgi_probe_active(p: u32) -> bool {

@@ -118,14 +118,10 @@ fn ddgi_rest(p: u32, data: DdgiProbeData, rays: u32) -> vec2<u32> {
 
 // Whether one of probe p's six neighbours (active, updated at some point) is over the error target.
 fn ddgi_neighbour_changing(p: u32) -> bool {
-    let c = vec3<i32>(ddgi_probe_coords(p));
-    let counts = vec3<i32>(ddgi_volume.counts);
     for (var k = 0u; k < 6u; k++) {
-        var step = vec3<i32>(0);
-        step[k / 2u] = select(-1, 1, (k & 1u) == 1u);
-        let q = c + step;
-        if all(q >= vec3<i32>(0)) && all(q < counts) {
-            let n = ddgi_probes[ddgi_probe_index(vec3<u32>(q))];
+        let q = ddgi_neighbour(p, ddgi_face_step(k));
+        if q != DDGI_NO_PROBE {
+            let n = ddgi_probes[q];
             if (n.state & (DDGI_PROBE_INACTIVE | DDGI_PROBE_FRESH)) == 0u && n.error > ddgi_volume.error_target {
                 return true;
             }

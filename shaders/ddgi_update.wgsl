@@ -406,20 +406,17 @@ fn ddgi_dark_around(p: u32, own_luma: f32, threshold: f32) -> bool {
     if own_luma >= threshold {
         return false;
     }
-    let c = vec3<i32>(ddgi_probe_coords(p));
-    let counts = vec3<i32>(ddgi_volume.counts);
     for (var k = 0u; k < 6u; k++) {
-        var step = vec3<i32>(0);
-        step[k / 2u] = select(-1, 1, (k & 1u) == 1u);
-        let q = c + step;
-        if all(q >= vec3<i32>(0)) && all(q < counts) {
+        let step = ddgi_face_step(k);
+        let q = ddgi_neighbour(p, step);
+        if q != DDGI_NO_PROBE {
             // A neighbour behind a wall (the probe's mean distance towards it is shorter than the
             // step) lights nothing this probe does; one switched off lights nothing at all.
             let axis = k / 2u;
             let towards = vec3<f32>(step);
             let uv = ddgi_atlas_uv(p, towards, ddgi_volume.distance_texels, ddgi_volume.distance_atlas_size);
             let mean = textureSampleLevel(ddgi_distance, ddgi_sampler, uv, 0.0).x * ddgi_volume.distance_scale;
-            let n = ddgi_probes[ddgi_probe_index(vec3<u32>(q))];
+            let n = ddgi_probes[q];
             if mean >= ddgi_volume.spacing[axis] && (n.state & DDGI_PROBE_INACTIVE) == 0u && n.luma >= threshold {
                 return false;
             }

@@ -836,8 +836,15 @@ pub fn render_ddgi_frame(
         let out = pass.write(&mut indirect);
         pass.render(move |ctx| ctx.encoder.clear_buffer(ctx.buffer(out), 0, None));
     }
+    // The debug views read no indirect light: the gather (which also marks the probes the view
+    // needs, so it writes the exported probe states and would otherwise always run) is left out.
+    let reads_indirect = output.debug_view().is_none();
     for (i, (k, suffix, h)) in handles.iter_mut().enumerate() {
         let volume = &volumes.volumes[*k].1;
+        if !reads_indirect {
+            script.graph.leave_out(&format!("ddgi_gather{suffix}"), "the view reads no indirect light");
+            continue;
+        }
         let mut pass = script.graph.add_pass(&format!("ddgi_gather{suffix}"));
         pass.read(&h.probes);
         // Marks the switched-off probes that the view depends on (DDGI_PROBE_SEEN).
