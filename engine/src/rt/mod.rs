@@ -214,8 +214,12 @@ pub struct RayTracingScene {
     built_cost: f64,
     /// Depth of each TLAS node (root 0), for bottom-up refits.
     node_depth: Vec<u16>,
-    /// Scratch: inner nodes already queued for refit.
+    /// The TLAS's inner nodes, deepest first: a refit that touches many of them walks this list
+    /// instead of sorting its own.
+    refit_order: Vec<u32>,
+    /// Scratch: inner nodes already queued for refit, and wide nodes to re-encode.
     marked: Vec<bool>,
+    wide_marked: Vec<bool>,
     pub stats: BvhFrameStats,
 }
 
@@ -248,7 +252,9 @@ impl RayTracingScene {
             inner_area: 0.0,
             built_cost: 0.0,
             node_depth: Vec::new(),
+            refit_order: Vec::new(),
             marked: Vec::new(),
+            wide_marked: Vec::new(),
             stats: BvhFrameStats::default(),
         };
         scene.upload_tlas_all(gpu);
@@ -433,8 +439,11 @@ impl RayTracingScene {
             // Reinsertion lowers the SAH cost of the tree PLOC builds: overlapping instance bounds
             // (a forest's trees) make a TLAS's quality matter.
             ReinsertionOptimizer::default().run(&mut bvh, TLAS_REINSERTION_RATIO, None);
+            // Reinsertion leaves the nodes in no particular order; depth-first order keeps each
+            // subtree together in memory, so a refit's walks up the tree and its re-encoding of
+            // wide nodes (whose children are their source's descendants) read nearby nodes.
+            bvh.reorder_in_stack_traversal_order();
             bvh.update_parents();
-            // Reinsertion leaves nodes in no particular order: walk down from the root.
             self.node_depth = vec![0; bvh.nodes.len()];
             self.prim_leaf = vec![NONE; self.tlas_prims.len()];
             let mut stack = vec![0usize];
@@ -452,6 +461,8 @@ impl RayTracingScene {
                     }
                 }
             }
+            self.refit_order = (0..bvh.nodes.len() as u32).filter(|&i| !bvh.nodes[i as usize].is_leaf()).collect();
+            self.refit_order.sort_by_key(|&i| std::cmp::Reverse(self.node_depth[i as usize]));
             self.inner_area = bvh.nodes.iter().filter(|n| !n.is_leaf()).map(|n| f64::from(n.aabb().half_area())).sum();
             self.built_cost = self.inner_area / f64::from(bvh.nodes[0].aabb().half_area()).max(f64::MIN_POSITIVE);
             self.tlas = Some(bvh);
@@ -578,7 +589,14 @@ impl RayTracingScene {
                 inner.push(index);
             }
         }
-        inner.sort_unstable_by_key(|&i| std::cmp::Reverse(self.node_depth[i]));
+        // Deepest first. Few nodes: sort them; many (a thousand random movers touch most of the
+        // tree): walk the precomputed order and take the marked ones, which costs no sort.
+        if inner.len() * 16 < self.refit_order.len() {
+            inner.sort_unstable_by_key(|&i| std::cmp::Reverse(self.node_depth[i]));
+        } else {
+            inner.clear();
+            inner.extend(self.refit_order.iter().map(|&i| i as usize).filter(|&i| self.marked[i]));
+        }
         for &index in &inner {
             let first = bvh.nodes[index].first_index as usize;
             let union = bvh.nodes[first].aabb().union(bvh.nodes[first + 1].aabb());
@@ -594,9 +612,15 @@ impl RayTracingScene {
             self.tlas = Some(bvh);
             return false;
         }
-        let mut wide: Vec<usize> = dirty.iter().map(|&i| self.wide_owner[i]).filter(|&w| w != NONE).map(|w| w as usize).collect();
-        wide.sort_unstable();
-        wide.dedup();
+        // The wide nodes over changed Bvh2 nodes, each once, in order (a mark per wide node, no sort).
+        self.wide_marked.clear();
+        self.wide_marked.resize(self.gpu_tlas.len(), false);
+        for &i in &dirty {
+            if let Some(w) = self.wide_owner.get(i).filter(|&&w| w != NONE) {
+                self.wide_marked[*w as usize] = true;
+            }
+        }
+        let mut wide: Vec<usize> = (0..self.wide_marked.len()).filter(|&w| self.wide_marked[w]).collect();
         for &w in &wide {
             encode_bounds(&bvh, self.wide_source[w] as usize, &self.wide_children[w], &mut self.gpu_tlas[w]);
         }
