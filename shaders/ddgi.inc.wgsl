@@ -334,6 +334,29 @@ fn ddgi_decode_irradiance(v: vec3<f32>) -> vec3<f32> {
 // ---------------------------------------------------------------------------------------------
 // Sampling: irradiance at a surface point from the 8 probes of the cage around it.
 
+// Point p in grid units (probe (0, 0, 0) at the origin, one unit per cell).
+fn ddgi_grid_coords(p: vec3<f32>) -> vec3<f32> {
+    return (p - ddgi_volume.origin) / max(ddgi_volume.spacing, vec3<f32>(1e-30));
+}
+
+// The cage (the grid cell whose 8 corner probes light a point) around `grid` (grid units): its
+// lowest corner, clamped so that the cage stays inside the grid (points beyond the outer probes
+// take the outer cell).
+fn ddgi_cage_base(grid: vec3<f32>) -> vec3<i32> {
+    let max_base = vec3<i32>(max(ddgi_volume.counts, vec3<u32>(2u)) - vec3<u32>(2u));
+    return clamp(vec3<i32>(floor(grid)), vec3<i32>(0), max_base);
+}
+
+// Corner i (0–7) of a cage: its offset from the lowest corner.
+fn ddgi_cage_step(i: u32) -> vec3<u32> {
+    return vec3<u32>(i & 1u, (i >> 1u) & 1u, (i >> 2u) & 1u);
+}
+
+// The probe at corner `step` of the cage at `base` (a grid one probe thick repeats its layer).
+fn ddgi_cage_probe(base: vec3<i32>, step: vec3<u32>) -> u32 {
+    return ddgi_probe_index(min(vec3<u32>(base) + step, ddgi_volume.counts - vec3<u32>(1u)));
+}
+
 // Irradiance arriving at point `p` with unit normal `n`, seen from direction `to_viewer` (unit, from
 // p towards the camera or ray origin), from the volume's probes. Each weight can be switched off:
 // back-face (wrap shading), Chebyshev visibility on the distance moments, crush of small weights,
@@ -344,17 +367,14 @@ fn ddgi_sample_irradiance(p: vec3<f32>, n: vec3<f32>, to_viewer: vec3<f32>) -> v
     if ddgi_has(DDGI_WEIGHT_NORMAL_BIAS) {
         biased = p + n * v.normal_bias + to_viewer * v.view_bias;
     }
-    let spacing = max(v.spacing, vec3<f32>(1e-30));
-    let max_base = vec3<i32>(max(v.counts, vec3<u32>(2u)) - vec3<u32>(2u));
-    let grid = (biased - v.origin) / spacing;
-    let base = clamp(vec3<i32>(floor(grid)), vec3<i32>(0), max_base);
+    let grid = ddgi_grid_coords(biased);
+    let base = ddgi_cage_base(grid);
     let alpha = clamp(grid - vec3<f32>(base), vec3<f32>(0.0), vec3<f32>(1.0));
     var sum = vec3<f32>(0.0);
     var total = 0.0;
     for (var i = 0u; i < 8u; i++) {
-        let step = vec3<u32>(i & 1u, (i >> 1u) & 1u, (i >> 2u) & 1u);
-        let coords = min(vec3<u32>(base) + step, v.counts - vec3<u32>(1u));
-        let probe = ddgi_probe_index(coords);
+        let step = ddgi_cage_step(i);
+        let probe = ddgi_cage_probe(base, step);
         if !ddgi_probe_active(probe) {
             continue;
         }

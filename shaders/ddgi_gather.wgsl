@@ -34,13 +34,9 @@ fn ddgi_volume_weight(p: vec3<f32>) -> f32 {
 // are switched off for an empty region or counting towards it: the view depends on them. Only
 // those few probes are written, each once (every pixel writes the same value).
 fn ddgi_mark_seen_probes(p: vec3<f32>, n: vec3<f32>) {
-    let v = ddgi_volume;
-    let spacing = max(v.spacing, vec3<f32>(1e-30));
-    let max_base = vec3<i32>(max(v.counts, vec3<u32>(2u)) - vec3<u32>(2u));
-    let base = clamp(vec3<i32>(floor((p - v.origin) / spacing)), vec3<i32>(0), max_base);
+    let base = ddgi_cage_base(ddgi_grid_coords(p));
     for (var i = 0u; i < 8u; i++) {
-        let step = vec3<u32>(i & 1u, (i >> 1u) & 1u, (i >> 2u) & 1u);
-        let probe = ddgi_probe_index(min(vec3<u32>(base) + step, v.counts - vec3<u32>(1u)));
+        let probe = ddgi_cage_probe(base, ddgi_cage_step(i));
         let data = ddgi_probes[probe];
         let off_empty = (data.state & (DDGI_PROBE_INACTIVE | DDGI_PROBE_EMPTY)) == (DDGI_PROBE_INACTIVE | DDGI_PROBE_EMPTY);
         let at_risk = (data.state & DDGI_PROBE_INACTIVE) == 0u && data.empty_rays > 0u;

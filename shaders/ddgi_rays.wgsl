@@ -69,17 +69,6 @@ fn ddgi_scan(value: u32, local: u32) -> vec2<u32> {
     return vec2<u32>(inclusive - value, total);
 }
 
-// The budget pass, in three dispatches (a prefix sum over blocks of 256 probes), five under a
-// frame budget:
-// 1. plan_rays: each probe's rays as its state, error and rest ask (ray_count), their offsets
-//    within the block, and each block's sums (rays, probes with rays) and brightest probe;
-// 2. (frame budget) plan_budget_scale: one workgroup sums the blocks: the share of its rays each
-//    probe keeps under the frame budget;
-// 3. (frame budget) scale_rays: each probe's rays under that share, their offsets within the
-//    block, the block's sums;
-// 4. plan_ray_blocks: one workgroup scans the blocks' sums, writes the indirect dispatches of the
-//    ray passes and of the per-probe passes, and the brightest probe's luma;
-// 5. place_rays: each probe's offset plus its block's, and the list of probes with rays.
 // Resting (adaptive budgets). A probe whose error at its last update was under
 // rest_error × error_target is quiet: its maps have converged and further rays would only stir
 // their noise, so it rests — keeps its maps, traces nothing, costs no per-probe pass — for a period
@@ -141,6 +130,17 @@ fn ddgi_hash(x_in: u32) -> u32 {
     return x;
 }
 
+// The budget pass, in three dispatches (a prefix sum over blocks of 256 probes), five under a
+// frame budget:
+// 1. plan_rays: each probe's rays as its state, error and rest ask (ray_count), their offsets
+//    within the block, and each block's sums (rays, probes with rays) and brightest probe;
+// 2. (frame budget) plan_budget_scale: one workgroup sums the blocks: the share of its rays each
+//    probe keeps under the frame budget;
+// 3. (frame budget) scale_rays: each probe's rays under that share, their offsets within the
+//    block, the block's sums;
+// 4. plan_ray_blocks: one workgroup scans the blocks' sums, writes the indirect dispatches of the
+//    ray passes and of the per-probe passes, and the brightest probe's luma;
+// 5. place_rays: each probe's offset plus its block's, and the list of probes with rays.
 @compute @workgroup_size(256)
 fn plan_rays(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) local: u32) {
     let p = group.x * DDGI_SCAN + local;
@@ -155,11 +155,7 @@ fn plan_rays(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_
         luma = data.luma;
     }
     // Offsets within the block, as if no frame budget applied (scale_rays redoes them when one does).
-    let scan = ddgi_scan(count, local);
-    if p < ddgi_volume.probe_count {
-        ddgi_probes[p].ray_offset = scan.x;
-    }
-    let updated = ddgi_scan(u32(count > 0u), local).y;
+    let sums = ddgi_place_in_block(p, count, local);
     wg_max[local] = luma;
     workgroupBarrier();
     if local == 0u {
@@ -167,8 +163,19 @@ fn plan_rays(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_
         for (var k = 0u; k < DDGI_SCAN; k++) {
             m = max(m, wg_max[k]);
         }
-        ddgi_blocks[group.x] = DdgiBlock(scan.y, scan.y, m, 0u, updated, 0u);
+        ddgi_blocks[group.x] = DdgiBlock(sums.x, sums.x, m, 0u, sums.y, 0u);
     }
+}
+
+// Probe p's rays (`count`) within its block of the prefix sum: writes its offset among the
+// block's rays; returns the block's rays and its probes with rays (every thread of the block calls
+// it: it holds barriers).
+fn ddgi_place_in_block(p: u32, count: u32, local: u32) -> vec2<u32> {
+    let scan = ddgi_scan(count, local);
+    if p < ddgi_volume.probe_count {
+        ddgi_probes[p].ray_offset = scan.x;
+    }
+    return vec2<u32>(scan.y, ddgi_scan(u32(count > 0u), local).y);
 }
 
 fn ddgi_block_count() -> u32 {
@@ -206,15 +213,13 @@ fn scale_rays(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation
             count = max(1u, u32(f32(count) * scale));
         }
     }
-    let scan = ddgi_scan(count, local);
     if p < ddgi_volume.probe_count {
         ddgi_probes[p].ray_count = count;
-        ddgi_probes[p].ray_offset = scan.x;
     }
-    let updated = ddgi_scan(u32(count > 0u), local).y;
+    let sums = ddgi_place_in_block(p, count, local);
     if local == 0u {
-        ddgi_blocks[group.x].rays = scan.y;
-        ddgi_blocks[group.x].probes = updated;
+        ddgi_blocks[group.x].rays = sums.x;
+        ddgi_blocks[group.x].probes = sums.y;
     }
 }
 

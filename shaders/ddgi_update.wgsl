@@ -12,11 +12,11 @@ var<workgroup> wg_error: array<vec2<f32>, 64>;
 
 // The probe of a workgroup: the per-probe passes are dispatched indirectly, one workgroup for each
 // probe with rays this frame (listed by the budget pass; two-dimensional beyond 65,535). Past the
-// list: 0xffffffff, which every caller rejects as ≥ probe_count.
+// list: DDGI_NO_PROBE, which every caller rejects as ≥ probe_count.
 fn ddgi_group_probe(group: vec3<u32>) -> u32 {
     let i = group.x + group.y * 65535u;
     if i >= ddgi_counters_in.updated_probes {
-        return 0xffffffffu;
+        return DDGI_NO_PROBE;
     }
     return ddgi_updated[i];
 }
@@ -244,7 +244,7 @@ fn ddgi_store_tile(group: vec3<u32>, local: u32, irradiance: bool) {
     }
     let n = select(ddgi_volume.distance_texels, ddgi_volume.irradiance_texels, irradiance);
     let side = n + 2u;
-    let corner = vec2<u32>(probe % ddgi_volume.tiles_per_row, probe / ddgi_volume.tiles_per_row) * side;
+    let corner = ddgi_tile_origin(probe, n);
     for (var t = local; t < side * side; t += DDGI_GROUP) {
         let texel = vec2<u32>(t % side, t / side);
         let source = ddgi_border_source(texel, n) - vec2<u32>(1u);

@@ -212,11 +212,6 @@ pub struct RayTracingScene {
     /// [`TLAS_REBUILD_COST_RATIO`] times its built value the TLAS is rebuilt.
     inner_area: f64,
     built_cost: f64,
-    /// Depth of each TLAS node (root 0), for bottom-up refits.
-    node_depth: Vec<u16>,
-    /// The TLAS's inner nodes, deepest first: a refit that touches many of them walks this list
-    /// instead of sorting its own.
-    refit_order: Vec<u32>,
     /// Scratch: inner nodes already queued for refit, and wide nodes to re-encode.
     marked: Vec<bool>,
     wide_marked: Vec<bool>,
@@ -251,8 +246,6 @@ impl RayTracingScene {
             wide_owner: Vec::new(),
             inner_area: 0.0,
             built_cost: 0.0,
-            node_depth: Vec::new(),
-            refit_order: Vec::new(),
             marked: Vec::new(),
             wide_marked: Vec::new(),
             stats: BvhFrameStats::default(),
@@ -441,10 +434,10 @@ impl RayTracingScene {
             ReinsertionOptimizer::default().run(&mut bvh, TLAS_REINSERTION_RATIO, None);
             // Reinsertion leaves the nodes in no particular order; depth-first order keeps each
             // subtree together in memory, so a refit's walks up the tree and its re-encoding of
-            // wide nodes (whose children are their source's descendants) read nearby nodes.
+            // wide nodes (whose children are their source's descendants) read nearby nodes, and
+            // puts every parent before its children, so descending indices are a bottom-up order.
             bvh.reorder_in_stack_traversal_order();
             bvh.update_parents();
-            self.node_depth = vec![0; bvh.nodes.len()];
             self.prim_leaf = vec![NONE; self.tlas_prims.len()];
             let mut stack = vec![0usize];
             while let Some(i) = stack.pop() {
@@ -454,15 +447,9 @@ impl RayTracingScene {
                         self.prim_leaf[bvh.primitive_indices[(n.first_index + k) as usize] as usize] = i as u32;
                     }
                 } else {
-                    let d = self.node_depth[i].saturating_add(1);
-                    for child in [n.first_index as usize, n.first_index as usize + 1] {
-                        self.node_depth[child] = d;
-                        stack.push(child);
-                    }
+                    stack.extend([n.first_index as usize, n.first_index as usize + 1]);
                 }
             }
-            self.refit_order = (0..bvh.nodes.len() as u32).filter(|&i| !bvh.nodes[i as usize].is_leaf()).collect();
-            self.refit_order.sort_by_key(|&i| std::cmp::Reverse(self.node_depth[i as usize]));
             self.inner_area = bvh.nodes.iter().filter(|n| !n.is_leaf()).map(|n| f64::from(n.aabb().half_area())).sum();
             self.built_cost = self.inner_area / f64::from(bvh.nodes[0].aabb().half_area()).max(f64::MIN_POSITIVE);
             self.tlas = Some(bvh);
@@ -564,7 +551,7 @@ impl RayTracingScene {
     /// TLAS should be rebuilt instead (an instance is not in it, or quality decayed).
     fn refit_tlas(&mut self, gpu: &GpuContext, uploads: &mut Uploads, moved: &[(u32, u32, Affine3A)]) -> bool {
         let Some(mut bvh) = self.tlas.take() else { return moved.is_empty() };
-        // Move the leaves, then refit each affected inner node once, deepest first.
+        // Move the leaves, then refit each affected inner node once, children before parents.
         let mut dirty: Vec<usize> = Vec::with_capacity(moved.len() * 4);
         let mut inner: Vec<usize> = Vec::new();
         self.marked.clear();
@@ -589,13 +576,15 @@ impl RayTracingScene {
                 inner.push(index);
             }
         }
-        // Deepest first. Few nodes: sort them; many (a thousand random movers touch most of the
-        // tree): walk the precomputed order and take the marked ones, which costs no sort.
-        if inner.len() * 16 < self.refit_order.len() {
-            inner.sort_unstable_by_key(|&i| std::cmp::Reverse(self.node_depth[i]));
+        // Children before parents: descending indices (the build put every parent first). Few
+        // nodes: sort them; many (a thousand random movers touch most of the tree): take the
+        // marked ones from the end down, which costs no sort.
+        debug_assert!(bvh.children_are_ordered_after_parents);
+        if inner.len() * 16 < bvh.nodes.len() {
+            inner.sort_unstable_by(|a, b| b.cmp(a));
         } else {
             inner.clear();
-            inner.extend(self.refit_order.iter().map(|&i| i as usize).filter(|&i| self.marked[i]));
+            inner.extend((0..bvh.nodes.len()).rev().filter(|&i| self.marked[i]));
         }
         for &index in &inner {
             let first = bvh.nodes[index].first_index as usize;

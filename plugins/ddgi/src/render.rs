@@ -248,7 +248,8 @@ pub struct VolumeGpu {
     pub settings: DdgiVolume,
     pub uniform: wgpu::Buffer,
     pub probes: wgpu::Buffer,
-    /// The budget pass's results: the indirect dispatch of the ray passes and the ray count.
+    /// The budget pass's results: the indirect dispatches of the ray passes and of the per-probe
+    /// passes, the ray count and the count of probes with rays.
     pub counters: wgpu::Buffer,
     /// The budget pass's per-block sums (one `DdgiBlock` per 256 probes).
     blocks: wgpu::Buffer,
@@ -589,8 +590,8 @@ pub struct VolumeHandles {
     pub distance: Handle<GraphTexture>,
 }
 
-/// Adds the probe update of one volume to `graph`: ray generation → trace → shading → irradiance
-/// and distance updates → borders → relocation → classification. `suffix` tells apart the labels of
+/// Adds the probe update of one volume to `graph`: budget → trace (ray generation included) →
+/// shading → irradiance and distance updates → borders → relocation → classification. `suffix` tells apart the labels of
 /// several volumes.
 fn add_volume_update(
     graph: &mut RenderGraph,
