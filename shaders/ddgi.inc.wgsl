@@ -195,11 +195,13 @@ struct DdgiTexel {
 
 // The maps at full float precision, texel t of probe p at p · n² + t: the updates blend into these
 // (a half-float atlas would stall once a frame's change falls under half a unit in the last place,
-// up to several percent short of the target at hysteresis 0.97), and the border pass encodes them
+// up to several percent short of the target at hysteresis 0.97), and the probe update encodes them
 // into the atlases that sampling reads. Irradiance linear (rgb); distance moments over distance_scale.
 @group(1) @binding(8) var<storage, read_write> ddgi_irradiance_history: array<DdgiTexel>;
 @group(1) @binding(9) var<storage, read_write> ddgi_distance_history: array<vec2<f32>>;
-@group(1) @binding(10) var ddgi_atlas_out: texture_storage_2d<rgba16float, write>;
+// The atlases as the probe update writes them (the ray shading samples them through bindings 2, 3).
+@group(1) @binding(10) var ddgi_irradiance_out: texture_storage_2d<rgba16float, write>;
+@group(1) @binding(15) var ddgi_distance_out: texture_storage_2d<rgba16float, write>;
 @group(1) @binding(11) var<storage, read_write> ddgi_counters: DdgiCounters;
 // The same buffer read-only, for the ray passes, which also take their indirect dispatch from it
 // (a dispatch may not write a buffer it reads its arguments from).

@@ -1,6 +1,8 @@
-// DDGI probe updates: blending the shaded rays into the irradiance and distance maps, copying the
-// border texels, relocating probes out of geometry and classifying them as active or inactive —
-// each pass one workgroup per probe traced this frame (resting and switched-off probes cost none).
+// The DDGI probe update, one dispatch with one workgroup per probe traced this frame (resting and
+// switched-off probes cost nothing): blending the shaded rays into the irradiance and distance maps,
+// writing both maps with their borders into the atlases, relocating the probe out of geometry and
+// classifying it as active or inactive. One dispatch, not five: at the published grids each pass
+// cost 0.02–0.08 ms on an H200 however little it did, more than the work itself.
 #include "ddgi.inc.wgsl"
 
 const DDGI_GROUP: u32 = 64u;
@@ -9,6 +11,7 @@ var<workgroup> wg_direction: array<vec3<f32>, 64>;
 var<workgroup> wg_value: array<vec4<f32>, 64>;
 var<workgroup> wg_probe: DdgiProbeData;
 var<workgroup> wg_error: array<vec2<f32>, 64>;
+var<workgroup> wg_new_error: f32;
 
 // The probe of a workgroup: the per-probe passes are dispatched indirectly, one workgroup for each
 // probe with rays this frame (listed by the budget pass; two-dimensional beyond 65,535). Past the
@@ -65,17 +68,9 @@ fn ddgi_texel_coords(texel: u32, n: u32) -> vec2<u32> {
 
 // Irradiance: the cosine-weighted mean of the rays' radiance over each texel's hemisphere, times
 // π, blended with the old value by the hysteresis (linear irradiance; stored perceptually encoded).
-@compute @workgroup_size(64)
-fn update_irradiance(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) local: u32) {
-    let probe = ddgi_group_probe(group);
-    if probe >= ddgi_volume.probe_count {
-        return;
-    }
-    let data = ddgi_uniform_probe(probe, local);
+// Returns the probe's new temporal error.
+fn ddgi_update_irradiance(probe: u32, data: DdgiProbeData, local: u32) -> f32 {
     let state = data.state;
-    if (state & DDGI_PROBE_INACTIVE) != 0u || data.ray_count == 0u {
-        return;
-    }
     let n = ddgi_volume.irradiance_texels;
     let m = data.ray_count;
     let h = ddgi_hysteresis(data);
@@ -137,22 +132,15 @@ fn update_irradiance(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_inv
         if !fresh {
             e = select(data.error, total.x / total.y, total.y > 0.0);
         }
-        ddgi_probes[probe].error = select(0.0, e, e == e);
+        wg_new_error = select(0.0, e, e == e);
+        ddgi_probes[probe].error = wg_new_error;
     }
+    return workgroupUniformLoad(&wg_new_error);
 }
 
 // Distance: cosine-power-weighted mean of the hit distance and of its square (clamped to
 // distance_scale and stored divided by it), blended by the hysteresis.
-@compute @workgroup_size(64)
-fn update_distance(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) local: u32) {
-    let probe = ddgi_group_probe(group);
-    if probe >= ddgi_volume.probe_count {
-        return;
-    }
-    let data = ddgi_uniform_probe(probe, local);
-    if (data.state & DDGI_PROBE_INACTIVE) != 0u || data.ray_count == 0u {
-        return;
-    }
+fn ddgi_update_distance(probe: u32, data: DdgiProbeData, local: u32) {
     let n = ddgi_volume.distance_texels;
     let m = data.ray_count;
     let h = ddgi_hysteresis(data);
@@ -234,39 +222,26 @@ fn ddgi_border_source(t: vec2<u32>, n: u32) -> vec2<u32> {
     return t;
 }
 
-// Writes the map of the workgroup's probe (one workgroup per probe updated this frame, as the map
-// updates) into its atlas tile, the border filled from the mirrored interior: the irradiance map
-// (perceptually encoded) or the distance map. Tiles of probes that did not trace keep what they hold.
-fn ddgi_store_tile(group: vec3<u32>, local: u32, irradiance: bool) {
-    let probe = ddgi_group_probe(group);
-    if probe >= ddgi_volume.probe_count || !ddgi_probe_active(probe) {
-        return;
+// Writes probe `probe`'s maps into its atlas tiles, the border filled from the mirrored interior:
+// the irradiance map (perceptually encoded) and the distance map. Tiles of probes that did not
+// trace keep what they hold.
+fn ddgi_store_tiles(probe: u32, local: u32) {
+    let ni = ddgi_volume.irradiance_texels;
+    let corner_i = ddgi_tile_origin(probe, ni);
+    for (var t = local; t < (ni + 2u) * (ni + 2u); t += DDGI_GROUP) {
+        let texel = vec2<u32>(t % (ni + 2u), t / (ni + 2u));
+        let source = ddgi_border_source(texel, ni) - vec2<u32>(1u);
+        let irradiance = ddgi_irradiance_history[probe * ni * ni + source.y * ni + source.x].irradiance.rgb;
+        textureStore(ddgi_irradiance_out, corner_i + texel, vec4<f32>(ddgi_encode_irradiance(irradiance), 1.0));
     }
-    let n = select(ddgi_volume.distance_texels, ddgi_volume.irradiance_texels, irradiance);
-    let side = n + 2u;
-    let corner = ddgi_tile_origin(probe, n);
-    for (var t = local; t < side * side; t += DDGI_GROUP) {
-        let texel = vec2<u32>(t % side, t / side);
-        let source = ddgi_border_source(texel, n) - vec2<u32>(1u);
-        let slot = probe * n * n + source.y * n + source.x;
-        var value: vec4<f32>;
-        if irradiance {
-            value = vec4<f32>(ddgi_encode_irradiance(ddgi_irradiance_history[slot].irradiance.rgb), 1.0);
-        } else {
-            value = vec4<f32>(ddgi_distance_history[slot], 0.0, 1.0);
-        }
-        textureStore(ddgi_atlas_out, corner + texel, value);
+    let nd = ddgi_volume.distance_texels;
+    let corner_d = ddgi_tile_origin(probe, nd);
+    for (var t = local; t < (nd + 2u) * (nd + 2u); t += DDGI_GROUP) {
+        let texel = vec2<u32>(t % (nd + 2u), t / (nd + 2u));
+        let source = ddgi_border_source(texel, nd) - vec2<u32>(1u);
+        let moments = ddgi_distance_history[probe * nd * nd + source.y * nd + source.x];
+        textureStore(ddgi_distance_out, corner_d + texel, vec4<f32>(moments, 0.0, 1.0));
     }
-}
-
-@compute @workgroup_size(64)
-fn copy_irradiance_borders(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) local: u32) {
-    ddgi_store_tile(group, local, true);
-}
-
-@compute @workgroup_size(64)
-fn copy_distance_borders(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) local: u32) {
-    ddgi_store_tile(group, local, false);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -359,21 +334,9 @@ fn ddgi_inside_geometry(s: DdgiRayStatistics, rays: u32) -> bool {
 
 // Relocation (Majercik et al. 2021): a probe inside geometry moves through the nearest back face;
 // one too close to a front face moves away from it; one in free space drifts back to its grid
-// point. The offset stays inside an ellipsoid of 0.45 cells around the grid point.
-@compute @workgroup_size(64)
-fn relocate_probes(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) local: u32) {
-    let probe = ddgi_group_probe(group);
-    if probe >= ddgi_volume.probe_count {
-        return;
-    }
-    let data = ddgi_uniform_probe(probe, local);
-    if data.ray_count == 0u {
-        return;
-    }
-    let s = ddgi_ray_statistics(probe, data, local);
-    if local != 0u {
-        return;
-    }
+// point. The offset stays inside an ellipsoid of 0.45 cells around the grid point. Returns whether
+// it moved the probe out of geometry.
+fn ddgi_relocate(probe: u32, data: DdgiProbeData, s: DdgiRayStatistics) -> bool {
     let offset = data.offset;
     let min_distance = ddgi_volume.min_frontface_distance;
     var moved = offset;
@@ -394,10 +357,27 @@ fn relocate_probes(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invoc
     let normalized = moved / max(ddgi_volume.spacing, vec3<f32>(1e-30));
     if dot(normalized, normalized) < 0.45 * 0.45 && all(moved == moved) {
         ddgi_probes[probe].offset = moved;
-        if inside {
-            ddgi_probes[probe].state = data.state | DDGI_PROBE_RELOCATED;
-        }
+        return inside;
     }
+    return false;
+}
+
+// The mean hit distance in probe p's distance map towards direction d, filtered bilinearly as a
+// sample of its atlas tile would be (the border texels repeat their mirrored interior texels).
+fn ddgi_mean_distance(p: u32, d: vec3<f32>) -> f32 {
+    let n = ddgi_volume.distance_texels;
+    // In tile texels (texel j centred at j + 0.5, the interior from 1): the sample at 1 + oct · n.
+    let x = (ddgi_oct_encode(d) * 0.5 + 0.5) * f32(n) + 0.5;
+    let base = clamp(floor(x), vec2<f32>(0.0), vec2<f32>(f32(n)));
+    let f = clamp(x - base, vec2<f32>(0.0), vec2<f32>(1.0));
+    var mean = 0.0;
+    for (var k = 0u; k < 4u; k++) {
+        let corner = vec2<u32>(k & 1u, k >> 1u);
+        let source = ddgi_border_source(vec2<u32>(base) + corner, n) - vec2<u32>(1u);
+        let w = select(1.0 - f, f, corner == vec2<u32>(1u));
+        mean += w.x * w.y * ddgi_distance_history[p * n * n + source.y * n + source.x].x;
+    }
+    return mean * ddgi_volume.distance_scale;
 }
 
 // Whether probe p and those of its six neighbours that can light what it lights (active, not behind
@@ -414,8 +394,7 @@ fn ddgi_dark_around(p: u32, own_luma: f32, threshold: f32) -> bool {
             // step) lights nothing this probe does; one switched off lights nothing at all.
             let axis = k / 2u;
             let towards = vec3<f32>(step);
-            let uv = ddgi_atlas_uv(p, towards, ddgi_volume.distance_texels, ddgi_volume.distance_atlas_size);
-            let mean = textureSampleLevel(ddgi_distance, ddgi_sampler, uv, 0.0).x * ddgi_volume.distance_scale;
+            let mean = ddgi_mean_distance(p, towards);
             let n = ddgi_probes[q];
             if mean >= ddgi_volume.spacing[axis] && (n.state & DDGI_PROBE_INACTIVE) == 0u && n.luma >= threshold {
                 return false;
@@ -430,22 +409,8 @@ fn ddgi_dark_around(p: u32, own_luma: f32, threshold: f32) -> bool {
 // that, like its six neighbours, sees next to no light (luma under dark_fraction of the brightest
 // probe's). Off, it traces only a few rays on re-check frames, which wake it when the scene
 // changes. Probes switched back on are marked fresh, so their maps restart from the new samples.
-// Pinned states win.
-@compute @workgroup_size(64)
-fn classify_probes(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) local: u32) {
-    let probe = ddgi_group_probe(group);
-    if probe >= ddgi_volume.probe_count {
-        return;
-    }
-    let data = ddgi_uniform_probe(probe, local);
-    let state = data.state;
-    if data.ray_count == 0u {
-        return;
-    }
-    let s = ddgi_ray_statistics(probe, data, local);
-    if local != 0u {
-        return;
-    }
+// Pinned states win. `state` is the probe's state after relocation.
+fn ddgi_classify(probe: u32, data: DdgiProbeData, state: u32, s: DdgiRayStatistics) {
     // The mean irradiance-like luma the rays saw (π × their mean radiance over the sphere).
     let luma = PI * s.luma_sum / f32(data.ray_count);
     ddgi_probes[probe].luma = select(0.0, luma, luma == luma);
@@ -482,4 +447,36 @@ fn classify_probes(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invoc
         next = DDGI_PROBE_FRESH;
     }
     ddgi_probes[probe].state = next;
+}
+
+// The probe update: one workgroup per probe traced this frame. An active probe's rays update its
+// maps and tiles; a switched-off probe's (its few re-check rays) only relocate and classify it.
+@compute @workgroup_size(64)
+fn update_probes(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) local: u32) {
+    let probe = ddgi_group_probe(group);
+    if probe >= ddgi_volume.probe_count {
+        return;
+    }
+    let data = ddgi_uniform_probe(probe, local);
+    if data.ray_count == 0u {
+        return;
+    }
+    if (data.state & DDGI_PROBE_INACTIVE) == 0u {
+        // The distance map's hysteresis follows the error this update measured.
+        var measured = data;
+        measured.error = ddgi_update_irradiance(probe, data, local);
+        ddgi_update_distance(probe, measured, local);
+        // The tiles (and the dark test below) read texels that other threads of the workgroup wrote.
+        storageBarrier();
+        ddgi_store_tiles(probe, local);
+    }
+    let s = ddgi_ray_statistics(probe, data, local);
+    if local != 0u {
+        return;
+    }
+    var state = data.state;
+    if ddgi_has(DDGI_RELOCATION) && ddgi_relocate(probe, data, s) {
+        state |= DDGI_PROBE_RELOCATED;
+    }
+    ddgi_classify(probe, data, state, s);
 }

@@ -155,12 +155,7 @@ pub struct DdgiPipelines {
     plan_blocks: ComputeProgram,
     place: ComputeProgram,
     specialized: HashMap<Specialization, (ComputeProgram, ComputeProgram)>,
-    update_irradiance: ComputeProgram,
-    update_distance: ComputeProgram,
-    copy_irradiance_borders: ComputeProgram,
-    copy_distance_borders: ComputeProgram,
-    relocate: ComputeProgram,
-    classify: ComputeProgram,
+    update: ComputeProgram,
     gather: ComputeProgram,
     composite: ComputeProgram,
     composite_indirect: ComputeProgram,
@@ -180,12 +175,7 @@ impl DdgiPipelines {
             plan_blocks: p("ddgi_rays.wgsl", "plan_ray_blocks")?,
             place: p("ddgi_rays.wgsl", "place_rays")?,
             specialized: HashMap::new(),
-            update_irradiance: p("ddgi_update.wgsl", "update_irradiance")?,
-            update_distance: p("ddgi_update.wgsl", "update_distance")?,
-            copy_irradiance_borders: p("ddgi_update.wgsl", "copy_irradiance_borders")?,
-            copy_distance_borders: p("ddgi_update.wgsl", "copy_distance_borders")?,
-            relocate: p("ddgi_update.wgsl", "relocate_probes")?,
-            classify: p("ddgi_update.wgsl", "classify_probes")?,
+            update: p("ddgi_update.wgsl", "update_probes")?,
             gather: p("ddgi_gather.wgsl", "gather_irradiance")?,
             composite: p("ddgi_gather.wgsl", "composite")?,
             composite_indirect: p("ddgi_gather.wgsl", "composite_indirect")?,
@@ -331,12 +321,8 @@ impl VolumeGpu {
         }
     }
 
-    /// Group 1 resources by WGSL name; `atlas_out` is the atlas the border pass writes.
-    fn bindings<'a>(
-        &'a self,
-        sampler: &'a wgpu::Sampler,
-        atlas_out: &'a wgpu::TextureView,
-    ) -> Vec<(&'static str, wgpu::BindingResource<'a>)> {
+    /// Group 1 resources by WGSL name (each pipeline's layout takes those it uses).
+    fn bindings<'a>(&'a self, sampler: &'a wgpu::Sampler) -> Vec<(&'static str, wgpu::BindingResource<'a>)> {
         let [irradiance, distance] = &self.views;
         vec![
             ("ddgi_volume", self.uniform.as_entire_binding()),
@@ -349,18 +335,13 @@ impl VolumeGpu {
             ("ddgi_radiance", self.radiance.as_entire_binding()),
             ("ddgi_irradiance_history", self.irradiance_history.as_entire_binding()),
             ("ddgi_distance_history", self.distance_history.as_entire_binding()),
-            ("ddgi_atlas_out", wgpu::BindingResource::TextureView(atlas_out)),
+            ("ddgi_irradiance_out", wgpu::BindingResource::TextureView(irradiance)),
+            ("ddgi_distance_out", wgpu::BindingResource::TextureView(distance)),
             ("ddgi_counters", self.counters.as_entire_binding()),
             ("ddgi_counters_in", self.counters.as_entire_binding()),
             ("ddgi_blocks", self.blocks.as_entire_binding()),
             ("ddgi_updated", self.updated.as_entire_binding()),
         ]
-    }
-
-    /// Group 1 for passes that write no atlas.
-    fn common_bindings<'a>(&'a self, sampler: &'a wgpu::Sampler) -> Vec<(&'static str, wgpu::BindingResource<'a>)> {
-        // Unused by those passes' layouts; any texture view fills the name.
-        self.bindings(sampler, &self.views[0])
     }
 
     pub fn probe_state(&self, index: usize) -> DdgiProbeState {
@@ -591,7 +572,7 @@ pub struct VolumeHandles {
 }
 
 /// Adds the probe update of one volume to `graph`: budget → trace (ray generation included) →
-/// shading → irradiance and distance updates → borders → relocation → classification. `suffix` tells apart the labels of
+/// shading → probe update (maps, atlas tiles, relocation, classification). `suffix` tells apart the labels of
 /// several volumes.
 fn add_volume_update(
     graph: &mut RenderGraph,
@@ -615,7 +596,6 @@ fn add_volume_update(
     let mut distance_history = graph.import_buffer(&label("ddgi_distance_history"), &volume.distance_history);
     let (trace, shade) = pipelines.ray_programs(gpu, specialization)?;
     let sampler = &pipelines.sampler;
-    let [irradiance_view, distance_view] = &volume.views;
 
     // Each pass: its program, group 0 (the scene) when it uses it, group 1 (the volume).
     let groups = |program: &ComputeProgram, group1: &[(&'static str, wgpu::BindingResource<'_>)]| -> Vec<wgpu::BindGroup> {
@@ -632,24 +612,22 @@ fn add_volume_update(
         g.push(program.bind_group(device, 1, group1));
         g
     };
-    let common = volume.common_bindings(sampler);
+    let common = volume.bindings(sampler);
     // The ray passes run as many threads as the budget pass packed rays, the per-probe passes one
     // workgroup per probe it gave rays (indirect dispatches, from `DdgiCounters`).
-    let indirect = |programs: Vec<(ComputeProgram, Vec<wgpu::BindGroup>)>, offset: u64| {
+    let indirect = |program: ComputeProgram, bind: Vec<wgpu::BindGroup>, offset: u64| {
         let args = volume.counters.clone();
         move |ctx: &mut engine::graph::PassContext<'_>| {
             let mut cp = ctx.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(ctx.label), timestamp_writes: None });
-            for (program, bind) in &programs {
-                cp.set_pipeline(&program.pipeline);
-                for (i, g) in bind.iter().enumerate() {
-                    cp.set_bind_group(i as u32, g, &[]);
-                }
-                cp.dispatch_workgroups_indirect(&args, offset);
+            cp.set_pipeline(&program.pipeline);
+            for (i, g) in bind.iter().enumerate() {
+                cp.set_bind_group(i as u32, g, &[]);
             }
+            cp.dispatch_workgroups_indirect(&args, offset);
         }
     };
-    let record_rays = |program: ComputeProgram, bind: Vec<wgpu::BindGroup>| indirect(vec![(program, bind)], RAY_DISPATCH_OFFSET);
-    let record_probes = |program: ComputeProgram, bind: Vec<wgpu::BindGroup>| indirect(vec![(program, bind)], PROBE_DISPATCH_OFFSET);
+    let record_rays = |program: ComputeProgram, bind: Vec<wgpu::BindGroup>| indirect(program, bind, RAY_DISPATCH_OFFSET);
+    let record_probes = |program: ComputeProgram, bind: Vec<wgpu::BindGroup>| indirect(program, bind, PROBE_DISPATCH_OFFSET);
 
     {
         let mut pass = graph.add_pass(&label("ddgi_budget"));
@@ -705,71 +683,25 @@ fn add_volume_update(
         pass.render(record_rays(shade, g));
     }
     {
-        let mut pass = graph.add_pass(&label("ddgi_irradiance_update"));
-        pass.read(&probes);
-        pass.read(&counters);
-        pass.read(&rays);
-        pass.read(&radiance);
-        pass.read(&irradiance_history);
+        let mut pass = graph.add_pass(&label("ddgi_probe_update"));
+        for r in [&probes, &counters, &rays, &radiance, &irradiance_history, &distance_history] {
+            pass.read(r);
+        }
         pass.write(&mut irradiance_history);
-        let g = groups(&pipelines.update_irradiance, &common);
-        pass.render(record_probes(pipelines.update_irradiance.clone(), g));
-    }
-    {
-        let mut pass = graph.add_pass(&label("ddgi_distance_update"));
-        pass.read(&probes);
-        pass.read(&counters);
-        pass.read(&rays);
-        pass.read(&radiance);
-        pass.read(&distance_history);
         pass.write(&mut distance_history);
-        let g = groups(&pipelines.update_distance, &common);
-        pass.render(record_probes(pipelines.update_distance.clone(), g));
-    }
-    {
-        let mut pass = graph.add_pass(&label("ddgi_borders"));
-        pass.read(&probes);
-        pass.read(&counters);
-        pass.read(&irradiance_history);
-        pass.read(&distance_history);
-        pass.write(&mut irradiance);
-        pass.write(&mut distance);
         // Each atlas is read (ray shading) and written (here) in one frame but never in one
         // dispatch, so a single copy of each suffices.
-        let irradiance_groups = groups(&pipelines.copy_irradiance_borders, &volume.bindings(sampler, irradiance_view));
-        let distance_groups = groups(&pipelines.copy_distance_borders, &volume.bindings(sampler, distance_view));
-        pass.render(indirect(
-            vec![
-                (pipelines.copy_irradiance_borders.clone(), irradiance_groups),
-                (pipelines.copy_distance_borders.clone(), distance_groups),
-            ],
-            PROBE_DISPATCH_OFFSET,
-        ));
-    }
-    if volume.settings.relocation {
-        let mut pass = graph.add_pass(&label("ddgi_relocation"));
-        pass.read(&counters);
-        pass.read(&rays);
-        pass.read(&radiance);
-        pass.read(&probes);
+        pass.write(&mut irradiance);
+        pass.write(&mut distance);
         pass.write(&mut probes);
-        let g = groups(&pipelines.relocate, &common);
-        pass.render(record_probes(pipelines.relocate.clone(), g));
-    } else {
-        graph.leave_out(&label("ddgi_relocation"), "relocation off in the volume's settings");
-    }
-    {
-        let mut pass = graph.add_pass(&label("ddgi_classification"));
-        pass.read(&rays);
-        pass.read(&radiance);
-        pass.read(&counters);
-        pass.read(&probes);
-        pass.write(&mut probes);
+        if !volume.settings.relocation {
+            pass.note("relocation off in the volume's settings");
+        }
         if !volume.settings.classification {
             pass.note("classification off: only clears the fresh-probe flags");
         }
-        let g = groups(&pipelines.classify, &common);
-        pass.render(record_probes(pipelines.classify.clone(), g));
+        let g = groups(&pipelines.update, &common);
+        pass.render(record_probes(pipelines.update.clone(), g));
     }
     // The maps and probe states live on into the next frame.
     graph.export(&probes);
@@ -859,7 +791,7 @@ pub fn render_ddgi_frame(
         let (depth, normal) = (pass.read(&gbuffer.depth), pass.read(&gbuffer.normal));
         let program = pipelines.gather.clone();
         let group0 = program.bind_group(device, 0, &scene_bindings);
-        let group1 = program.bind_group(device, 1, &volume.common_bindings(&pipelines.sampler));
+        let group1 = program.bind_group(device, 1, &volume.bindings(&pipelines.sampler));
         let params = params(i == 0);
         pass.render(move |ctx| {
             let group2 = program.bind_group(
@@ -1002,7 +934,7 @@ fn add_probe_spheres(
     let depth = pass.write(depth);
     let program = program.clone();
     let group0 = program.bind_group(&gpu.device, 0, scene_bindings);
-    let group1 = program.bind_group(&gpu.device, 1, &volume.common_bindings(sampler));
+    let group1 = program.bind_group(&gpu.device, 1, &volume.bindings(sampler));
     let group2 = program.bind_group(
         &gpu.device,
         2,
