@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Runs the DDGI benchmarks and evaluations on the GPU machine (the workplace's `device` tool), from
 # a release binary built here and carried as dist/game_demo with the Vulkan loader packages in .gl/
-# (see BENCHMARKS.md). Everything lands in $OUT/results.tgz.
+# (see BENCHMARKS.md). Everything lands in $OUT/results$TAG.tgz.
 set -u
 for f in .gl/*.deb; do dpkg -x "$f" /; done
 ldconfig
@@ -9,8 +9,11 @@ if ! ls /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json >/dev/null 2>&1;
     export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
 fi
 export WGPU_BACKEND=vulkan RUST_LOG=warn
-B=dist/game_demo
-R=$OUT/r
+# B: the binary (default dist/game_demo); TAG: a suffix for the results of this call, so that
+# several binaries can be compared in one session.
+B=${B:-dist/game_demo}
+TAG=${TAG:-}
+R=$OUT/r$TAG
 mkdir -p "$R"
 nvidia-smi --query-gpu=name,driver_version --format=csv > "$R/gpu.txt" 2>&1
 date -u > "$R/date.txt"
@@ -39,4 +42,4 @@ for step in "$@"; do
 done
 # Reports, tables and plots only (the per-configuration strips would pass the 16 MiB a file that
 # comes back).
-(cd "$OUT" && find r -name '*.md' -o -name '*.txt' -o -name '*.csv' -o -name '*.json' -o -name 'error_vs_time.png' -o -name 'time_series.png' -o -name 'image.png' | tar czf results.tgz -T -) && rm -rf "$R"
+(cd "$OUT" && find "r$TAG" -name '*.md' -o -name '*.txt' -o -name '*.csv' -o -name '*.json' -o -name 'error_vs_time.png' -o -name 'time_series.png' -o -name 'image.png' | tar czf "results$TAG.tgz" -T -) && rm -rf "$R"
