@@ -1,4 +1,4 @@
-// DDGI: the probe volume, its atlases and the sampling function shared by the ray shading pass and
+// DDGI: the probe volume, its atlases and the sampling function shared by the probe rays' shading and
 // the camera's final gather. Host mirrors of these structs are in plugins/ddgi/src/gpu.rs (a test
 // compares sizes); every DDGI binding (group 1) is declared here and nowhere else.
 //
@@ -162,7 +162,7 @@ const DDGI_PROBE_EMPTY: u32 = 16u;
 // not empty (and clears the mark), so the probes the view needs come back within a frame.
 const DDGI_PROBE_SEEN: u32 = 32u;
 
-// Hit distance of a miss in the surfel and radiance buffers.
+// Hit distance of a miss in the radiance buffer.
 const DDGI_MISS: f32 = 3.0e38;
 // Back-face hits are stored as -DDGI_BACKFACE_SCALE · t: the distance maps see the wall closer, so
 // Chebyshev rejects probes behind walls; relocation recovers t.
@@ -181,9 +181,6 @@ const DDGI_MAX_IRRADIANCE: f32 = 1.0e24;
 @group(1) @binding(3) var ddgi_distance: texture_2d<f32>;
 @group(1) @binding(4) var ddgi_sampler: sampler;
 @group(1) @binding(5) var<storage, read_write> ddgi_rays: array<DdgiRay>;
-// Trace results, one per ray: (signed t as bits, octahedral normal snorm16×2, albedo unorm8×4,
-// emission rgb9e5).
-@group(1) @binding(6) var<storage, read_write> ddgi_surfels: array<vec4<u32>>;
 // Shaded rays: (radiance, stored distance: t, -DDGI_BACKFACE_SCALE·t or DDGI_MISS).
 @group(1) @binding(7) var<storage, read_write> ddgi_radiance: array<vec4<f32>>;
 // One irradiance texel at full precision: the irradiance (rgb) and the exponential moving average
@@ -199,9 +196,9 @@ struct DdgiTexel {
 // into the atlases that sampling reads. Irradiance linear (rgb); distance moments over distance_scale.
 @group(1) @binding(8) var<storage, read_write> ddgi_irradiance_history: array<DdgiTexel>;
 @group(1) @binding(9) var<storage, read_write> ddgi_distance_history: array<vec2<f32>>;
-// The atlases as the probe update writes them (the ray shading samples them through bindings 2, 3).
+// The atlases as the probe update writes them (the trace's shading samples them through bindings 2, 3).
 @group(1) @binding(10) var ddgi_irradiance_out: texture_storage_2d<rgba16float, write>;
-@group(1) @binding(15) var ddgi_distance_out: texture_storage_2d<rgba16float, write>;
+@group(1) @binding(6) var ddgi_distance_out: texture_storage_2d<rgba16float, write>;
 @group(1) @binding(11) var<storage, read_write> ddgi_counters: DdgiCounters;
 // The same buffer read-only, for the ray passes, which also take their indirect dispatch from it
 // (a dispatch may not write a buffer it reads its arguments from).
@@ -428,28 +425,3 @@ fn ddgi_sample_irradiance(p: vec3<f32>, n: vec3<f32>, to_viewer: vec3<f32>) -> v
     return sanitize_radiance(sum / total);
 }
 
-// ---------------------------------------------------------------------------------------------
-// Packing of the surfel buffer
-
-// Shared-exponent RGB (9 bits of mantissa each, 5 bits of exponent), as in GL's RGB9_E5.
-fn ddgi_pack_rgb9e5(c_in: vec3<f32>) -> u32 {
-    let max_value = 65408.0;
-    let c = clamp(sanitize_radiance(c_in), vec3<f32>(0.0), vec3<f32>(max_value));
-    let m = max(max(c.x, c.y), c.z);
-    if m < 1.0e-7 {
-        return 0u;
-    }
-    var exponent = max(-16, i32(floor(log2(m)))) + 1 + 15;
-    var scale = exp2(f32(exponent - 15 - 9));
-    if u32(floor(m / scale + 0.5)) >= 512u {
-        exponent += 1;
-        scale *= 2.0;
-    }
-    let q = min(vec3<u32>(floor(c / scale + 0.5)), vec3<u32>(511u));
-    return q.x | (q.y << 9u) | (q.z << 18u) | (u32(clamp(exponent, 0, 31)) << 27u);
-}
-
-fn ddgi_unpack_rgb9e5(v: u32) -> vec3<f32> {
-    let scale = exp2(f32(i32(v >> 27u) - 15 - 9));
-    return vec3<f32>(f32(v & 511u), f32((v >> 9u) & 511u), f32((v >> 18u) & 511u)) * scale;
-}

@@ -1,5 +1,5 @@
 // DDGI final gather: the camera's pixels take irradiance from the probes with the same sampling
-// function as the ray shading, volume by volume, then the composite adds it to the direct light.
+// function as the probe rays' shading, volume by volume, then the composite adds it to the direct light.
 #include "ddgi.inc.wgsl"
 
 struct DdgiGatherParams {

@@ -1,5 +1,5 @@
 // DDGI probe rays: the budget (how many rays each probe traces this frame, packed into one array
-// by a prefix sum), then generation, trace and shading, one thread per packed ray, dispatched
+// by a prefix sum), then generation, trace and shading in one pass, one thread per packed ray, dispatched
 // indirectly with the budget's count (two-dimensional beyond 65,535 workgroups).
 #include "ddgi.inc.wgsl"
 
@@ -301,9 +301,11 @@ fn ddgi_generate_ray(i: u32) -> DdgiRay {
     return DdgiRay(safe_normalize(direction, vec3<f32>(0.0, 0.0, 1.0)), probe);
 }
 
-// Trace: generates ray i (kept in ddgi_rays for the passes after), traces its closest hit, back
-// faces included (they mark probes inside geometry). Writes the surfel, and the hit's emission and
-// direct light (shadow rays) into the radiance buffer.
+// Trace and shading: generates ray i (kept in ddgi_rays for the probe update), traces its closest
+// hit, back faces included (they mark probes inside geometry), and shades the hit (Lambertian): its
+// emission, direct light (a shadow ray per light) and indirect light from the previous frame's
+// probes. One pass, not two: a separate shading pass cost its own launch and a round trip of every
+// hit through memory, which at the published grids took longer than the shading itself.
 @compute @workgroup_size(64)
 fn trace_rays(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = ddgi_ray_index(id);
@@ -317,13 +319,11 @@ fn trace_rays(@builtin(global_invocation_id) id: vec3<u32>) {
     let hit = trace_closest(ray);
     if hit.instance == RT_NO_HIT {
         // Misses see the sky.
-        ddgi_surfels[i] = vec4<u32>(bitcast<u32>(DDGI_MISS), 0u, 0u, 0u);
         ddgi_radiance[i] = vec4<f32>(min(sanitize_radiance(ddgi_volume.sky_radiance), vec3<f32>(DDGI_MAX_IRRADIANCE)), DDGI_MISS);
         return;
     }
     if !hit.front_face {
         // Back faces are black.
-        ddgi_surfels[i] = vec4<u32>(bitcast<u32>(-hit.t), 0u, 0u, 0u);
         ddgi_radiance[i] = vec4<f32>(0.0, 0.0, 0.0, -hit.t * DDGI_BACKFACE_SCALE);
         return;
     }
@@ -331,8 +331,6 @@ fn trace_rays(@builtin(global_invocation_id) id: vec3<u32>) {
     let t = hit.t;
     let position = origin + ray_info.direction * t;
     let normal = surface.normal;
-    // Every ray of the update is traced here, the shadow rays too: emission plus direct light (a
-    // shadow ray per light) land in the radiance buffer, to which shading adds the indirect light.
     // `position` comes from origin + direction · t, which is only as exact as the larger of the two
     // magnitudes: at large scales (10^4 units) that error dwarfs the float-step offset of a hit near
     // a coordinate plane, and the shadow ray would start under the surface (the floor goes dark).
@@ -346,30 +344,7 @@ fn trace_rays(@builtin(global_invocation_id) id: vec3<u32>) {
             irradiance += s.irradiance;
         }
     }
-    let albedo = unpack4x8unorm(pack4x8unorm(vec4<f32>(surface.albedo, 1.0))).rgb;
-    let direct = ddgi_unpack_rgb9e5(ddgi_pack_rgb9e5(surface.emissive)) + albedo * INV_PI * irradiance;
-    ddgi_surfels[i] = vec4<u32>(bitcast<u32>(t), pack2x16snorm(ddgi_oct_encode(normal)), pack4x8unorm(vec4<f32>(surface.albedo, 1.0)), 0u);
-    ddgi_radiance[i] = vec4<f32>(min(sanitize_radiance(direct), vec3<f32>(DDGI_MAX_IRRADIANCE)), t);
-}
-
-// Shading: to the emission and direct light the trace left, the indirect light from the probes of
-// the previous frame (Lambertian). Misses and back faces are final already.
-@compute @workgroup_size(64)
-fn shade_rays(@builtin(global_invocation_id) id: vec3<u32>) {
-    let i = ddgi_ray_index(id);
-    if i >= ddgi_ray_total() {
-        return;
-    }
-    let surfel = ddgi_surfels[i];
-    let t = bitcast<f32>(surfel.x);
-    if t >= DDGI_MISS || t < 0.0 {
-        return;
-    }
-    let ray_info = ddgi_rays[i];
-    let position = ddgi_probe_position(ray_info.probe) + ray_info.direction * t;
-    let normal = ddgi_oct_decode(unpack2x16snorm(surfel.y));
-    let albedo = unpack4x8unorm(surfel.z).rgb;
-    let direct = ddgi_radiance[i].rgb;
-    let radiance = direct + albedo * INV_PI * ddgi_sample_irradiance(position, normal, -ray_info.direction);
+    irradiance += ddgi_sample_irradiance(position, normal, -ray_info.direction);
+    let radiance = surface.emissive + surface.albedo * INV_PI * irradiance;
     ddgi_radiance[i] = vec4<f32>(min(sanitize_radiance(radiance), vec3<f32>(DDGI_MAX_IRRADIANCE)), t);
 }

@@ -25,14 +25,6 @@ fn fibonacci_directions(@builtin(global_invocation_id) id: vec3<u32>) {
     selftest_out[id.x] = vec4<f32>(ddgi_spherical_fibonacci(id.x, n), 0.0);
 }
 
-@compute @workgroup_size(64)
-fn rgb9e5_round_trip(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x >= arrayLength(&selftest_out) {
-        return;
-    }
-    selftest_out[id.x] = vec4<f32>(ddgi_unpack_rgb9e5(ddgi_pack_rgb9e5(selftest_in[id.x].xyz)), 0.0);
-}
-
 // SMAPE in YCoCg of the pairs (selftest_in[2i].rgb, selftest_in[2i + 1].rgb) with the floor
 // selftest_in[2i].w, into selftest_out[i].x (the second half of the output is unused).
 @compute @workgroup_size(64)

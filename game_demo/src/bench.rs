@@ -260,7 +260,7 @@ pub fn flat_rebuild_cost(app: &mut App) -> (Duration, usize) {
 }
 
 /// The passes of DDGI's probe update (everything but the camera's gather and composite).
-pub const DDGI_UPDATE_PASSES: [&str; 4] = ["ddgi_budget", "ddgi_trace", "ddgi_ray_shading", "ddgi_probe_update"];
+pub const DDGI_UPDATE_PASSES: [&str; 3] = ["ddgi_budget", "ddgi_trace", "ddgi_probe_update"];
 
 /// One cell of the DDGI throughput table: median GPU milliseconds of each pass over the timed
 /// frames, and of the whole probe update per frame.

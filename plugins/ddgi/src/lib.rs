@@ -45,7 +45,7 @@
 //! Add [`DdgiPlugin`], spawn an entity with a [`DdgiVolume`] (its settings), and select the
 //! `"ddgi"` frame script ([`use_ddgi`] does both). Each probe becomes an entity with a
 //! [`DdgiProbe`] mirroring its GPU state. The passes, each with its own timing span:
-//! `ddgi_budget → ddgi_trace → ddgi_ray_shading → ddgi_probe_update` (maps, atlas tiles, relocation
+//! `ddgi_budget → ddgi_trace → ddgi_probe_update` (maps, atlas tiles, relocation
 //! and classification in one dispatch), then per camera
 //! `ddgi_gather → ddgi_composite`. Shaders: `shaders/ddgi*.wgsl`.
 

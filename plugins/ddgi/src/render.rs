@@ -154,7 +154,7 @@ pub struct DdgiPipelines {
     scale: ComputeProgram,
     plan_blocks: ComputeProgram,
     place: ComputeProgram,
-    specialized: HashMap<Specialization, (ComputeProgram, ComputeProgram)>,
+    specialized: HashMap<Specialization, ComputeProgram>,
     update: ComputeProgram,
     gather: ComputeProgram,
     composite: ComputeProgram,
@@ -217,17 +217,16 @@ impl DdgiPipelines {
         Ok(program)
     }
 
-    /// The trace and shading pipelines compiled for `s` (built on first use).
-    fn ray_programs(&mut self, gpu: &GpuContext, s: Specialization) -> Result<(ComputeProgram, ComputeProgram), ShaderError> {
+    /// The trace-and-shading pipeline compiled for `s` (built on first use).
+    fn trace_program(&mut self, gpu: &GpuContext, s: Specialization) -> Result<ComputeProgram, ShaderError> {
         if let Some(p) = self.specialized.get(&s) {
             return Ok(p.clone());
         }
         let constants =
             [("SCENE_HAS_SPOT_LIGHTS", f64::from(u8::from(s.spot_lights))), ("SCENE_HAS_EMISSIVE", f64::from(u8::from(s.emissive)))];
-        let build = |entry: &str| compute_program_with_constants(&gpu.device, "ddgi_rays.wgsl", entry, entry, &constants).map(Arc::new);
-        let programs = (build("trace_rays")?, build("shade_rays")?);
-        self.specialized.insert(s, programs.clone());
-        Ok(programs)
+        let program = Arc::new(compute_program_with_constants(&gpu.device, "ddgi_rays.wgsl", "trace_rays", "trace_rays", &constants)?);
+        self.specialized.insert(s, program.clone());
+        Ok(program)
     }
 }
 
@@ -246,7 +245,6 @@ pub struct VolumeGpu {
     /// The probes with rays this frame, listed by the budget pass for the per-probe passes.
     updated: wgpu::Buffer,
     pub rays: wgpu::Buffer,
-    pub surfels: wgpu::Buffer,
     pub radiance: wgpu::Buffer,
     /// The maps at full precision (see `ddgi.inc.wgsl`): irradiance and its smoothed change (two
     /// vec4 per texel) and distance moments (vec2 per texel), in probe order.
@@ -303,7 +301,6 @@ impl VolumeGpu {
             blocks: buffer("ddgi_blocks", u64::from(layout.probe_count.div_ceil(BUDGET_BLOCK)) * size_of::<DdgiBlock>() as u64, B::STORAGE),
             updated: buffer("ddgi_updated", u64::from(layout.probe_count) * 4, B::STORAGE),
             rays: buffer("ddgi_rays", rays, B::STORAGE | B::COPY_SRC),
-            surfels: buffer("ddgi_surfels", rays, B::STORAGE),
             radiance: buffer("ddgi_radiance", rays, B::STORAGE | B::COPY_SRC),
             irradiance_history: buffer("ddgi_irradiance_history", texels(layout.irradiance_texels) * 32, B::STORAGE),
             distance_history: buffer("ddgi_distance_history", texels(layout.distance_texels) * 8, B::STORAGE),
@@ -331,7 +328,6 @@ impl VolumeGpu {
             ("ddgi_distance", wgpu::BindingResource::TextureView(distance)),
             ("ddgi_sampler", wgpu::BindingResource::Sampler(sampler)),
             ("ddgi_rays", self.rays.as_entire_binding()),
-            ("ddgi_surfels", self.surfels.as_entire_binding()),
             ("ddgi_radiance", self.radiance.as_entire_binding()),
             ("ddgi_irradiance_history", self.irradiance_history.as_entire_binding()),
             ("ddgi_distance_history", self.distance_history.as_entire_binding()),
@@ -571,8 +567,8 @@ pub struct VolumeHandles {
     pub distance: Handle<GraphTexture>,
 }
 
-/// Adds the probe update of one volume to `graph`: budget → trace (ray generation included) →
-/// shading → probe update (maps, atlas tiles, relocation, classification). `suffix` tells apart the labels of
+/// Adds the probe update of one volume to `graph`: budget → trace (ray generation and shading
+/// included) → probe update (maps, atlas tiles, relocation, classification). `suffix` tells apart the labels of
 /// several volumes.
 fn add_volume_update(
     graph: &mut RenderGraph,
@@ -588,13 +584,12 @@ fn add_volume_update(
     let mut probes = graph.import_buffer(&label("ddgi_probes"), &volume.probes);
     let mut counters = graph.import_buffer(&label("ddgi_counters"), &volume.counters);
     let mut rays = graph.import_buffer(&label("ddgi_rays"), &volume.rays);
-    let mut surfels = graph.import_buffer(&label("ddgi_surfels"), &volume.surfels);
     let mut radiance = graph.import_buffer(&label("ddgi_radiance"), &volume.radiance);
     let mut irradiance = graph.import_texture(&label("ddgi_irradiance"), &volume.irradiance);
     let mut distance = graph.import_texture(&label("ddgi_distance"), &volume.distance);
     let mut irradiance_history = graph.import_buffer(&label("ddgi_irradiance_history"), &volume.irradiance_history);
     let mut distance_history = graph.import_buffer(&label("ddgi_distance_history"), &volume.distance_history);
-    let (trace, shade) = pipelines.ray_programs(gpu, specialization)?;
+    let trace = pipelines.trace_program(gpu, specialization)?;
     let sampler = &pipelines.sampler;
 
     // Each pass: its program, group 0 (the scene) when it uses it, group 1 (the volume).
@@ -659,28 +654,17 @@ fn add_volume_update(
         });
     }
     {
+        // Shading reads the previous frame's atlases, which the probe update then overwrites.
         let mut pass = graph.add_pass(&label("ddgi_trace"));
         pass.read(&probes);
         pass.read(&counters);
+        pass.read(&irradiance);
+        pass.read(&distance);
         pass.write(&mut rays);
-        pass.write(&mut surfels);
         pass.write(&mut radiance);
         pass.note(&specialization.note());
         let g = groups(&trace, &common);
         pass.render(record_rays(trace, g));
-    }
-    {
-        let mut pass = graph.add_pass(&label("ddgi_ray_shading"));
-        for r in [&probes, &counters, &rays, &surfels] {
-            pass.read(r);
-        }
-        pass.read(&irradiance);
-        pass.read(&distance);
-        pass.read(&radiance);
-        pass.write(&mut radiance);
-        pass.note(&specialization.note());
-        let g = groups(&shade, &common);
-        pass.render(record_rays(shade, g));
     }
     {
         let mut pass = graph.add_pass(&label("ddgi_probe_update"));
@@ -689,7 +673,7 @@ fn add_volume_update(
         }
         pass.write(&mut irradiance_history);
         pass.write(&mut distance_history);
-        // Each atlas is read (ray shading) and written (here) in one frame but never in one
+        // Each atlas is read (the trace's shading) and written (here) in one frame but never in one
         // dispatch, so a single copy of each suffices.
         pass.write(&mut irradiance);
         pass.write(&mut distance);

@@ -386,7 +386,7 @@ impl DdgiLimits {
     }
 }
 
-/// Bytes per ray in each of the three per-ray buffers (rays, surfels, shaded radiance).
+/// Bytes per ray in each of the two per-ray buffers (rays, shaded radiance).
 pub const BYTES_PER_RAY: u64 = 16;
 
 impl DdgiLayout {
