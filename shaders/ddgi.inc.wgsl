@@ -62,8 +62,9 @@ struct DdgiVolumeGpu {
     // (≤ 1: no resting), and the share of error_target under which a probe counts as quiet.
     max_rest_frames: u32,
     rest_error: f32,
-    _pad_rest0: u32,
-    _pad_rest1: u32,
+    // With adaptive budgets, 1 − hysteresis scales with (rays / rays_per_probe)^this.
+    hysteresis_exponent: f32,
+    _pad_rest: u32,
 }
 
 // Per-probe state: relocation and classification write offset and state, the irradiance update

@@ -53,13 +53,16 @@ fn ddgi_hysteresis(data: DdgiProbeData) -> f32 {
     if !ddgi_has(DDGI_ADAPTIVE) {
         return h;
     }
-    // 1 − h in proportion to the share of rays keeps the variance of the maps, (1 − h) / r; a
-    // quiet probe converges slower, and a change gives it its rays (and its hysteresis) back.
+    // 1 − h in proportion to the share of rays would keep the variance of the maps, (1 − h) / r,
+    // but a quiet probe would then follow slow changes (multi-bounce light still building up) as
+    // many times slower; hysteresis_exponent (default ½) trades the two. A change gives the probe
+    // its rays (and its hysteresis) back.
     let share = clamp(f32(data.ray_count) / f32(max(ddgi_volume.rays_per_probe, 1u)), 0.0, 1.0);
     // A probe whose lighting is changing (its error over the target, its budget full) follows the
     // change at twice the rate, and settles back once the error falls.
     let rate = select(1.0, 2.0, data.error > ddgi_volume.error_target && share >= 1.0);
-    return 1.0 - min((1.0 - h) * share * rate, 1.0);
+    let slowing = pow(max(share, 1e-6), clamp(ddgi_volume.hysteresis_exponent, 0.0, 1.0));
+    return 1.0 - min((1.0 - h) * slowing * rate, 1.0);
 }
 
 fn ddgi_texel_coords(texel: u32, n: u32) -> vec2<u32> {

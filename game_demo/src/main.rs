@@ -69,6 +69,14 @@ enum Command {
         /// (DdgiAdaptive::rest_error).
         #[arg(long)]
         rest_error: Option<f32>,
+        /// Adaptive configuration: how a probe's hysteresis follows its share of the rays
+        /// (DdgiAdaptive::hysteresis_exponent).
+        #[arg(long)]
+        hysteresis_exponent: Option<f32>,
+        /// Adaptive configuration: the share of the brightest probe's luma under which a probe
+        /// and its neighbours are dark and switched off (DdgiAdaptive::dark_fraction).
+        #[arg(long)]
+        dark_fraction: Option<f32>,
         /// Also DDGI's experiments: quality for probe densities 8×4×8, 16×8×16, 32×16×32 × irradiance
         /// maps of 4, 8, 16 texels, and the ablation of the visibility weights (none → back-face →
         /// Chebyshev → normal bias).
@@ -587,6 +595,8 @@ fn main() -> ExitCode {
             probes,
             rest_frames,
             rest_error,
+            hysteresis_exponent,
+            dark_fraction,
             experiments,
             out,
             cache,
@@ -598,6 +608,8 @@ fn main() -> ExitCode {
             let adaptive = ddgi::DdgiAdaptive {
                 max_rest_frames: rest_frames.unwrap_or(defaults.max_rest_frames),
                 rest_error: rest_error.unwrap_or(defaults.rest_error),
+                hysteresis_exponent: hysteresis_exponent.unwrap_or(defaults.hysteresis_exponent),
+                dark_fraction: dark_fraction.unwrap_or(defaults.dark_fraction),
                 ..defaults
             };
             let options = eval::EvalOptions {

@@ -42,7 +42,8 @@ pub struct DdgiVolumeGpu {
     pub frame_budget: u32,
     pub max_rest_frames: u32,
     pub rest_error: f32,
-    pub _pad_rest: [u32; 2],
+    pub hysteresis_exponent: f32,
+    pub _pad_rest: u32,
 }
 
 #[repr(C)]
@@ -219,7 +220,8 @@ impl DdgiVolumeGpu {
             frame_budget: if a.enabled { a.frame_budget.unwrap_or(0) } else { 0 },
             max_rest_frames: if a.enabled { a.max_rest_frames.min(0xffff) } else { 0 },
             rest_error: a.rest_error,
-            _pad_rest: [0; 2],
+            hysteresis_exponent: a.hysteresis_exponent,
+            _pad_rest: 0,
         }
     }
 }

@@ -46,7 +46,7 @@ impl Default for DdgiWeights {
 /// over the map. A probe
 /// gets `min_rays + (rays_per_probe − min_rays) · min(error / error_target, 1)` rays: at once when
 /// its error rises, shrinking by `decay` per frame when it falls. With fewer rays its hysteresis
-/// rises in proportion (1 − h scales with the share of rays, which keeps the noise of its maps), so
+/// rises (1 − h scales with the square root of the share of rays: see `hysteresis_exponent`), so
 /// a small budget does not flicker; a probe over the error target at its full budget blends at
 /// twice the rate (1 − h doubled) until its error falls, so it follows a change sooner. A probe
 /// whose error at an update is under `rest_error · error_target` rests (see `max_rest_frames`):
@@ -83,6 +83,14 @@ pub struct DdgiAdaptive {
     /// Share of `error_target` under which a probe's error counts as quiet (lets it rest). Lower:
     /// only well-converged probes rest.
     pub rest_error: f32,
+    /// How a probe's hysteresis follows its share of the rays, in [0, 1]: 1 − h scales with
+    /// `(rays / rays_per_probe)^hysteresis_exponent`. 1 keeps the noise of a quiet probe's maps
+    /// at the full budget's, but it then follows slow changes (light still building up over many
+    /// bounces) as many times slower as it has fewer rays; 0 keeps the volume's hysteresis (a
+    /// probe with an eighth of the rays is then √8 times noisier). The default, 0.5, is the middle
+    /// way (an eighth of the rays: 8^¼ ≈ 1.7 times the noise, √8 ≈ 2.8 times slower), which gave
+    /// the lower static error in every scene of BENCHMARKS.md. No cost either way.
+    pub hysteresis_exponent: f32,
 }
 
 impl Default for DdgiAdaptive {
@@ -98,6 +106,7 @@ impl Default for DdgiAdaptive {
             frame_budget: None,
             max_rest_frames: 8,
             rest_error: 0.35,
+            hysteresis_exponent: 0.5,
         }
     }
 }
@@ -278,6 +287,9 @@ impl DdgiVolume {
         }
         if !(a.rest_error.is_finite() && a.rest_error >= 0.0) {
             return Err(invalid("adaptive.rest_error", a.rest_error, "must be finite and not negative"));
+        }
+        if !(0.0..=1.0).contains(&a.hysteresis_exponent) {
+            return Err(invalid("adaptive.hysteresis_exponent", a.hysteresis_exponent, "must be in [0, 1]"));
         }
         if a.max_rest_frames > 0xffff {
             return Err(invalid("adaptive.max_rest_frames", a.max_rest_frames, "must be at most 65535"));

@@ -29,12 +29,16 @@ fn host_structs_match_naga_layout() {
 
 #[test]
 fn invalid_settings_name_their_field_and_value() {
-    let cases: [(DdgiVolume, &str, &str); 5] = [
+    let exponent =
+        |e: f32| DdgiVolume { adaptive: ddgi::DdgiAdaptive { hysteresis_exponent: e, ..ddgi::DdgiAdaptive::on() }, ..Default::default() };
+    let cases: [(DdgiVolume, &str, &str); 7] = [
         (DdgiVolume { probe_counts: UVec3::new(4, 0, 4), ..Default::default() }, "probe_counts", "UVec3(4, 0, 4)"),
         (DdgiVolume { rays_per_probe: 0, ..Default::default() }, "rays_per_probe", "0"),
         (DdgiVolume { hysteresis: 1.5, ..Default::default() }, "hysteresis", "1.5"),
         (DdgiVolume { normal_bias: f32::NAN, ..Default::default() }, "normal_bias", "NaN"),
         (DdgiVolume { bounds: Some((Vec3::ONE, Vec3::ZERO)), ..Default::default() }, "bounds", "Vec3(1.0, 1.0, 1.0)"),
+        (exponent(-0.5), "adaptive.hysteresis_exponent", "-0.5"),
+        (exponent(f32::NAN), "adaptive.hysteresis_exponent", "NaN"),
     ];
     for (volume, field, value) in cases {
         let message = volume.validate().expect_err(field).to_string();
