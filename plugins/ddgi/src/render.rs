@@ -155,6 +155,7 @@ pub struct DdgiPipelines {
     plan_blocks: ComputeProgram,
     place: ComputeProgram,
     specialized: HashMap<Specialization, ComputeProgram>,
+    update_irradiance: ComputeProgram,
     update: ComputeProgram,
     gather: ComputeProgram,
     composite: ComputeProgram,
@@ -175,6 +176,7 @@ impl DdgiPipelines {
             plan_blocks: p("ddgi_rays.wgsl", "plan_ray_blocks")?,
             place: p("ddgi_rays.wgsl", "place_rays")?,
             specialized: HashMap::new(),
+            update_irradiance: p("ddgi_update.wgsl", "update_irradiance_maps")?,
             update: p("ddgi_update.wgsl", "update_probes")?,
             gather: p("ddgi_gather.wgsl", "gather_irradiance")?,
             composite: p("ddgi_gather.wgsl", "composite")?,
@@ -610,19 +612,20 @@ fn add_volume_update(
     let common = volume.bindings(sampler);
     // The ray passes run as many threads as the budget pass packed rays, the per-probe passes one
     // workgroup per probe it gave rays (indirect dispatches, from `DdgiCounters`).
-    let indirect = |program: ComputeProgram, bind: Vec<wgpu::BindGroup>, offset: u64| {
+    let indirect = |programs: Vec<(ComputeProgram, Vec<wgpu::BindGroup>)>, offset: u64| {
         let args = volume.counters.clone();
         move |ctx: &mut engine::graph::PassContext<'_>| {
             let mut cp = ctx.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(ctx.label), timestamp_writes: None });
-            cp.set_pipeline(&program.pipeline);
-            for (i, g) in bind.iter().enumerate() {
-                cp.set_bind_group(i as u32, g, &[]);
+            for (program, bind) in &programs {
+                cp.set_pipeline(&program.pipeline);
+                for (i, g) in bind.iter().enumerate() {
+                    cp.set_bind_group(i as u32, g, &[]);
+                }
+                cp.dispatch_workgroups_indirect(&args, offset);
             }
-            cp.dispatch_workgroups_indirect(&args, offset);
         }
     };
-    let record_rays = |program: ComputeProgram, bind: Vec<wgpu::BindGroup>| indirect(program, bind, RAY_DISPATCH_OFFSET);
-    let record_probes = |program: ComputeProgram, bind: Vec<wgpu::BindGroup>| indirect(program, bind, PROBE_DISPATCH_OFFSET);
+    let with_groups = |program: &ComputeProgram| (program.clone(), groups(program, &common));
 
     {
         let mut pass = graph.add_pass(&label("ddgi_budget"));
@@ -663,8 +666,7 @@ fn add_volume_update(
         pass.write(&mut rays);
         pass.write(&mut radiance);
         pass.note(&specialization.note());
-        let g = groups(&trace, &common);
-        pass.render(record_rays(trace, g));
+        pass.render(indirect(vec![with_groups(&trace)], RAY_DISPATCH_OFFSET));
     }
     {
         let mut pass = graph.add_pass(&label("ddgi_probe_update"));
@@ -684,8 +686,9 @@ fn add_volume_update(
         if !volume.settings.classification {
             pass.note("classification off: only clears the fresh-probe flags");
         }
-        let g = groups(&pipelines.update, &common);
-        pass.render(record_probes(pipelines.update.clone(), g));
+        // Two dispatches: the irradiance maps (and each probe's error), then the rest.
+        let programs = vec![with_groups(&pipelines.update_irradiance), with_groups(&pipelines.update)];
+        pass.render(indirect(programs, PROBE_DISPATCH_OFFSET));
     }
     // The maps and probe states live on into the next frame.
     graph.export(&probes);
