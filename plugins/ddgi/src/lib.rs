@@ -46,7 +46,7 @@
 //! `"ddgi"` frame script ([`use_ddgi`] does both). Each probe becomes an entity with a
 //! [`DdgiProbe`] mirroring its GPU state. The passes, each with its own timing span:
 //! `ddgi_budget → ddgi_trace → ddgi_probe_update` (maps, atlas tiles, relocation
-//! and classification in one dispatch), then per camera
+//! and classification in one pass), then per camera
 //! `ddgi_gather → ddgi_composite`. Shaders: `shaders/ddgi*.wgsl`.
 
 pub mod atlas;
