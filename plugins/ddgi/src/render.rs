@@ -545,6 +545,7 @@ pub fn prepare_ddgi_volumes(
                             state: DdgiProbeState::Active,
                             ray_count: volume.rays_per_probe,
                             error: 0.0,
+                            resting_frames: 0,
                         })
                         .id()
                 })
@@ -1058,6 +1059,7 @@ pub fn read_back_ddgi_probes(
                 state: v.probe_state(i),
                 ray_count: d.ray_count,
                 error: d.error,
+                resting_frames: d.rest >> 16,
                 ..probe.clone()
             };
             probe.set_if_neq(next);

@@ -354,6 +354,10 @@ pub struct DdgiProbe {
     pub ray_count: u32,
     /// Temporal error (smoothed SMAPE in YCoCg between each frame's estimate and the maps).
     pub error: f32,
+    /// Frames this probe will rest after the frame read back before it updates again (adaptive
+    /// budgets: a converged probe keeps its maps and weight and traces nothing while it rests);
+    /// 0: it is due next frame (or switched off, or never rests).
+    pub resting_frames: u32,
 }
 
 /// Insert beside a [`DdgiProbe`] to pin the probe: a fixed ray count and/or a state, whatever its
