@@ -320,6 +320,7 @@ fn probe_ui(ui: &mut egui::Ui, state: &mut OverlayState, world: &mut World, inde
         row(ui, "state", if probe.state == DdgiProbeState::Active { "active".into() } else { "inactive".into() });
         row(ui, "rays", probe.ray_count.to_string());
         row(ui, "temporal error", format!("{:.4}", probe.error));
+        row(ui, "resting for", format!("{} frames", probe.resting_frames));
     });
     let Some(atlases) = &state.atlases else {
         ui.label("reading the maps back…");
