@@ -209,6 +209,10 @@ struct DdgiTexel {
 // per-probe passes run one workgroup for each, so a resting or switched-off probe costs them
 // nothing.
 @group(1) @binding(14) var<storage, read_write> ddgi_updated: array<u32>;
+// Each probe's luma as the budget pass found it (the last update's), −1 when switched off: the
+// classification's dark test reads its neighbours here, not in ddgi_probes, which other workgroups
+// of the same dispatch are rewriting (their order would decide the result).
+@group(1) @binding(15) var<storage, read_write> ddgi_lit: array<f32>;
 
 fn ddgi_has(flag: u32) -> bool {
     return (ddgi_volume.flags & flag) != 0u;

@@ -153,6 +153,7 @@ fn plan_rays(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_
         ddgi_probes[p].ray_count = count;
         ddgi_probes[p].rest = rest.y;
         luma = data.luma;
+        ddgi_lit[p] = select(-1.0, luma, (data.state & DDGI_PROBE_INACTIVE) == 0u);
     }
     // Offsets within the block, as if no frame budget applied (scale_rays redoes them when one does).
     let sums = ddgi_place_in_block(p, count, local);

@@ -381,7 +381,7 @@ fn ddgi_mean_distance(p: u32, d: vec3<f32>) -> f32 {
 }
 
 // Whether probe p and those of its six neighbours that can light what it lights (active, not behind
-// a wall) saw less than `threshold` of luma.
+// a wall) saw less than `threshold` of luma (the neighbours at their last update: ddgi_lit).
 fn ddgi_dark_around(p: u32, own_luma: f32, threshold: f32) -> bool {
     if own_luma >= threshold {
         return false;
@@ -395,8 +395,7 @@ fn ddgi_dark_around(p: u32, own_luma: f32, threshold: f32) -> bool {
             let axis = k / 2u;
             let towards = vec3<f32>(step);
             let mean = ddgi_mean_distance(p, towards);
-            let n = ddgi_probes[q];
-            if mean >= ddgi_volume.spacing[axis] && (n.state & DDGI_PROBE_INACTIVE) == 0u && n.luma >= threshold {
+            if mean >= ddgi_volume.spacing[axis] && ddgi_lit[q] >= max(threshold, 0.0) {
                 return false;
             }
         }

@@ -246,6 +246,8 @@ pub struct VolumeGpu {
     blocks: wgpu::Buffer,
     /// The probes with rays this frame, listed by the budget pass for the per-probe passes.
     updated: wgpu::Buffer,
+    /// Each probe's luma (−1: switched off) as the budget pass found it, for the dark test.
+    lit: wgpu::Buffer,
     pub rays: wgpu::Buffer,
     pub radiance: wgpu::Buffer,
     /// The maps at full precision (see `ddgi.inc.wgsl`): irradiance and its smoothed change (two
@@ -302,6 +304,7 @@ impl VolumeGpu {
             counters: buffer("ddgi_counters", size_of::<DdgiCounters>() as u64, B::STORAGE | B::INDIRECT | B::COPY_SRC),
             blocks: buffer("ddgi_blocks", u64::from(layout.probe_count.div_ceil(BUDGET_BLOCK)) * size_of::<DdgiBlock>() as u64, B::STORAGE),
             updated: buffer("ddgi_updated", u64::from(layout.probe_count) * 4, B::STORAGE),
+            lit: buffer("ddgi_lit", u64::from(layout.probe_count) * 4, B::STORAGE),
             rays: buffer("ddgi_rays", rays, B::STORAGE | B::COPY_SRC),
             radiance: buffer("ddgi_radiance", rays, B::STORAGE | B::COPY_SRC),
             irradiance_history: buffer("ddgi_irradiance_history", texels(layout.irradiance_texels) * 32, B::STORAGE),
@@ -339,6 +342,7 @@ impl VolumeGpu {
             ("ddgi_counters_in", self.counters.as_entire_binding()),
             ("ddgi_blocks", self.blocks.as_entire_binding()),
             ("ddgi_updated", self.updated.as_entire_binding()),
+            ("ddgi_lit", self.lit.as_entire_binding()),
         ]
     }
 
