@@ -222,25 +222,23 @@ fn ddgi_border_source(t: vec2<u32>, n: u32) -> vec2<u32> {
     return t;
 }
 
-// Writes probe `probe`'s maps into its atlas tiles, the border filled from the mirrored interior:
-// the irradiance map (perceptually encoded) and the distance map. Tiles of probes that did not
-// trace keep what they hold.
-fn ddgi_store_tiles(probe: u32, local: u32) {
-    let ni = ddgi_volume.irradiance_texels;
-    let corner_i = ddgi_tile_origin(probe, ni);
-    for (var t = local; t < (ni + 2u) * (ni + 2u); t += DDGI_GROUP) {
-        let texel = vec2<u32>(t % (ni + 2u), t / (ni + 2u));
-        let source = ddgi_border_source(texel, ni) - vec2<u32>(1u);
-        let irradiance = ddgi_irradiance_history[probe * ni * ni + source.y * ni + source.x].irradiance.rgb;
-        textureStore(ddgi_irradiance_out, corner_i + texel, vec4<f32>(ddgi_encode_irradiance(irradiance), 1.0));
-    }
-    let nd = ddgi_volume.distance_texels;
-    let corner_d = ddgi_tile_origin(probe, nd);
-    for (var t = local; t < (nd + 2u) * (nd + 2u); t += DDGI_GROUP) {
-        let texel = vec2<u32>(t % (nd + 2u), t / (nd + 2u));
-        let source = ddgi_border_source(texel, nd) - vec2<u32>(1u);
-        let moments = ddgi_distance_history[probe * nd * nd + source.y * nd + source.x];
-        textureStore(ddgi_distance_out, corner_d + texel, vec4<f32>(moments, 0.0, 1.0));
+// Writes probe `probe`'s irradiance map (perceptually encoded) or distance map into its atlas tile,
+// the border filled from the mirrored interior. Tiles of probes that did not trace keep what they
+// hold.
+fn ddgi_store_tile(probe: u32, local: u32, irradiance: bool) {
+    let n = select(ddgi_volume.distance_texels, ddgi_volume.irradiance_texels, irradiance);
+    let side = n + 2u;
+    let corner = ddgi_tile_origin(probe, n);
+    for (var t = local; t < side * side; t += DDGI_GROUP) {
+        let texel = vec2<u32>(t % side, t / side);
+        let source = ddgi_border_source(texel, n) - vec2<u32>(1u);
+        let slot = probe * n * n + source.y * n + source.x;
+        if irradiance {
+            let value = ddgi_encode_irradiance(ddgi_irradiance_history[slot].irradiance.rgb);
+            textureStore(ddgi_irradiance_out, corner + texel, vec4<f32>(value, 1.0));
+        } else {
+            textureStore(ddgi_distance_out, corner + texel, vec4<f32>(ddgi_distance_history[slot], 0.0, 1.0));
+        }
     }
 }
 
@@ -482,7 +480,8 @@ fn update_probes(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocat
         ddgi_update_distance(probe, data, local);
         // The tiles (and the dark test below) read texels that other threads of the workgroup wrote.
         storageBarrier();
-        ddgi_store_tiles(probe, local);
+        ddgi_store_tile(probe, local, true);
+        ddgi_store_tile(probe, local, false);
     }
     let s = ddgi_ray_statistics(probe, data, local);
     if local != 0u {

@@ -575,8 +575,8 @@ pub struct VolumeHandles {
 }
 
 /// Adds the probe update of one volume to `graph`: budget → trace (ray generation and shading
-/// included) → probe update (maps, atlas tiles, relocation, classification). `suffix` tells apart the labels of
-/// several volumes.
+/// included) → probe update (maps, atlas tiles, relocation, classification). `suffix` tells apart
+/// the labels of several volumes.
 fn add_volume_update(
     graph: &mut RenderGraph,
     gpu: &GpuContext,
@@ -615,8 +615,8 @@ fn add_volume_update(
         g
     };
     let common = volume.bindings(sampler);
-    // The ray passes run as many threads as the budget pass packed rays, the per-probe passes one
-    // workgroup per probe it gave rays (indirect dispatches, from `DdgiCounters`).
+    // The trace runs as many threads as the budget pass packed rays, the probe update one workgroup
+    // per probe it gave rays (indirect dispatches, from `DdgiCounters`).
     let indirect = |programs: Vec<(ComputeProgram, Vec<wgpu::BindGroup>)>, offset: u64| {
         let args = volume.counters.clone();
         move |ctx: &mut engine::graph::PassContext<'_>| {
