@@ -320,6 +320,55 @@ fn hysteresis_zero_takes_the_new_value_and_decay_follows_the_formula() {
     }
 }
 
+#[test]
+fn a_probe_with_fewer_rays_blends_by_the_hysteresis_exponent() {
+    let Some(gpu) = gpu("hysteresis_exponent") else { return };
+    // The room of the test above, its probes pinned active at a quarter of the rays (no resting):
+    // with adaptive budgets each update blends by 1 − (1 − h) · (1/4)^hysteresis_exponent, so k
+    // frames after the emission goes off the irradiance is that to the k of its value.
+    let emission = 0.5f32;
+    let (lo, hi) = (Vec3::splat(-1.0), Vec3::splat(1.0));
+    let black = Material { base_color: Vec3::ZERO.extend(1.0), emissive: Vec3::splat(emission), ..Default::default() };
+    let (h, rays, pinned) = (0.9f32, 64u32, 16u32);
+    for exponent in [1.0f32, 0.5] {
+        let volume = DdgiVolume {
+            bounds: Some((lo, hi)),
+            probe_counts: UVec3::splat(2),
+            rays_per_probe: rays,
+            hysteresis: h,
+            firefly_threshold: 0.0,
+            adaptive: ddgi::DdgiAdaptive { hysteresis_exponent: exponent, max_rest_frames: 1, ..ddgi::DdgiAdaptive::on() },
+            ..Default::default()
+        };
+        let (_, mut app) = run_ddgi(&gpu, closed_room(lo, hi, black.clone()), volume, 8, 1);
+        let world = app.world_mut();
+        let probes: Vec<bevy_ecs::entity::Entity> =
+            world.query_filtered::<bevy_ecs::entity::Entity, bevy_ecs::query::With<DdgiProbe>>().iter(world).collect();
+        for entity in probes {
+            world.entity_mut(entity).insert(ddgi::DdgiProbePin { rays: Some(pinned), state: Some(DdgiProbeState::Active) });
+        }
+        run_headless(&mut app, 4);
+        let mean_of_probes = |app: &bevy_app::App| {
+            let v = first_volume(app);
+            let atlas = read_irradiance(&gpu, v);
+            (0..v.layout.probe_count).map(|p| probe_mean_irradiance(&atlas, v, p).x).sum::<f32>() / v.layout.probe_count as f32
+        };
+        let before = mean_of_probes(&app);
+        let full = std::f32::consts::PI * emission;
+        assert!((before - full).abs() < 0.01 * full, "exponent {exponent}: settled at {before}");
+        switch_emission_off(&mut app);
+        let rate = 1.0 - (1.0 - h) * (pinned as f32 / rays as f32).powf(exponent);
+        let mut done = 0;
+        for k in [1u32, 5, 10] {
+            run_headless(&mut app, k - done);
+            done = k;
+            let expected = before * rate.powi(k as i32);
+            let got = mean_of_probes(&app);
+            assert!((got - expected).abs() < 0.01 * before, "exponent {exponent}, {k} frames after: {got}, formula {expected}");
+        }
+    }
+}
+
 fn switch_emission_off(app: &mut bevy_app::App) {
     let mut materials = app.world_mut().resource_mut::<Assets<Material>>();
     let handles: Vec<_> = materials.iter().map(|(h, _)| h).collect();
