@@ -276,48 +276,68 @@ fn furnace_probes_converge_to_the_analytic_irradiance() {
     assert!((mean - radiance).abs() < 0.03 * radiance, "image radiance {mean}, expected {radiance}");
 }
 
-#[test]
-fn hysteresis_zero_takes_the_new_value_and_decay_follows_the_formula() {
-    let Some(gpu) = gpu("hysteresis_zero_takes_the_new_value") else { return };
-    // Black walls that emit Le: every ray sees Le, so a probe's irradiance is π Le from its first
-    // update on. Switching the emission off makes every new sample zero.
-    let emission = 0.5f32;
-    let (lo, hi) = (Vec3::splat(-1.0), Vec3::splat(1.0));
-    let black = Material { base_color: Vec3::ZERO.extend(1.0), emissive: Vec3::splat(emission), ..Default::default() };
-    let probes = |h: f32| DdgiVolume {
-        bounds: Some((lo, hi)),
+/// Emission of the walls of [`emitting_room`].
+const EMITTING_ROOM_LE: f32 = 0.5;
+
+/// Black walls around [−1, 1]³ that emit [`EMITTING_ROOM_LE`]: every ray sees it, so a probe's
+/// irradiance is π·Le from its first update on; switching the emission off makes every new sample
+/// zero.
+fn emitting_room() -> SceneDescription {
+    let black = Material { base_color: Vec3::ZERO.extend(1.0), emissive: Vec3::splat(EMITTING_ROOM_LE), ..Default::default() };
+    closed_room(Vec3::splat(-1.0), Vec3::splat(1.0), black)
+}
+
+/// 2³ probes of 64 rays over [`emitting_room`], with hysteresis `h` and no firefly clamp.
+fn emitting_room_volume(h: f32) -> DdgiVolume {
+    DdgiVolume {
+        bounds: Some((Vec3::splat(-1.0), Vec3::splat(1.0))),
         probe_counts: UVec3::splat(2),
         rays_per_probe: 64,
         hysteresis: h,
         firefly_threshold: 0.0,
         ..Default::default()
-    };
-    let mean_of_probes = |app: &bevy_app::App| {
-        let v = first_volume(app);
-        let atlas = read_irradiance(&gpu, v);
-        (0..v.layout.probe_count).map(|p| probe_mean_irradiance(&atlas, v, p).x).sum::<f32>() / v.layout.probe_count as f32
-    };
-    let (_, mut app) = run_ddgi(&gpu, closed_room(lo, hi, black.clone()), probes(0.0), 8, 3);
-    let full = std::f32::consts::PI * emission;
-    assert!((mean_of_probes(&app) - full).abs() < 0.01 * full, "hysteresis 0: {} vs {full}", mean_of_probes(&app));
+    }
+}
+
+/// The mean irradiance (red) over every probe of the first volume.
+fn mean_probe_irradiance(gpu: &GpuContext, app: &bevy_app::App) -> f32 {
+    let v = first_volume(app);
+    let atlas = read_irradiance(gpu, v);
+    (0..v.layout.probe_count).map(|p| probe_mean_irradiance(&atlas, v, p).x).sum::<f32>() / v.layout.probe_count as f32
+}
+
+/// Switches the emission off and checks that k = 1, 5 and 10 frames later the probes hold
+/// `before · rate^k`.
+fn assert_decay_after_emission_off(gpu: &GpuContext, app: &mut bevy_app::App, before: f32, rate: f32, what: &str) {
+    switch_emission_off(app);
+    let mut done = 0;
+    for k in [1u32, 5, 10] {
+        run_headless(app, k - done);
+        done = k;
+        let expected = before * rate.powi(k as i32);
+        let got = mean_probe_irradiance(gpu, app);
+        assert!((got - expected).abs() < 0.01 * before, "{what}{k} frames after: {got}, formula {expected}");
+    }
+}
+
+#[test]
+fn hysteresis_zero_takes_the_new_value_and_decay_follows_the_formula() {
+    let Some(gpu) = gpu("hysteresis_zero_takes_the_new_value") else { return };
+    let (_, mut app) = run_ddgi(&gpu, emitting_room(), emitting_room_volume(0.0), 8, 3);
+    let full = std::f32::consts::PI * EMITTING_ROOM_LE;
+    let settled = mean_probe_irradiance(&gpu, &app);
+    assert!((settled - full).abs() < 0.01 * full, "hysteresis 0: {settled} vs {full}");
     switch_emission_off(&mut app);
     run_headless(&mut app, 1);
-    assert!(mean_of_probes(&app) < 1e-3 * full, "hysteresis 0 drops to zero at once: {}", mean_of_probes(&app));
+    let after = mean_probe_irradiance(&gpu, &app);
+    assert!(after < 1e-3 * full, "hysteresis 0 drops to zero at once: {after}");
 
     // With hysteresis h, k frames after the switch the irradiance is h^k of its value.
     let h = 0.9f32;
-    let (_, mut app) = run_ddgi(&gpu, closed_room(lo, hi, black), probes(h), 8, 3);
-    let before = mean_of_probes(&app);
+    let (_, mut app) = run_ddgi(&gpu, emitting_room(), emitting_room_volume(h), 8, 3);
+    let before = mean_probe_irradiance(&gpu, &app);
     assert!((before - full).abs() < 0.01 * full, "settled at {before}");
-    switch_emission_off(&mut app);
-    let mut done = 0;
-    for k in [1u32, 5, 10] {
-        run_headless(&mut app, k - done);
-        done = k;
-        let expected = before * h.powi(k as i32);
-        let got = mean_of_probes(&app);
-        assert!((got - expected).abs() < 0.01 * before, "{k} frames after: {got}, formula {expected}");
-    }
+    assert_decay_after_emission_off(&gpu, &mut app, before, h, "");
 }
 
 #[test]
@@ -326,21 +346,12 @@ fn a_probe_with_fewer_rays_blends_by_the_hysteresis_exponent() {
     // The room of the test above, its probes pinned active at a quarter of the rays (no resting):
     // with adaptive budgets each update blends by 1 − (1 − h) · (1/4)^hysteresis_exponent, so k
     // frames after the emission goes off the irradiance is that to the k of its value.
-    let emission = 0.5f32;
-    let (lo, hi) = (Vec3::splat(-1.0), Vec3::splat(1.0));
-    let black = Material { base_color: Vec3::ZERO.extend(1.0), emissive: Vec3::splat(emission), ..Default::default() };
-    let (h, rays, pinned) = (0.9f32, 64u32, 16u32);
+    let (h, pinned) = (0.9f32, 16u32);
     for exponent in [1.0f32, 0.5] {
-        let volume = DdgiVolume {
-            bounds: Some((lo, hi)),
-            probe_counts: UVec3::splat(2),
-            rays_per_probe: rays,
-            hysteresis: h,
-            firefly_threshold: 0.0,
-            adaptive: ddgi::DdgiAdaptive { hysteresis_exponent: exponent, max_rest_frames: 1, ..ddgi::DdgiAdaptive::on() },
-            ..Default::default()
-        };
-        let (_, mut app) = run_ddgi(&gpu, closed_room(lo, hi, black.clone()), volume, 8, 1);
+        let adaptive = ddgi::DdgiAdaptive { hysteresis_exponent: exponent, max_rest_frames: 1, ..ddgi::DdgiAdaptive::on() };
+        let volume = DdgiVolume { adaptive, ..emitting_room_volume(h) };
+        let rays = volume.rays_per_probe;
+        let (_, mut app) = run_ddgi(&gpu, emitting_room(), volume, 8, 1);
         let world = app.world_mut();
         let probes: Vec<bevy_ecs::entity::Entity> =
             world.query_filtered::<bevy_ecs::entity::Entity, bevy_ecs::query::With<DdgiProbe>>().iter(world).collect();
@@ -348,24 +359,11 @@ fn a_probe_with_fewer_rays_blends_by_the_hysteresis_exponent() {
             world.entity_mut(entity).insert(ddgi::DdgiProbePin { rays: Some(pinned), state: Some(DdgiProbeState::Active) });
         }
         run_headless(&mut app, 4);
-        let mean_of_probes = |app: &bevy_app::App| {
-            let v = first_volume(app);
-            let atlas = read_irradiance(&gpu, v);
-            (0..v.layout.probe_count).map(|p| probe_mean_irradiance(&atlas, v, p).x).sum::<f32>() / v.layout.probe_count as f32
-        };
-        let before = mean_of_probes(&app);
-        let full = std::f32::consts::PI * emission;
+        let before = mean_probe_irradiance(&gpu, &app);
+        let full = std::f32::consts::PI * EMITTING_ROOM_LE;
         assert!((before - full).abs() < 0.01 * full, "exponent {exponent}: settled at {before}");
-        switch_emission_off(&mut app);
         let rate = 1.0 - (1.0 - h) * (pinned as f32 / rays as f32).powf(exponent);
-        let mut done = 0;
-        for k in [1u32, 5, 10] {
-            run_headless(&mut app, k - done);
-            done = k;
-            let expected = before * rate.powi(k as i32);
-            let got = mean_of_probes(&app);
-            assert!((got - expected).abs() < 0.01 * before, "exponent {exponent}, {k} frames after: {got}, formula {expected}");
-        }
+        assert_decay_after_emission_off(&gpu, &mut app, before, rate, &format!("exponent {exponent}, "));
     }
 }
 
