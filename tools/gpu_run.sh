@@ -28,12 +28,12 @@ for step in "$@"; do
     case $step in
     bench_*) scene=${step#bench_}; run "$step" $B bench ddgi --scene "$scene" --iterations 10 ;;
     eval_*) scene=${step#eval_}; run "$step" $B eval --scene "$scene" --width 256 --height 256 --reference-spp 4096 --experiments --out "$R/$step" --cache /tmp/cache ;;
-    # SERIES_ARGS: more eval options (e.g. "--hysteresis-exponent 0.5").
+    # SERIES_ARGS: more eval options for every series step (e.g. "--hysteresis-exponent 0.5").
     series_*) scene=${step#series_}; run "$step" $B eval --scene "$scene" --time-series --width 256 --height 256 --reference-spp 4096 --out "$R/$step" --cache /tmp/cache ${SERIES_ARGS:-} ;;
     # seriesrest-SCENE-FRAMES-ERROR: the time series with other resting parameters for the adaptive budgets.
     # seriesgrid-SCENE-X,Y,Z-FRAMES-ERROR: the same on another probe grid.
-    seriesgrid-*) IFS=- read -r _ scene grid rest error <<< "$step"; run "$step" $B eval --scene "$scene" --time-series --width 256 --height 256 --reference-spp 4096 --probes "$grid" --rest-frames "$rest" --rest-error "$error" --out "$R/$step" --cache /tmp/cache ;;
-    seriesrest-*) IFS=- read -r _ scene rest error <<< "$step"; run "$step" $B eval --scene "$scene" --time-series --width 256 --height 256 --reference-spp 4096 --rest-frames "$rest" --rest-error "$error" --out "$R/$step" --cache /tmp/cache ;;
+    seriesgrid-*) IFS=- read -r _ scene grid rest error <<< "$step"; run "$step" $B eval --scene "$scene" --time-series --width 256 --height 256 --reference-spp 4096 --probes "$grid" --rest-frames "$rest" --rest-error "$error" --out "$R/$step" --cache /tmp/cache ${SERIES_ARGS:-} ;;
+    seriesrest-*) IFS=- read -r _ scene rest error <<< "$step"; run "$step" $B eval --scene "$scene" --time-series --width 256 --height 256 --reference-spp 4096 --rest-frames "$rest" --rest-error "$error" --out "$R/$step" --cache /tmp/cache ${SERIES_ARGS:-} ;;
     trace_*) scene=${step#trace_}; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild ;;
     tracecpu_*) scene=${step#tracecpu_}; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild --cpu-only ;;
     classify_*) scene=${step#classify_}; run "$step" $B bench classify --scene "$scene" ;;

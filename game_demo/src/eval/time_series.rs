@@ -155,6 +155,9 @@ pub struct StaticPhase {
     pub passes: Vec<(String, f64)>,
     /// Mean FLIP against the reference of the scene before the change (the static phase's error).
     pub flip: Option<f64>,
+    /// Mean flicker ([`flicker`]) between consecutive frames of the static phase: what noise in
+    /// the probes shows on screen in a still scene.
+    pub flicker: Option<f64>,
 }
 
 /// Frames a configuration runs before the change: DDGI `settle_frames` (it must have converged
@@ -182,10 +185,20 @@ fn probe_update_ms(frame: &engine::render::FrameTiming) -> Option<f64> {
     (!update.is_empty()).then(|| update.iter().sum())
 }
 
+/// Which way a series of errors was still moving at its end.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Trend {
+    Settled,
+    Falling,
+    Rising,
+}
+
 /// Whether a series of errors had settled by its end: the mean of its last tenth is within 2% of
-/// the mean of the tenth before (a series still falling at its end has no settled value yet, and
-/// the frames to within 10% of its last values would flatter it). Series of under 20 frames: unknown.
-pub fn still_falling(errors: &[f32]) -> Option<bool> {
+/// the mean of the tenth before. A series still moving at its end has no settled value yet, and
+/// the frames to within 10% of its last values would mislead: DDGI's error after a change can fall
+/// under its settled value and then rise back for hundreds of frames while multi-bounce light
+/// builds up (the cathedral: about 500 frames at hysteresis 0.97). Series of under 20 frames: unknown.
+pub fn trend(errors: &[f32]) -> Option<Trend> {
     let tail = errors.len() / 10;
     if tail < 2 {
         return None;
@@ -193,7 +206,28 @@ pub fn still_falling(errors: &[f32]) -> Option<bool> {
     let mean = |s: &[f32]| s.iter().sum::<f32>() / s.len() as f32;
     let last = mean(&errors[errors.len() - tail..]);
     let before = mean(&errors[errors.len() - 2 * tail..errors.len() - tail]);
-    Some(last < 0.98 * before)
+    Some(if last < 0.98 * before {
+        Trend::Falling
+    } else if last > 1.02 * before {
+        Trend::Rising
+    } else {
+        Trend::Settled
+    })
+}
+
+/// Flicker between two frames: the mean absolute change of each pixel's luminance over the mean
+/// luminance (linear RGBA images of the same size; 0 for two black images).
+pub fn flicker(previous: &[f32], current: &[f32]) -> f64 {
+    let luminance = |p: &[f32]| 0.2126 * f64::from(p[0]) + 0.7152 * f64::from(p[1]) + 0.0722 * f64::from(p[2]);
+    let (mut change, mut total) = (0.0, 0.0);
+    for (a, b) in previous.chunks_exact(4).zip(current.chunks_exact(4)) {
+        let (a, b) = (luminance(a), luminance(b));
+        if a.is_finite() && b.is_finite() {
+            change += (b - a).abs();
+            total += 0.5 * (a.abs() + b.abs());
+        }
+    }
+    if total > 0.0 { change / total } else { 0.0 }
 }
 
 /// The settled error of a series of errors (frames 0, 1, … after the change): the mean of its last
@@ -241,6 +275,8 @@ pub fn run(
         let mut static_ms = Vec::new();
         let mut static_passes: Vec<(String, Vec<f64>)> = Vec::new();
         let mut static_flips = Vec::new();
+        let mut static_flicker = Vec::new();
+        let mut previous_hdr: Option<Vec<f32>> = None;
         let settle = settle_frames_of(&config, settle_frames);
         let settings = HeadlessSettings { width, height, frames: settle + frames, ..Default::default() };
         let mut app = scene_app(gpu, before.clone(), &settings, |app| config.configure(app, seed)).map_err(|e| e.to_string())?;
@@ -255,7 +291,12 @@ pub fn run(
             let frame = i64::from(frame) - i64::from(settle);
             if frame < -1 {
                 if frame >= -1 - STATIC_FRAMES {
-                    static_flips.push(f64::from(compare(&reference_before, &read_hdr(gpu, world), width, height, EXPOSURE).mean_flip));
+                    let hdr = read_hdr(gpu, world);
+                    static_flips.push(f64::from(compare(&reference_before, &hdr, width, height, EXPOSURE).mean_flip));
+                    if let Some(previous) = &previous_hdr {
+                        static_flicker.push(flicker(previous, &hdr));
+                    }
+                    previous_hdr = Some(hdr);
                 }
                 if frame >= -1 - STATIC_FRAMES
                     && let Some(last) = world.resource::<FrameTimings>().frames.last()
@@ -293,6 +334,7 @@ pub fn run(
             update_ms: median(static_ms),
             passes,
             flip: mean(&static_flips),
+            flicker: mean(&static_flicker),
         });
         for row in rows.iter_mut().filter(|r| r.config == config.name()) {
             let app_frame = (row.frame + i64::from(settle)) as u64;
@@ -375,7 +417,7 @@ fn write_report(
          path traced at {} paths per pixel (another seed). Every frame is compared with it (mean FLIP on sRGB at exposure 1, RMSE on \
          linear radiance); frame -1 is the last one before the change, once the method has settled (frames before the change: {}). \
          A path tracer configuration adds its paths per pixel every frame and starts over when the scene changes.\n\n\
-         | configuration | static FLIP | FLIP before (frame -1) | FLIP at frame 0 | settled FLIP | frames to within 10% of it | frames to at most 10% over it | rays/frame, static | probe update ms, static | rays/frame after |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+         | configuration | static FLIP | static flicker % | FLIP before (frame -1) | FLIP at frame 0 | settled FLIP | frames to within 10% of it | frames to at most 10% over it | rays/frame, static | probe update ms, static | rays/frame after |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
         change.description,
         options.width,
         options.height,
@@ -389,8 +431,10 @@ fn write_report(
         let recovered = recovery(&after, settled).map_or(format!("not within {frames} frames"), |f| f.to_string());
         let at = |frame: i64| series.iter().find(|r| r.frame == frame).map_or("n/a".into(), |r| format!("{:.4}", r.flip));
         let mut from = from.map_or(format!("not within {frames} frames"), |f| f.to_string());
-        if still_falling(&after) == Some(true) {
-            from += " (still falling at the end)";
+        match trend(&after) {
+            Some(Trend::Falling) => from += " (still falling at the end)",
+            Some(Trend::Rising) => from += " (still rising at the end)",
+            _ => {}
         }
         let shown = |v: Option<f64>, digits: usize| v.map_or("n/a".to_string(), |v| format!("{v:.digits$}"));
         let phase = statics.iter().find(|p| p.config == config);
@@ -399,8 +443,9 @@ fn write_report(
         let after: Vec<f64> = series.iter().filter(|r| r.frame >= 0).filter_map(|r| r.rays).collect();
         let rays_after = shown(mean(&after), 0);
         let static_flip = shown(phase.and_then(|p| p.flip), 4);
+        let static_flicker = shown(phase.and_then(|p| p.flicker).map(|f| 100.0 * f), 3);
         md += &format!(
-            "| {config} | {static_flip} | {} | {} | {settled:.4} | {from} | {recovered} | {rays_before} | {ms_before} | {rays_after} |\n",
+            "| {config} | {static_flip} | {static_flicker} | {} | {} | {settled:.4} | {from} | {recovered} | {rays_before} | {ms_before} | {rays_after} |\n",
             at(-1),
             at(0)
         );
@@ -408,9 +453,10 @@ fn write_report(
     md += &format!(
         "\nSettled FLIP: the mean over the last tenth of the frames (at least one); the path tracer keeps converging, so its \
          settled value and frame count depend on `--frames`. Frames to within 10%: the first frame after the change from which \
-         every frame's FLIP is within 10% of the settled value (\"still falling\": the last tenth's mean is more than 2% under \
-         the tenth before, so the series had not settled and needs more `--frames`). Static: the 30 frames before the last one \
-         before the change (static FLIP: their mean FLIP against a reference of the scene before the change; rays: their mean, \
+         every frame's FLIP is within 10% of the settled value (\"still falling\" or \"rising\": the last tenth's mean is more than 2% under \
+         the tenth before, or more than 2% over it, so the series had not settled and needs more `--frames`). Static: the 30 frames before the last one \
+         before the change (static FLIP: their mean FLIP against a reference of the scene before the change; static flicker: the \
+         mean change of a pixel's luminance from one of those frames to the next, over the mean luminance; rays: their mean, \
          as read back from the GPU; DDGI's probe update, every DDGI pass but the gather and composite: the median GPU ms). \
          Frames to at most 10% over it: the first frame from which no frame's FLIP is more than 10% above the settled value \
          (the error has come back down; a dip under the settled value on the way does not count against it).\n\n{}\
@@ -456,12 +502,29 @@ mod tests {
     }
 
     #[test]
-    fn a_series_still_falling_at_its_end_is_flagged() {
+    fn a_series_still_moving_at_its_end_is_flagged() {
         let falling: Vec<f32> = (0..60).map(|i| 0.2 * 0.97f32.powi(i)).collect();
-        assert_eq!(still_falling(&falling), Some(true), "an exponential at 3% a frame has not settled");
+        assert_eq!(trend(&falling), Some(Trend::Falling), "an exponential at 3% a frame has not settled");
         let settled: Vec<f32> = (0..240).map(|i| 0.1 + 0.1 * 0.97f32.powi(i)).collect();
-        assert_eq!(still_falling(&settled), Some(false));
-        assert_eq!(still_falling(&[0.3; 10]), None, "too short to tell");
+        assert_eq!(trend(&settled), Some(Trend::Settled));
+        // The cathedral's shape over 240 frames: a quick fall, then a slow rise still going at the end.
+        let rising: Vec<f32> = (0..240).map(|i| 0.06 + 0.03 * 0.8f32.powi(i) + 1e-4 * i as f32).collect();
+        assert_eq!(trend(&rising), Some(Trend::Rising));
+        assert_eq!(trend(&[0.3; 10]), None, "too short to tell");
+    }
+
+    #[test]
+    fn flicker_is_the_relative_mean_change_of_luminance() {
+        let grey = |v: f32, n: usize| [v, v, v, 1.0].repeat(n);
+        assert_eq!(flicker(&grey(0.5, 4), &grey(0.5, 4)), 0.0, "a still image does not flicker");
+        // Half the pixels go from 1 to 1.1: a mean change of 0.05 over a mean of 1.025.
+        let mut brighter = grey(1.0, 4);
+        brighter[..8].copy_from_slice(&grey(1.1, 2));
+        let f = flicker(&grey(1.0, 4), &brighter);
+        assert!((f - 0.05 / 1.025).abs() < 1e-6, "{f}");
+        assert_eq!(flicker(&grey(1.0, 4), &brighter), flicker(&brighter, &grey(1.0, 4)), "symmetric");
+        assert_eq!(flicker(&grey(0.0, 4), &grey(0.0, 4)), 0.0, "black frames: no NaN");
+        assert_eq!(flicker(&grey(f32::NAN, 4), &grey(1.0, 4)), 0.0, "non-finite pixels are left out");
     }
 
     #[test]
