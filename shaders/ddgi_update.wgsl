@@ -43,8 +43,9 @@ fn ddgi_load_rays(data: DdgiProbeData, base: u32, local: u32) {
     }
 }
 
-// The hysteresis of a probe this frame: with adaptive budgets a probe with fewer rays than the
-// full budget weighs its (noisier) estimate less, so that a small budget does not mean flicker.
+// The hysteresis of a probe this frame: with adaptive budgets a probe over the error target at its
+// full budget follows the change faster, and (hysteresis_exponent > 0) a probe with fewer rays than
+// the full budget weighs its noisier estimate less.
 fn ddgi_hysteresis(data: DdgiProbeData) -> f32 {
     if (data.state & DDGI_PROBE_FRESH) != 0u {
         return 0.0;
@@ -55,8 +56,8 @@ fn ddgi_hysteresis(data: DdgiProbeData) -> f32 {
     }
     // 1 − h in proportion to the share of rays would keep the variance of the maps, (1 − h) / r,
     // but a quiet probe would then follow slow changes (multi-bounce light still building up) as
-    // many times slower; hysteresis_exponent (default ½) trades the two. A change gives the probe
-    // its rays (and its hysteresis) back.
+    // many times slower; hysteresis_exponent trades the two. Its default, 0, follows light at the
+    // fixed budget's pace: resting, not the hysteresis, keeps quiet probes still.
     let share = clamp(f32(data.ray_count) / f32(max(ddgi_volume.rays_per_probe, 1u)), 0.0, 1.0);
     // A probe whose lighting is changing (its error over the target, its budget full) follows the
     // change at twice the rate, and settles back once the error falls.

@@ -347,7 +347,7 @@ fn a_probe_with_fewer_rays_blends_by_the_hysteresis_exponent() {
     // with adaptive budgets each update blends by 1 − (1 − h) · (1/4)^hysteresis_exponent, so k
     // frames after the emission goes off the irradiance is that to the k of its value.
     let (h, pinned) = (0.9f32, 16u32);
-    for exponent in [1.0f32, 0.5] {
+    for exponent in [1.0f32, 0.5, 0.0] {
         let adaptive = ddgi::DdgiAdaptive { hysteresis_exponent: exponent, max_rest_frames: 1, ..ddgi::DdgiAdaptive::on() };
         let volume = DdgiVolume { adaptive, ..emitting_room_volume(h) };
         let rays = volume.rays_per_probe;
