@@ -1032,7 +1032,8 @@ impl ReadbackRing {
 
 /// Prepare stage: copies the probe states that have come back from the GPU into the
 /// [`DdgiProbe`] components (only those that changed, so change detection stays meaningful), and
-/// the rays traced per frame into the frame timings (`ddgi_rays`).
+/// the rays traced and the probes updated per frame into the frame timings (`ddgi_rays`,
+/// `ddgi_probes_updated`).
 pub fn read_back_ddgi_probes(
     gpu: Res<GpuContext>,
     mut volumes: ResMut<DdgiGpuVolumes>,
@@ -1043,8 +1044,9 @@ pub fn read_back_ddgi_probes(
     for (k, (_, v)) in volumes.volumes.iter_mut().enumerate() {
         for (frame, bytes) in v.counter_readback.poll(&gpu) {
             if let Ok(c) = bytemuck::try_pod_read_unaligned::<DdgiCounters>(&bytes[..size_of::<DdgiCounters>().min(bytes.len())]) {
-                let name = if several { format!("ddgi_rays_{k}") } else { "ddgi_rays".to_string() };
-                timings.record_counter(frame, &name, f64::from(c.total_rays));
+                let name = |base: &str| if several { format!("{base}_{k}") } else { base.to_string() };
+                timings.record_counter(frame, &name("ddgi_rays"), f64::from(c.total_rays));
+                timings.record_counter(frame, &name("ddgi_probes_updated"), f64::from(c.updated_probes));
             }
         }
         let Some((_, bytes)) = v.readback.poll(&gpu).pop() else { continue };
