@@ -585,10 +585,16 @@ fn smape_in_ycocg_is_zero_for_equal_colours_symmetric_and_bounded_near_black() {
     }
 }
 
-/// Rays traced per frame (read back asynchronously) of the last `n` frames that have a count.
-fn last_ray_counts(app: &bevy_app::App, n: usize) -> Vec<f64> {
-    let counts = app.world().resource::<engine::render::FrameTimings>().counter("ddgi_rays");
+/// A per-frame counter of the frame timings (read back asynchronously: `ddgi_rays`,
+/// `ddgi_probes_updated`) over the last `n` frames that have it.
+fn last_counts(app: &bevy_app::App, counter: &str, n: usize) -> Vec<f64> {
+    let counts = app.world().resource::<engine::render::FrameTimings>().counter(counter);
     counts.iter().rev().take(n).map(|(_, v)| *v).collect()
+}
+
+/// Rays traced per frame of the last `n` frames that have a count.
+fn last_ray_counts(app: &bevy_app::App, n: usize) -> Vec<f64> {
+    last_counts(app, "ddgi_rays", n)
 }
 
 fn mean(v: &[f64]) -> f64 {
@@ -819,10 +825,7 @@ fn quiet_probes_rest_and_the_per_probe_passes_skip_them() {
     assert!(counters.updated_probes < active as u32, "{} probes updated of {active} active", counters.updated_probes);
     assert_eq!(counters.probe_dispatch[0] * counters.probe_dispatch[1], counters.updated_probes, "one workgroup per updated probe");
     // The frame timings record the probes updated per frame: fewer when quiet probes rest.
-    let updated = |app: &bevy_app::App| {
-        let counts = app.world().resource::<engine::render::FrameTimings>().counter("ddgi_probes_updated");
-        mean(&counts.iter().rev().take(20).map(|(_, v)| *v).collect::<Vec<_>>())
-    };
+    let updated = |app: &bevy_app::App| mean(&last_counts(app, "ddgi_probes_updated", 20));
     let (awake_probes, resting_probes) = (updated(&awake), updated(&resting));
     assert!(
         resting_probes > 0.0 && resting_probes < awake_probes,
