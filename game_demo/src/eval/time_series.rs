@@ -4,16 +4,19 @@
 //! Each method of [`Config::time_series_list`] renders the scene before the change for its
 //! [`Config::frames`] (so that it has settled), the change is applied, and the method goes on for
 //! `--frames` frames. Every frame from the last one before the change (frame -1) on is compared with
-//! a path-traced reference of the scene after the change.
+//! a path-traced reference of the scene after the change. The methods run in lockstep, a frame of
+//! each in turn, so that their GPU times are measured under the same clocks.
 
 use std::f32::consts::FRAC_PI_2;
 use std::path::Path;
 
+use engine::app::finish_plugins;
+use engine::bevy_app::App;
 use engine::bevy_ecs::prelude::{Entity, Without};
 use engine::builtin::{builtin_openings, cuboid, merge};
 use engine::glam::{Affine3A, Quat, Vec3};
 use engine::gpu::GpuContext;
-use engine::headless::{HeadlessSettings, read_hdr, run_frames, scene_app};
+use engine::headless::{HeadlessSettings, read_hdr, scene_app};
 use engine::metrics::compare;
 use engine::render::FrameTimings;
 use engine::scene::{Material, Name, NodeContent, SceneDescription, SceneRoot, Transform};
@@ -145,6 +148,12 @@ pub struct SeriesRow {
 /// Frames of the static phase: before the last frame before the change.
 const STATIC_FRAMES: i64 = 30;
 
+/// Frames whose probe update is timed, just before the static phase's measured frames: they run
+/// back to back (nothing is read back or compared), so the GPU is as busy as the method keeps it.
+/// The measured frames idle it for the readbacks and comparisons on the CPU, and a small workload
+/// timed there runs at whatever clock the GPU has dropped to.
+const TIMED_FRAMES: i64 = 60;
+
 /// What a configuration costs once settled, before the change: mean rays per frame and median
 /// probe-update GPU ms (the median shrugs off the clock changes of small workloads).
 pub struct StaticPhase {
@@ -158,6 +167,32 @@ pub struct StaticPhase {
     /// Mean flicker ([`flicker`]) between consecutive frames of the static phase: what noise in
     /// the probes shows on screen in a still scene.
     pub flicker: Option<f64>,
+}
+
+/// One configuration's run through the series: its app, and what its frames measured.
+struct SeriesRun {
+    config: Config,
+    app: App,
+    /// The node that changes.
+    entity: Entity,
+    /// Frames before the change.
+    settle: u32,
+    /// False once the app asked to exit.
+    running: bool,
+    /// Frames from the last one before the change on.
+    rows: Vec<SeriesRow>,
+    samples: StaticSamples,
+}
+
+/// What the frames of a static phase measured, frame by frame.
+#[derive(Default)]
+struct StaticSamples {
+    /// Probe-update GPU ms, in all and by pass: the TIMED_FRAMES frames before the measured ones.
+    update_ms: Vec<f64>,
+    passes: Vec<(String, Vec<f64>)>,
+    flips: Vec<f64>,
+    flicker: Vec<f64>,
+    previous_hdr: Option<Vec<f32>>,
 }
 
 /// Frames a configuration runs before the change: DDGI `settle_frames` (it must have converged
@@ -267,16 +302,8 @@ pub fn run(
     let reference = reference(gpu, &format!("{name}-changed"), &change.applied(&before), width, height, reference_spp, cache)?;
     let changed = before.nodes[change.node].name.clone();
     let seed = pathtrace::PathTraceSettings::default().seed;
-    let mut rows = Vec::new();
-    let mut statics = Vec::new();
+    let mut runs = Vec::new();
     for config in Config::time_series_list(name, grid, adaptive) {
-        // Probe-update GPU ms of the static phase, in all and by pass: the STATIC_FRAMES frames
-        // before the last one before the change.
-        let mut static_ms = Vec::new();
-        let mut static_passes: Vec<(String, Vec<f64>)> = Vec::new();
-        let mut static_flips = Vec::new();
-        let mut static_flicker = Vec::new();
-        let mut previous_hdr: Option<Vec<f32>> = None;
         let settle = settle_frames_of(&config, settle_frames);
         let settings = HeadlessSettings { width, height, frames: settle + frames, ..Default::default() };
         let mut app = scene_app(gpu, before.clone(), &settings, |app| config.configure(app, seed)).map_err(|e| e.to_string())?;
@@ -287,67 +314,92 @@ pub fn run(
             .find(|(_, n)| n.0 == changed)
             .map(|(e, _)| e)
             .ok_or_else(|| format!("node '{changed}' is not in the world"))?;
-        run_frames(&mut app, settings.frames, |frame, world| {
-            let frame = i64::from(frame) - i64::from(settle);
+        finish_plugins(&mut app);
+        runs.push(SeriesRun { config, app, entity, settle, running: true, rows: Vec::new(), samples: StaticSamples::default() });
+    }
+    // The configurations run in lockstep, one frame of each in turn, aligned on the change (those
+    // that settle in fewer frames join later): every frame of each is rendered, timed and read
+    // back in the same state of the GPU, whose clocks follow the load. Run one after the other, a
+    // configuration that followed the comparisons on the CPU of another (an idle GPU, which lowers
+    // its clocks within a second) had its small probe update timed up to twice as slow.
+    let longest = runs.iter().map(|r| r.settle).max().unwrap_or(0);
+    for step in 0..longest + frames {
+        for run in runs.iter_mut().filter(|r| r.running) {
+            let Some(local) = step.checked_sub(longest - run.settle) else { continue };
+            run.app.update();
+            if run.app.should_exit().is_some() {
+                run.running = false;
+                continue;
+            }
+            let world = run.app.world_mut();
+            let frame = i64::from(local) - i64::from(run.settle);
             if frame < -1 {
                 if frame >= -1 - STATIC_FRAMES {
                     let hdr = read_hdr(gpu, world);
-                    static_flips.push(f64::from(compare(&reference_before, &hdr, width, height, EXPOSURE).mean_flip));
-                    if let Some(previous) = &previous_hdr {
-                        static_flicker.push(flicker(previous, &hdr));
+                    run.samples.flips.push(f64::from(compare(&reference_before, &hdr, width, height, EXPOSURE).mean_flip));
+                    if let Some(previous) = &run.samples.previous_hdr {
+                        run.samples.flicker.push(flicker(previous, &hdr));
                     }
-                    previous_hdr = Some(hdr);
+                    run.samples.previous_hdr = Some(hdr);
                 }
-                if frame >= -1 - STATIC_FRAMES
+                if (-1 - STATIC_FRAMES - TIMED_FRAMES..-1 - STATIC_FRAMES).contains(&frame)
                     && let Some(last) = world.resource::<FrameTimings>().frames.last()
                     && let Some(ms) = probe_update_ms(last)
                 {
-                    static_ms.push(ms);
+                    run.samples.update_ms.push(ms);
                     for pass in last.passes.iter().filter(|p| p.ran && is_probe_update(&p.label)) {
                         let Some(ms) = pass.gpu_ms else { continue };
-                        match static_passes.iter_mut().find(|(l, _)| *l == pass.label) {
+                        match run.samples.passes.iter_mut().find(|(l, _)| *l == pass.label) {
                             Some((_, v)) => v.push(ms),
-                            None => static_passes.push((pass.label.clone(), vec![ms])),
+                            None => run.samples.passes.push((pass.label.clone(), vec![ms])),
                         }
                     }
                 }
-                return;
+                continue;
             }
             let error = compare(&reference, &read_hdr(gpu, world), width, height, EXPOSURE);
             let last = world.resource::<FrameTimings>().frames.last();
             let (gpu_ms, update_ms) = (last.and_then(frame_gpu_ms), last.and_then(probe_update_ms));
-            rows.push(SeriesRow { frame, config: config.name(), flip: error.mean_flip, rmse: error.rmse, gpu_ms, update_ms, rays: None });
+            let config = run.config.name();
+            run.rows.push(SeriesRow { frame, config, flip: error.mean_flip, rmse: error.rmse, gpu_ms, update_ms, rays: None });
             if frame == -1
-                && let Some(mut transform) = world.get_mut::<Transform>(entity)
+                && let Some(mut transform) = world.get_mut::<Transform>(run.entity)
             {
                 *transform = change.after;
             }
-        });
+        }
+    }
+    let mut rows = Vec::new();
+    let mut statics = Vec::new();
+    for run in runs {
+        let SeriesRun { config, app, settle, rows: mut run_rows, samples, .. } = run;
         // Rays per frame come back a few frames late: match them to their rows now.
         let rays = app.world().resource::<FrameTimings>().counter("ddgi_rays");
         let first_static = u64::from(settle).saturating_sub(1 + STATIC_FRAMES as u64);
         let static_rays: Vec<f64> = rays.iter().filter(|(f, _)| (first_static..u64::from(settle)).contains(f)).map(|(_, r)| *r).collect();
-        let passes = static_passes.into_iter().filter_map(|(label, ms)| median(ms).map(|m| (label, m))).collect();
+        let passes = samples.passes.into_iter().filter_map(|(label, ms)| median(ms).map(|m| (label, m))).collect();
         statics.push(StaticPhase {
             config: config.name(),
             rays: mean(&static_rays),
-            update_ms: median(static_ms),
+            update_ms: median(samples.update_ms),
             passes,
-            flip: mean(&static_flips),
-            flicker: mean(&static_flicker),
+            flip: mean(&samples.flips),
+            flicker: mean(&samples.flicker),
         });
-        for row in rows.iter_mut().filter(|r| r.config == config.name()) {
+        for row in &mut run_rows {
             let app_frame = (row.frame + i64::from(settle)) as u64;
             row.rays = rays.iter().find(|(f, _)| *f == app_frame).map(|(_, v)| *v);
         }
-        let flips: Vec<f32> = rows.iter().filter(|r| r.config == config.name()).map(|r| r.flip).collect();
-        println!(
-            "{:>18}: FLIP before the change {:.4}, first frame after {:.4}, last {:.4}",
-            config.name(),
-            flips[0],
-            flips[1],
-            flips[flips.len() - 1]
-        );
+        if let (Some(first), Some(second), Some(last)) = (run_rows.first(), run_rows.get(1), run_rows.last()) {
+            println!(
+                "{:>18}: FLIP before the change {:.4}, first frame after {:.4}, last {:.4}",
+                config.name(),
+                first.flip,
+                second.flip,
+                last.flip
+            );
+        }
+        rows.append(&mut run_rows);
     }
     write_csv(&out.join("time_series.csv"), &rows)?;
     let plot_note = plot_series(&out.join("time_series.png"), name, &change, &rows)?;
@@ -457,7 +509,9 @@ fn write_report(
          the tenth before, or more than 2% over it, so the series had not settled and needs more `--frames`). Static: the 30 frames before the last one \
          before the change (static FLIP: their mean FLIP against a reference of the scene before the change; static flicker: the \
          mean change of a pixel's luminance from one of those frames to the next, over the mean luminance; rays: their mean, \
-         as read back from the GPU; DDGI's probe update, every DDGI pass but the gather and composite: the median GPU ms). \
+         as read back from the GPU; DDGI's probe update, every DDGI pass but the gather and composite: the median GPU ms of the \
+         60 frames before those, which run back to back, nothing read back). The configurations run in lockstep, one frame \
+         of each in turn, so that all are timed in the same state of the GPU's clocks. \
          Frames to at most 10% over it: the first frame from which no frame's FLIP is more than 10% above the settled value \
          (the error has come back down; a dip under the settled value on the way does not count against it).\n\n{}\
          Mean FLIP per frame, one series per configuration, log scale{plot_note}:\n\n![mean FLIP per frame](time_series.png)\n\n\
