@@ -69,6 +69,20 @@ fn ddgi_scan(value: u32, local: u32) -> vec2<u32> {
     return vec2<u32>(inclusive - value, total);
 }
 
+// The largest `value` of the workgroup's threads, by a tree of halving steps (every thread calls
+// it: it holds barriers).
+fn ddgi_workgroup_max(value: f32, local: u32) -> f32 {
+    wg_max[local] = value;
+    workgroupBarrier();
+    for (var stride = DDGI_SCAN / 2u; stride > 0u; stride /= 2u) {
+        if local < stride {
+            wg_max[local] = max(wg_max[local], wg_max[local + stride]);
+        }
+        workgroupBarrier();
+    }
+    return wg_max[0];
+}
+
 // Resting (adaptive budgets). A probe whose error at its last update was under
 // rest_error × error_target is quiet: its maps have converged and further rays would only stir
 // their noise, so it rests — keeps its maps, traces nothing, costs no per-probe pass — for a period
@@ -157,13 +171,8 @@ fn plan_rays(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_
     }
     // Offsets within the block, as if no frame budget applied (scale_rays redoes them when one does).
     let sums = ddgi_place_in_block(p, count, local);
-    wg_max[local] = luma;
-    workgroupBarrier();
+    let m = ddgi_workgroup_max(luma, local);
     if local == 0u {
-        var m = 0.0;
-        for (var k = 0u; k < DDGI_SCAN; k++) {
-            m = max(m, wg_max[k]);
-        }
         ddgi_blocks[group.x] = DdgiBlock(sums.x, sums.x, m, 0u, sums.y, 0u);
     }
 }
@@ -246,13 +255,8 @@ fn plan_ray_blocks(@builtin(local_invocation_index) local: u32) {
         offset += scan.y;
         probes += probe_scan.y;
     }
-    wg_max[local] = brightest;
-    workgroupBarrier();
+    let m = ddgi_workgroup_max(brightest, local);
     if local == 0u {
-        var m = 0.0;
-        for (var k = 0u; k < DDGI_SCAN; k++) {
-            m = max(m, wg_max[k]);
-        }
         let groups = (offset + DDGI_RAY_GROUP - 1u) / DDGI_RAY_GROUP;
         ddgi_counters.dispatch = vec3<u32>(min(groups, 65535u), max((groups + 65534u) / 65535u, 1u), 1u);
         ddgi_counters.total_rays = offset;

@@ -126,11 +126,14 @@ fn ddgi_update_irradiance(probe: u32, data: DdgiProbeData, local: u32) {
     // the target (its maps hold nothing to compare with).
     wg_error[local] = error;
     workgroupBarrier();
-    if local == 0u {
-        var total = vec2<f32>(0.0);
-        for (var k = 0u; k < DDGI_GROUP; k++) {
-            total += wg_error[k];
+    for (var stride = DDGI_GROUP / 2u; stride > 0u; stride /= 2u) {
+        if local < stride {
+            wg_error[local] += wg_error[local + stride];
         }
+        workgroupBarrier();
+    }
+    if local == 0u {
+        let total = wg_error[0];
         var e = ddgi_volume.error_target;
         if !fresh {
             e = select(data.error, total.x / total.y, total.y > 0.0);
@@ -260,7 +263,6 @@ struct DdgiRayStatistics {
 }
 
 var<workgroup> wg_statistics: array<DdgiRayStatistics, 64>;
-var<workgroup> wg_result: DdgiRayStatistics;
 
 fn ddgi_ray_statistics(probe: u32, data: DdgiProbeData, local: u32) -> DdgiRayStatistics {
     // The region whose shading reads this probe: a cell to each side, and a cell and a half towards
@@ -302,29 +304,36 @@ fn ddgi_ray_statistics(probe: u32, data: DdgiProbeData, local: u32) -> DdgiRaySt
             s.farthest_frontface = vec4<f32>(direction, d);
         }
     }
+    // A tree reduction, six steps of halving: one thread merging the 64 entries in turn was a
+    // serial chain of workgroup-memory reads. (Of two rays at exactly the same distance, either
+    // may be kept.)
     wg_statistics[local] = s;
     workgroupBarrier();
-    if local == 0u {
-        var total = wg_statistics[0];
-        for (var k = 1u; k < DDGI_GROUP; k++) {
-            let o = wg_statistics[k];
-            total.backface_count += o.backface_count;
-            total.luma_sum += o.luma_sum;
-            total.frontface_in_cell = max(total.frontface_in_cell, o.frontface_in_cell);
-            if o.closest_backface.w < total.closest_backface.w {
-                total.closest_backface = o.closest_backface;
-            }
-            if o.closest_frontface.w < total.closest_frontface.w {
-                total.closest_frontface = o.closest_frontface;
-            }
-            if o.farthest_frontface.w > total.farthest_frontface.w {
-                total.farthest_frontface = o.farthest_frontface;
-            }
+    for (var stride = DDGI_GROUP / 2u; stride > 0u; stride /= 2u) {
+        if local < stride {
+            wg_statistics[local] = ddgi_merge_statistics(wg_statistics[local], wg_statistics[local + stride]);
         }
-        wg_result = total;
+        workgroupBarrier();
     }
-    workgroupBarrier();
-    return wg_result;
+    return wg_statistics[0];
+}
+
+// The statistics of two sets of rays together (`a`'s ray on ties).
+fn ddgi_merge_statistics(a: DdgiRayStatistics, b: DdgiRayStatistics) -> DdgiRayStatistics {
+    var total = a;
+    total.backface_count += b.backface_count;
+    total.luma_sum += b.luma_sum;
+    total.frontface_in_cell = max(total.frontface_in_cell, b.frontface_in_cell);
+    if b.closest_backface.w < total.closest_backface.w {
+        total.closest_backface = b.closest_backface;
+    }
+    if b.closest_frontface.w < total.closest_frontface.w {
+        total.closest_frontface = b.closest_frontface;
+    }
+    if b.farthest_frontface.w > total.farthest_frontface.w {
+        total.farthest_frontface = b.farthest_frontface;
+    }
+    return total;
 }
 
 fn ddgi_inside_geometry(s: DdgiRayStatistics, rays: u32) -> bool {
