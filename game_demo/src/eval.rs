@@ -11,6 +11,7 @@ pub mod time_series;
 use std::path::{Path, PathBuf};
 
 use engine::bevy_app::App;
+use engine::glam::Vec3;
 use engine::gpu::GpuContext;
 use engine::headless::{HeadlessSettings, RenderedFrame, add_default_camera, render_scene_with};
 use engine::metrics::{ErrorMetrics, compare, flip_rgb8, magma, tonemap_to_srgb8};
@@ -56,21 +57,32 @@ pub const DDGI_RESOLUTIONS: [u32; 3] = [4, 8, 16];
 
 /// The probe grid of the published experiment on each built-in scene (Hvezda and Bittner): 16×8×16
 /// for the door room, 16×16×15 for the room under a skylight, 2×2×2 for the colour bleeding box,
-/// 16×8×12 for Sibenik (our cathedral); 8×8×8 elsewhere.
+/// 16×8×12 for Sibenik (our cathedral); the demo level's own (1.5 m apart); 8×8×8 elsewhere.
 pub fn ddgi_paper_grid(scene: &str) -> [u32; 3] {
     match scene {
         "door_room" => [16, 8, 16],
         "ceiling_opening" => [16, 16, 15],
         "color_bleed" => [2, 2, 2],
         "cathedral" => [16, 8, 12],
+        // The demo level: what `play` uses.
+        crate::LEVEL_SCENE => crate::play::level::level_probe_counts(crate::play::PROBE_SPACING).to_array(),
         _ => [8, 8, 8],
     }
 }
 
+/// The box DDGI's probes fill in `scene`: the built-in scenes' and the demo level's own; `None`
+/// (the bounds of the scene's instances) for any other.
+fn gi_bounds(scene: &str) -> Option<(Vec3, Vec3)> {
+    if scene == crate::LEVEL_SCENE {
+        return Some(crate::play::level::level_gi_bounds());
+    }
+    engine::builtin::builtin_gi_bounds(scene)
+}
+
 impl Config {
-    /// A DDGI configuration on `scene` (its volume bounds from [`engine::builtin::builtin_gi_bounds`]).
+    /// A DDGI configuration on `scene` (its volume bounds from [`gi_bounds`]).
     pub fn ddgi(name: String, scene: &str, volume: ddgi::DdgiVolume) -> Config {
-        let bounds = volume.bounds.or_else(|| engine::builtin::builtin_gi_bounds(scene));
+        let bounds = volume.bounds.or_else(|| gi_bounds(scene));
         Config::Ddgi { name, volume: Box::new(ddgi::DdgiVolume { bounds, ..volume }) }
     }
 

@@ -35,7 +35,7 @@ enum Command {
     /// error_vs_time.png and strips. With --time-series: the error of every frame after a change
     /// in the scene (time_series.csv, time_series.png, report.md).
     Eval {
-        /// A built-in scene name or a scene file.
+        /// A built-in scene name, `level` (the demo level) or a scene file.
         #[arg(long, default_value = "cornell")]
         scene: String,
         #[arg(long, default_value_t = 256)]
@@ -256,7 +256,7 @@ enum BenchCommand {
 
 #[derive(clap::Args)]
 struct RenderArgs {
-    /// A built-in scene name (see --list-scenes) or a .gltf, .glb or .obj file.
+    /// A built-in scene name (see --list-scenes; `level` is the demo level) or a .gltf, .glb or .obj file.
     #[arg(long, default_value = "cornell")]
     scene: String,
     #[arg(long, default_value_t = 640)]
@@ -355,20 +355,33 @@ fn parse_vec3(text: &str) -> Result<glam::Vec3, String> {
 }
 
 /// A built-in scene by name, or a scene file by path.
+/// `render` and `eval`'s name for the demo level (`play`'s scene, still: nothing animates).
+pub const LEVEL_SCENE: &str = "level";
+
 fn load(scene: &str) -> Result<SceneDescription, String> {
     if let Some(builtin) = engine::builtin::builtin_scene(scene) {
         return Ok(builtin);
     }
+    if scene == LEVEL_SCENE {
+        let assets = play::level::kenney_assets_dir();
+        if assets.is_none() {
+            eprintln!("note: ../shared/assets/kenney_fps is absent; the level is built from procedural geometry only");
+        }
+        return Ok(play::level::demo_level(assets.as_deref()).scene);
+    }
     let path = std::path::Path::new(scene);
     if path.extension().is_none() {
-        return Err(format!("'{scene}' is neither a built-in scene ({}) nor a scene file", engine::builtin::BUILTIN_SCENES.join(", ")));
+        return Err(format!(
+            "'{scene}' is neither a built-in scene ({}, {LEVEL_SCENE}) nor a scene file",
+            engine::builtin::BUILTIN_SCENES.join(", ")
+        ));
     }
     engine::import::load_scene(path).map_err(|e| e.to_string())
 }
 
 fn render(args: RenderArgs) -> Result<(), String> {
     if args.list_scenes {
-        println!("{}", engine::builtin::BUILTIN_SCENES.join("\n"));
+        println!("{}\n{LEVEL_SCENE}", engine::builtin::BUILTIN_SCENES.join("\n"));
         return Ok(());
     }
     let mut scene = load(&args.scene)?;

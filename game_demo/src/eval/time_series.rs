@@ -80,6 +80,14 @@ pub fn scene_change(name: &str, scene: &mut SceneDescription) -> Result<SceneCha
             SceneChange { description: "the spot light jumps half a turn along its orbit, to the red cube's side".into(), node, after }
         }
         "door_room" => add_door(scene)?,
+        crate::LEVEL_SCENE => {
+            // Seen from inside the house, where the light coming through the door changes most.
+            let camera = find(scene, crate::play::level::PLAYER_CAMERA)?;
+            scene.nodes[camera].transform = crate::play::level::view_of_the_door_from_inside();
+            let node = find(scene, crate::play::level::DOOR)?;
+            let description = "the house's door slides open (seen from inside)".into();
+            SceneChange { description, node, after: crate::play::level::door_open_transform() }
+        }
         _ => move_first_light(name, scene)?,
     };
     let changed = scene.nodes[change.node].name.clone();
@@ -592,9 +600,10 @@ mod tests {
     }
 
     #[test]
-    fn every_built_in_scene_has_a_change_that_moves_a_uniquely_named_node() {
-        for &name in engine::builtin::BUILTIN_SCENES {
-            let mut scene = engine::builtin::builtin_scene(name).expect(name);
+    fn every_built_in_scene_and_the_level_have_a_change_that_moves_a_uniquely_named_node() {
+        let level = (crate::LEVEL_SCENE, crate::play::level::demo_level(None).scene);
+        let scenes = engine::builtin::BUILTIN_SCENES.iter().map(|&name| (name, engine::builtin::builtin_scene(name).expect(name)));
+        for (name, mut scene) in scenes.chain([level]) {
             let change = scene_change(name, &mut scene).unwrap_or_else(|e| panic!("{name}: {e}"));
             assert_ne!(scene.nodes[change.node].transform, change.after, "{name}: {}", change.description);
             let changed = &scene.nodes[change.node].name;

@@ -27,7 +27,7 @@ use engine::app::Time;
 use engine::builtin::{box_part, box_with_hole, merge};
 use engine::render::SkyRadiance;
 use engine::scene::{Camera, DirectionalLight, Material, Name, NodeContent, Orbit, PointLight, SceneDescription, Transform};
-use glam::{Affine3A, Quat, Vec2, Vec3};
+use glam::{Affine3A, Quat, UVec3, Vec2, Vec3};
 
 /// An axis-aligned rectangle of the floor plan: `min`/`max` are (x, z).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -130,6 +130,31 @@ pub const PLATFORM: &str = "lift_platform";
 pub const MOVING_LIGHT: &str = "moving_light";
 pub const PLAYER_CAMERA: &str = "player_camera";
 pub const ENEMY: &str = "enemy_flying";
+
+/// The box the level's DDGI volume fills: the field and a metre around it, from under the ground to
+/// over the roof.
+pub fn level_gi_bounds() -> (Vec3, Vec3) {
+    (Vec3::new(-FIELD_HALF - 1.0, -0.5, -FIELD_HALF - 1.0), Vec3::new(FIELD_HALF + 1.0, 7.0, FIELD_HALF + 1.0))
+}
+
+/// Probes along each axis of the level's DDGI volume at `spacing` metres (at least one).
+pub fn level_probe_counts(spacing: f32) -> UVec3 {
+    let (lo, hi) = level_gi_bounds();
+    ((hi - lo) / spacing.max(0.05)).ceil().as_uvec3().max(UVec3::ONE)
+}
+
+/// The door's transform when open (the scene holds it closed).
+pub fn door_open_transform() -> Transform {
+    door_transforms().1
+}
+
+/// A camera standing in the back of the house, facing the door (eye height): the view in which
+/// the door opening changes the most.
+pub fn view_of_the_door_from_inside() -> Transform {
+    let eye = Vec3::new(HOUSE_MAX.x - 1.5, HOUSE_MIN.y + 1.6, HOUSE_MIN.z + 1.5);
+    let door = Vec3::new((DOOR_X.0 + DOOR_X.1) * 0.5, HOUSE_MIN.y + 1.2, HOUSE_MAX.z);
+    Transform::from_translation(eye).looking_at(door, Vec3::Y)
+}
 
 /// The Kenney FPS kit folder, `<repo>/../shared/assets/kenney_fps`, if it exists.
 pub fn kenney_assets_dir() -> Option<PathBuf> {
@@ -421,7 +446,7 @@ pub fn demo_level(assets: Option<&Path>) -> DemoLevel {
         spawn,
         indoor_point: Vec3::new(2.5, floor_y, -7.0),
         tour,
-        gi_bounds: (Vec3::new(-FIELD_HALF - 1.0, -0.5, -FIELD_HALF - 1.0), Vec3::new(FIELD_HALF + 1.0, 7.0, FIELD_HALF + 1.0)),
+        gi_bounds: level_gi_bounds(),
     };
     DemoLevel { scene: b.desc, layout }
 }

@@ -22,13 +22,16 @@ use bevy_app::App;
 use ddgi::{DdgiOutput, DdgiProbeView, DdgiVolume};
 use engine::gpu::GpuContext;
 use engine::render::RenderOutputs;
-use glam::{UVec3, Vec3Swizzles};
+use glam::Vec3Swizzles;
 
 use controller::{PlayerPlugin, PlayerSettings, ScriptedTour};
 use level::{DemoLevel, DemoLevelPlugin, demo_level, kenney_assets_dir};
 
 /// The fixed clock of scripted runs (headless, and the windowed run the tests compare with it).
 pub const STEP_SECONDS: f64 = 1.0 / 60.0;
+
+/// The level's default probe spacing, in metres.
+pub const PROBE_SPACING: f32 = 1.5;
 
 /// What `play` renders and how.
 #[derive(Clone, Debug)]
@@ -45,7 +48,7 @@ pub struct PlayOptions {
 
 impl Default for PlayOptions {
     fn default() -> Self {
-        Self { width: 1280, height: 720, probe_spacing: 1.5, rays_per_probe: 128, adaptive: true, use_assets: true }
+        Self { width: 1280, height: 720, probe_spacing: PROBE_SPACING, rays_per_probe: 128, adaptive: true, use_assets: true }
     }
 }
 
@@ -70,11 +73,9 @@ pub fn setup_play(app: &mut App, options: &PlayOptions, scripted: bool) -> Resul
     }
     app.add_plugins((DemoLevelPlugin, player));
 
-    let (lo, hi) = level.layout.gi_bounds;
-    let counts = ((hi - lo) / options.probe_spacing.max(0.05)).ceil().as_uvec3().max(UVec3::ONE);
     let mut volume = DdgiVolume {
         bounds: Some(level.layout.gi_bounds),
-        probe_counts: counts,
+        probe_counts: level::level_probe_counts(options.probe_spacing),
         rays_per_probe: options.rays_per_probe,
         ..Default::default()
     };
