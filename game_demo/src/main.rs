@@ -354,20 +354,16 @@ fn parse_vec3(text: &str) -> Result<glam::Vec3, String> {
     }
 }
 
-/// A built-in scene by name, or a scene file by path.
 /// `render` and `eval`'s name for the demo level (`play`'s scene, still: nothing animates).
 pub const LEVEL_SCENE: &str = "level";
 
+/// A built-in scene or the demo level by name, or a scene file by path.
 fn load(scene: &str) -> Result<SceneDescription, String> {
     if let Some(builtin) = engine::builtin::builtin_scene(scene) {
         return Ok(builtin);
     }
     if scene == LEVEL_SCENE {
-        let assets = play::level::kenney_assets_dir();
-        if assets.is_none() {
-            eprintln!("note: ../shared/assets/kenney_fps is absent; the level is built from procedural geometry only");
-        }
-        return Ok(play::level::demo_level(assets.as_deref()).scene);
+        return Ok(play::level::demo_level(play::level::kenney_assets_or_note().as_deref()).scene);
     }
     let path = std::path::Path::new(scene);
     if path.extension().is_none() {

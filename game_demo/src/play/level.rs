@@ -156,6 +156,15 @@ pub fn view_of_the_door_from_inside() -> Transform {
     Transform::from_translation(eye).looking_at(door, Vec3::Y)
 }
 
+/// [`kenney_assets_dir`], with a note on stderr when it is absent.
+pub fn kenney_assets_or_note() -> Option<PathBuf> {
+    let dir = kenney_assets_dir();
+    if dir.is_none() {
+        eprintln!("note: ../shared/assets/kenney_fps is absent; the level is built from procedural geometry only");
+    }
+    dir
+}
+
 /// The Kenney FPS kit folder, `<repo>/../shared/assets/kenney_fps`, if it exists.
 pub fn kenney_assets_dir() -> Option<PathBuf> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/assets/kenney_fps");

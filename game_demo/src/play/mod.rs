@@ -25,7 +25,7 @@ use engine::render::RenderOutputs;
 use glam::Vec3Swizzles;
 
 use controller::{PlayerPlugin, PlayerSettings, ScriptedTour};
-use level::{DemoLevel, DemoLevelPlugin, demo_level, kenney_assets_dir};
+use level::{DemoLevel, DemoLevelPlugin, demo_level};
 
 /// The fixed clock of scripted runs (headless, and the windowed run the tests compare with it).
 pub const STEP_SECONDS: f64 = 1.0 / 60.0;
@@ -56,10 +56,7 @@ impl Default for PlayOptions {
 /// animations, the player on the navigation mesh, the level's DDGI volume and the overlay's
 /// resources. `scripted`: the player follows the level's tour instead of input.
 pub fn setup_play(app: &mut App, options: &PlayOptions, scripted: bool) -> Result<DemoLevel, String> {
-    let assets = if options.use_assets { kenney_assets_dir() } else { None };
-    if options.use_assets && assets.is_none() {
-        eprintln!("note: ../shared/assets/kenney_fps is absent; the level is built from procedural geometry only");
-    }
+    let assets = if options.use_assets { level::kenney_assets_or_note() } else { None };
     let level = demo_level(assets.as_deref());
     let player = PlayerPlugin::new(level.layout.clone(), PlayerSettings::default()).map_err(|e| format!("navigation mesh: {e}"))?;
     let (outdoors, indoors) = (level.layout.spawn.xz(), level.layout.indoor_point.xz());
