@@ -50,7 +50,7 @@ impl Default for DdgiWeights {
 /// change sooner. A probe whose error at an update is under `rest_error · error_target` rests (see
 /// `max_rest_frames`): in a static scene most probes end up updating once every few frames, and a
 /// resting probe's maps do not move at all, so fewer rays do not mean more flicker (measured: the
-/// static phases flicker 0.38–0.97 times as much as with the fixed budget). The hysteresis can also
+/// static phases of six scenes flicker 0.38–1.04 times as much as with the fixed budget). The hysteresis can also
 /// rise with fewer rays (`hysteresis_exponent`), which calms a quiet probe's maps further but slows
 /// how it follows light that builds up over many bounces. Probes that, like their
 /// six neighbours, see almost no light are switched off (and woken by the re-checks).
