@@ -64,7 +64,9 @@ struct DdgiVolumeGpu {
     rest_error: f32,
     // With adaptive budgets, 1 − hysteresis scales with (rays / rays_per_probe)^this.
     hysteresis_exponent: f32,
-    _pad_rest: u32,
+    // Weight of the old value in the slower average of each texel's change (settled_error); < 0:
+    // resting decided by the error itself.
+    rest_smoothing: f32,
 }
 
 // Per-probe state: relocation and classification write offset and state, the irradiance update
@@ -91,6 +93,13 @@ struct DdgiProbeData {
     // Resting (adaptive budgets): bits 0–15 the probe's rest period (an update every that many
     // frames; 0 or 1: every frame), bits 16–31 the frames left before its next update.
     rest: u32,
+    // The error that decides resting when rest_smoothing ≥ 0: as `error`, over a slower average of
+    // the change, which keeps less of the noise and all of a map's convergence.
+    settled_error: f32,
+    // Irradiance updates since the probe was last fresh (corrects the slow average's start).
+    updates: u32,
+    _pad0: u32,
+    _pad1: u32,
 }
 
 // A probe counts as affecting no surface only after this many of its rays, over classifications
@@ -184,11 +193,15 @@ const DDGI_MAX_IRRADIANCE: f32 = 1.0e24;
 @group(1) @binding(5) var<storage, read_write> ddgi_rays: array<DdgiRay>;
 // Shaded rays: (radiance, stored distance: t, -DDGI_BACKFACE_SCALE·t or DDGI_MISS).
 @group(1) @binding(7) var<storage, read_write> ddgi_radiance: array<vec4<f32>>;
-// One irradiance texel at full precision: the irradiance (rgb) and the exponential moving average
-// of each frame's estimate minus the map (rgb), from which the probe's temporal error comes.
+// One irradiance texel at full precision: the irradiance; the exponential moving average of each
+// frame's estimate minus the map (smoothing error_smoothing), from which the probe's temporal
+// error comes; and the same, slower (rest_smoothing), from which its settled error comes, as
+// bfloat16 (see ddgi_pack_bf16) in the two words the vec3s leave free (red and green, then blue).
 struct DdgiTexel {
-    irradiance: vec4<f32>,
-    change: vec4<f32>,
+    irradiance: vec3<f32>,
+    settle_rg: u32,
+    change: vec3<f32>,
+    settle_b: u32,
 }
 
 // The maps at full float precision, texel t of probe p at p · n² + t: the updates blend into these
@@ -293,6 +306,19 @@ fn ddgi_neighbour(p: u32, step: vec3<i32>) -> u32 {
 
 fn ddgi_probe_active(p: u32) -> bool {
     return (ddgi_probes[p].state & DDGI_PROBE_INACTIVE) == 0u;
+}
+
+// Two floats as bfloat16 (the upper halves of their f32 bits, rounded): 8 significant bits, enough
+// for an error measure. Half floats would need the SHADER_FLOAT16_IN_FLOAT32 capability.
+// Magnitudes are clamped to 1e30 so that rounding cannot carry into infinity.
+fn ddgi_pack_bf16(v: vec2<f32>) -> u32 {
+    let c = clamp(select(vec2<f32>(0.0), v, v == v), vec2<f32>(-1e30), vec2<f32>(1e30));
+    let bits = bitcast<vec2<u32>>(c) + vec2<u32>(0x8000u);
+    return (bits.x >> 16u) | (bits.y & 0xffff0000u);
+}
+
+fn ddgi_unpack_bf16(w: u32) -> vec2<f32> {
+    return vec2<f32>(bitcast<f32>(w << 16u), bitcast<f32>(w & 0xffff0000u));
 }
 
 // YCoCg luma of a linear RGB colour.

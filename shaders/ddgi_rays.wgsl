@@ -84,8 +84,9 @@ fn ddgi_workgroup_max(value: f32, local: u32) -> f32 {
 }
 
 // Resting (adaptive budgets). A probe whose error at its last update was under
-// rest_error × error_target is quiet: its maps have converged and further rays would only stir
-// their noise, so it rests — keeps its maps, traces nothing, costs no per-probe pass — for a period
+// rest_error × error_target is quiet (with rest_smoothing ≥ 0: its settled error under that, and its
+// error under the target): its maps have converged and further rays would only stir their noise,
+// so it rests — keeps its maps, traces nothing, costs no per-probe pass — for a period
 // that doubles at each quiet update (up to max_rest_frames) and falls back to every frame at the
 // first update that is not quiet. A resting probe wakes at once when one of its six neighbours
 // sees its lighting change (error over the target): a change anywhere in the scene is caught
@@ -105,8 +106,15 @@ fn ddgi_rest(p: u32, data: DdgiProbeData, rays: u32) -> vec2<u32> {
         }
         return vec2<u32>(rays, 1u);
     }
-    // Due: the error of the last update decides the next rest.
-    if data.error >= v.rest_error * v.error_target {
+    // Due: the last update's errors decide the next rest (with rest_smoothing ≥ 0, the settled one,
+    // whose slower average keeps little of the noise, whether the maps have converged, and the
+    // other that the lighting is not changing now).
+    let quiet_level = v.rest_error * v.error_target;
+    var quiet = data.error < quiet_level;
+    if v.rest_smoothing >= 0.0 {
+        quiet = data.settled_error < quiet_level && data.error < v.error_target;
+    }
+    if !quiet {
         return vec2<u32>(rays, 1u);
     }
     let next = min(period * 2u, v.max_rest_frames);

@@ -36,3 +36,12 @@ fn smape_pairs(@builtin(global_invocation_id) id: vec3<u32>) {
     let b = selftest_in[2u * id.x + 1u];
     selftest_out[id.x] = vec4<f32>(ddgi_smape_ycocg(a.rgb, b.rgb, a.w), 0.0, 0.0, 0.0);
 }
+
+// selftest_in[i].xy packed as bfloat16 and unpacked, into selftest_out[i].xy.
+@compute @workgroup_size(64)
+fn bf16_round_trip(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= arrayLength(&selftest_out) {
+        return;
+    }
+    selftest_out[id.x] = vec4<f32>(ddgi_unpack_bf16(ddgi_pack_bf16(selftest_in[id.x].xy)), 0.0, 0.0);
+}

@@ -11,7 +11,7 @@ const DDGI_GROUP: u32 = 64u;
 var<workgroup> wg_direction: array<vec3<f32>, 64>;
 var<workgroup> wg_value: array<vec4<f32>, 64>;
 var<workgroup> wg_probe: DdgiProbeData;
-var<workgroup> wg_error: array<vec2<f32>, 64>;
+var<workgroup> wg_error: array<vec3<f32>, 64>;
 
 // The probe of a workgroup: the per-probe passes are dispatched indirectly, one workgroup for each
 // probe with rays this frame (listed by the budget pass; two-dimensional beyond 65,535). Past the
@@ -78,8 +78,11 @@ fn ddgi_update_irradiance(probe: u32, data: DdgiProbeData, local: u32) {
     let m = data.ray_count;
     let h = ddgi_hysteresis(data);
     let fresh = (state & DDGI_PROBE_FRESH) != 0u;
-    // (Σ SMAPE, texels measured) of this thread's texels.
-    var error = vec2<f32>(0.0);
+    // (Σ SMAPE, texels measured, Σ settled SMAPE) of this thread's texels.
+    var error = vec3<f32>(0.0);
+    // The slow average's start correction (its first values are shrunk towards 0 by s^updates).
+    let slow_s = clamp(ddgi_volume.rest_smoothing, 0.0, 0.999);
+    let slow_correction = 1.0 / max(1.0 - pow(slow_s, f32(data.updates + 1u)), 1e-3);
     for (var first = 0u; first < n * n; first += DDGI_GROUP) {
         let texel = first + local;
         let valid = texel < n * n;
@@ -97,8 +100,13 @@ fn ddgi_update_irradiance(probe: u32, data: DdgiProbeData, local: u32) {
         }
         if valid {
             let slot = probe * n * n + texel;
-            let old = ddgi_irradiance_history[slot].irradiance.rgb;
+            let history = ddgi_irradiance_history[slot];
+            let old = history.irradiance;
             var change = vec3<f32>(0.0);
+            var slow = vec3<f32>(0.0);
+            if !fresh {
+                slow = vec3<f32>(ddgi_unpack_bf16(history.settle_rg), ddgi_unpack_bf16(history.settle_b).x);
+            }
             var result = old;
             // A texel no ray reached this frame keeps its value.
             if sum.w > 1e-6 {
@@ -109,8 +117,12 @@ fn ddgi_update_irradiance(probe: u32, data: DdgiProbeData, local: u32) {
                     // What this frame's estimate asks of the map, smoothed over frames so that
                     // noise averages out and a lasting change stands out.
                     let smoothing = clamp(ddgi_volume.error_smoothing, 0.0, 1.0);
-                    change = mix(sample - old, ddgi_irradiance_history[slot].change.rgb, smoothing);
-                    error += vec2<f32>(ddgi_smape_ycocg(old + change, old, ddgi_volume.error_floor), 1.0);
+                    change = mix(sample - old, history.change, smoothing);
+                    // The same, slower: noise averages out further, a map still converging keeps
+                    // its full measure.
+                    slow = mix(sample - old, slow, slow_s);
+                    let settled = ddgi_smape_ycocg(old + slow * slow_correction, old, ddgi_volume.error_floor);
+                    error += vec3<f32>(ddgi_smape_ycocg(old + change, old, ddgi_volume.error_floor), 1.0, settled);
                     let threshold = ddgi_volume.firefly_threshold;
                     if threshold > 0.0 && luminance(old) > 0.0 && luminance(sample) > (1.0 + threshold) * luminance(old) {
                         sample = old + (sample - old) * 0.25;
@@ -119,7 +131,13 @@ fn ddgi_update_irradiance(probe: u32, data: DdgiProbeData, local: u32) {
                 }
             }
             let finite_change = clamp(select(vec3<f32>(0.0), change, change == change), vec3<f32>(-DDGI_MAX_IRRADIANCE), vec3<f32>(DDGI_MAX_IRRADIANCE));
-            ddgi_irradiance_history[slot] = DdgiTexel(vec4<f32>(min(sanitize_radiance(result), vec3<f32>(DDGI_MAX_IRRADIANCE)), 1.0), vec4<f32>(finite_change, 0.0));
+            // bfloat16: an error measure needs no more, and the texel keeps its 32 bytes.
+            ddgi_irradiance_history[slot] = DdgiTexel(
+                min(sanitize_radiance(result), vec3<f32>(DDGI_MAX_IRRADIANCE)),
+                ddgi_pack_bf16(slow.rg),
+                finite_change,
+                ddgi_pack_bf16(vec2<f32>(slow.b, 0.0)),
+            );
         }
     }
     // The probe's temporal error: the mean over the texels that got rays. A fresh probe starts at
@@ -135,10 +153,14 @@ fn ddgi_update_irradiance(probe: u32, data: DdgiProbeData, local: u32) {
     if local == 0u {
         let total = wg_error[0];
         var e = ddgi_volume.error_target;
+        var settled = ddgi_volume.error_target;
         if !fresh {
             e = select(data.error, total.x / total.y, total.y > 0.0);
+            settled = select(data.settled_error, total.z / total.y, total.y > 0.0);
         }
         ddgi_probes[probe].error = select(0.0, e, e == e);
+        ddgi_probes[probe].settled_error = select(0.0, settled, settled == settled);
+        ddgi_probes[probe].updates = select(min(data.updates + 1u, 0xffffu), 0u, fresh);
     }
 }
 
@@ -238,7 +260,7 @@ fn ddgi_store_tile(probe: u32, local: u32, irradiance: bool) {
         let source = ddgi_border_source(texel, n) - vec2<u32>(1u);
         let slot = probe * n * n + source.y * n + source.x;
         if irradiance {
-            let value = ddgi_encode_irradiance(ddgi_irradiance_history[slot].irradiance.rgb);
+            let value = ddgi_encode_irradiance(ddgi_irradiance_history[slot].irradiance);
             textureStore(ddgi_irradiance_out, corner + texel, vec4<f32>(value, 1.0));
         } else {
             textureStore(ddgi_distance_out, corner + texel, vec4<f32>(ddgi_distance_history[slot], 0.0, 1.0));

@@ -77,6 +77,10 @@ enum Command {
         /// and its neighbours are dark and switched off (DdgiAdaptive::dark_fraction).
         #[arg(long)]
         dark_fraction: Option<f32>,
+        /// Adaptive configuration: the weight of the old value in the slow average that decides
+        /// resting (DdgiAdaptive::rest_smoothing).
+        #[arg(long)]
+        rest_smoothing: Option<f32>,
         /// Also DDGI's experiments: quality for probe densities 8×4×8, 16×8×16, 32×16×32 × irradiance
         /// maps of 4, 8, 16 texels, and the ablation of the visibility weights (none → back-face →
         /// Chebyshev → normal bias).
@@ -606,6 +610,7 @@ fn main() -> ExitCode {
             rest_error,
             hysteresis_exponent,
             dark_fraction,
+            rest_smoothing,
             experiments,
             out,
             cache,
@@ -619,6 +624,7 @@ fn main() -> ExitCode {
                 rest_error: rest_error.unwrap_or(defaults.rest_error),
                 hysteresis_exponent: hysteresis_exponent.unwrap_or(defaults.hysteresis_exponent),
                 dark_fraction: dark_fraction.unwrap_or(defaults.dark_fraction),
+                rest_smoothing: rest_smoothing.or(defaults.rest_smoothing),
                 ..defaults
             };
             let options = eval::EvalOptions {

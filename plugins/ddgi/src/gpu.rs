@@ -43,7 +43,7 @@ pub struct DdgiVolumeGpu {
     pub max_rest_frames: u32,
     pub rest_error: f32,
     pub hysteresis_exponent: f32,
-    pub _pad_rest: u32,
+    pub rest_smoothing: f32,
 }
 
 #[repr(C)]
@@ -63,6 +63,11 @@ pub struct DdgiProbeData {
     pub empty_rays: u32,
     /// Resting: bits 0–15 the rest period in frames, bits 16–31 the frames left to rest.
     pub rest: u32,
+    /// The error that decides resting (luma only, slower smoothing).
+    pub settled_error: f32,
+    /// Irradiance updates since the probe was last fresh.
+    pub updates: u32,
+    pub _pad: [u32; 2],
 }
 
 impl DdgiProbeData {
@@ -78,6 +83,9 @@ impl DdgiProbeData {
         pinned_state: 0,
         empty_rays: 0,
         rest: 0,
+        settled_error: 0.0,
+        updates: 0,
+        _pad: [0; 2],
     };
 }
 
@@ -221,15 +229,28 @@ impl DdgiVolumeGpu {
             max_rest_frames: if a.enabled { a.max_rest_frames.min(0xffff) } else { 0 },
             rest_error: a.rest_error,
             hysteresis_exponent: a.hysteresis_exponent,
-            _pad_rest: 0,
+            rest_smoothing: a.rest_smoothing.unwrap_or(-1.0),
         }
     }
+}
+
+/// One texel of the full-precision irradiance maps (WGSL `DdgiTexel`): the irradiance, the fast
+/// moving average of the change each frame's estimate asks (the error) and, as bfloat16, the slow
+/// one (the settled error).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct DdgiTexel {
+    pub irradiance: [f32; 3],
+    pub settle_rg: u32,
+    pub change: [f32; 3],
+    pub settle_b: u32,
 }
 
 /// (WGSL struct name, size of the Rust mirror, a shader file that declares it).
 pub const GPU_STRUCTS: &[(&str, usize, &str)] = &[
     ("DdgiVolumeGpu", size_of::<DdgiVolumeGpu>(), "ddgi.inc.wgsl"),
     ("DdgiProbeData", size_of::<DdgiProbeData>(), "ddgi.inc.wgsl"),
+    ("DdgiTexel", size_of::<DdgiTexel>(), "ddgi.inc.wgsl"),
     ("DdgiRay", size_of::<DdgiRay>(), "ddgi.inc.wgsl"),
     ("DdgiCounters", size_of::<DdgiCounters>(), "ddgi.inc.wgsl"),
     ("DdgiBlock", size_of::<DdgiBlock>(), "ddgi.inc.wgsl"),

@@ -17,8 +17,8 @@ use engine::wgpu;
 use glam::{Mat3, Quat, Vec3};
 
 use crate::gpu::{
-    DdgiBlock, DdgiCounters, DdgiGatherParams, DdgiProbeData, DdgiProbeViewParams, DdgiVolumeGpu, NO_PIN, PIN_ACTIVE, PIN_INACTIVE,
-    PROBE_INACTIVE,
+    DdgiBlock, DdgiCounters, DdgiGatherParams, DdgiProbeData, DdgiProbeViewParams, DdgiTexel, DdgiVolumeGpu, NO_PIN, PIN_ACTIVE,
+    PIN_INACTIVE, PROBE_INACTIVE,
 };
 use crate::volume::{DdgiLayout, DdgiLimits, DdgiProbe, DdgiProbePin, DdgiProbeState, DdgiVolume};
 
@@ -307,7 +307,11 @@ impl VolumeGpu {
             lit: buffer("ddgi_lit", u64::from(layout.probe_count) * 4, B::STORAGE),
             rays: buffer("ddgi_rays", rays, B::STORAGE | B::COPY_SRC),
             radiance: buffer("ddgi_radiance", rays, B::STORAGE | B::COPY_SRC),
-            irradiance_history: buffer("ddgi_irradiance_history", texels(layout.irradiance_texels) * 32, B::STORAGE),
+            irradiance_history: buffer(
+                "ddgi_irradiance_history",
+                texels(layout.irradiance_texels) * size_of::<DdgiTexel>() as u64,
+                B::STORAGE,
+            ),
             distance_history: buffer("ddgi_distance_history", texels(layout.distance_texels) * 8, B::STORAGE),
             irradiance,
             distance,

@@ -500,8 +500,8 @@ fn probe_grids_beyond_the_adapters_buffers_and_invalid_settings_are_refused_by_n
     let Some(gpu) = gpu("grids_beyond_limits") else { return };
     let limits = ddgi::volume::DdgiLimits::of(&gpu.device);
     let bounds = (Vec3::ZERO, Vec3::ONE);
-    // 4,194,304 probes of one ray and one-texel maps: within MAX_PROBES, but 48 bytes of state each
-    // is 201 MB, over lavapipe's 128 MiB per storage buffer (taken from the adapter here).
+    // 4,194,304 probes of one ray and one-texel maps: within MAX_PROBES, but 64 bytes of state each
+    // is 268 MB, over lavapipe's 128 MiB per storage buffer (taken from the adapter here).
     let huge = DdgiVolume {
         probe_counts: UVec3::new(256, 128, 128),
         rays_per_probe: 1,
@@ -509,7 +509,7 @@ fn probe_grids_beyond_the_adapters_buffers_and_invalid_settings_are_refused_by_n
         distance_texels: 1,
         ..Default::default()
     };
-    let needed = 256u64 * 128 * 128 * 48;
+    let needed = 256u64 * 128 * 128 * size_of::<ddgi::gpu::DdgiProbeData>() as u64;
     match ddgi::DdgiLayout::new(&huge, bounds, limits) {
         Err(e) if needed > limits.max_storage_buffer_bytes => {
             let message = e.to_string();
