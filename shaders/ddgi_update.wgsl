@@ -80,7 +80,9 @@ fn ddgi_update_irradiance(probe: u32, data: DdgiProbeData, local: u32) {
     let fresh = (state & DDGI_PROBE_FRESH) != 0u;
     // (Σ SMAPE, texels measured, Σ settled SMAPE) of this thread's texels.
     var error = vec3<f32>(0.0);
-    // The slow average's start correction (its first values are shrunk towards 0 by s^updates).
+    // The slow average (opt-in: rest_smoothing ≥ 0; off, its words pass through untouched) and its
+    // start correction (its first values are shrunk towards 0 by s^updates).
+    let settling = ddgi_volume.rest_smoothing >= 0.0;
     let slow_s = clamp(ddgi_volume.rest_smoothing, 0.0, 0.999);
     let slow_correction = 1.0 / max(1.0 - pow(slow_s, f32(data.updates + 1u)), 1e-3);
     for (var first = 0u; first < n * n; first += DDGI_GROUP) {
@@ -103,10 +105,10 @@ fn ddgi_update_irradiance(probe: u32, data: DdgiProbeData, local: u32) {
             let history = ddgi_irradiance_history[slot];
             let old = history.irradiance;
             var change = vec3<f32>(0.0);
-            var slow = vec3<f32>(0.0);
-            if !fresh {
-                slow = vec3<f32>(ddgi_unpack_bf16(history.settle_rg), ddgi_unpack_bf16(history.settle_b).x);
-            }
+            // The slow average's words (bfloat16: an error measure needs no more, and the texel
+            // keeps its 32 bytes), zeroed on a fresh probe; rewritten only when it is on.
+            var settle_rg = select(history.settle_rg, 0u, fresh);
+            var settle_b = select(history.settle_b, 0u, fresh);
             var result = old;
             // A texel no ray reached this frame keeps its value.
             if sum.w > 1e-6 {
@@ -120,8 +122,14 @@ fn ddgi_update_irradiance(probe: u32, data: DdgiProbeData, local: u32) {
                     change = mix(sample - old, history.change, smoothing);
                     // The same, slower: noise averages out further, a map still converging keeps
                     // its full measure.
-                    slow = mix(sample - old, slow, slow_s);
-                    let settled = ddgi_smape_ycocg(old + slow * slow_correction, old, ddgi_volume.error_floor);
+                    var settled = 0.0;
+                    if settling {
+                        let previous = vec3<f32>(ddgi_unpack_bf16(settle_rg), ddgi_unpack_bf16(settle_b).x);
+                        let slow = mix(sample - old, previous, slow_s);
+                        settled = ddgi_smape_ycocg(old + slow * slow_correction, old, ddgi_volume.error_floor);
+                        settle_rg = ddgi_pack_bf16(slow.rg);
+                        settle_b = ddgi_pack_bf16(vec2<f32>(slow.b, 0.0));
+                    }
                     error += vec3<f32>(ddgi_smape_ycocg(old + change, old, ddgi_volume.error_floor), 1.0, settled);
                     let threshold = ddgi_volume.firefly_threshold;
                     if threshold > 0.0 && luminance(old) > 0.0 && luminance(sample) > (1.0 + threshold) * luminance(old) {
@@ -131,13 +139,7 @@ fn ddgi_update_irradiance(probe: u32, data: DdgiProbeData, local: u32) {
                 }
             }
             let finite_change = clamp(select(vec3<f32>(0.0), change, change == change), vec3<f32>(-DDGI_MAX_IRRADIANCE), vec3<f32>(DDGI_MAX_IRRADIANCE));
-            // bfloat16: an error measure needs no more, and the texel keeps its 32 bytes.
-            ddgi_irradiance_history[slot] = DdgiTexel(
-                min(sanitize_radiance(result), vec3<f32>(DDGI_MAX_IRRADIANCE)),
-                ddgi_pack_bf16(slow.rg),
-                finite_change,
-                ddgi_pack_bf16(vec2<f32>(slow.b, 0.0)),
-            );
+            ddgi_irradiance_history[slot] = DdgiTexel(min(sanitize_radiance(result), vec3<f32>(DDGI_MAX_IRRADIANCE)), settle_rg, finite_change, settle_b);
         }
     }
     // The probe's temporal error: the mean over the texels that got rays. A fresh probe starts at

@@ -63,7 +63,7 @@ pub struct DdgiProbeData {
     pub empty_rays: u32,
     /// Resting: bits 0–15 the rest period in frames, bits 16–31 the frames left to rest.
     pub rest: u32,
-    /// The error that decides resting (luma only, slower smoothing).
+    /// The error that decides resting with `rest_smoothing` (the same SMAPE, slower smoothing).
     pub settled_error: f32,
     /// Irradiance updates since the probe was last fresh.
     pub updates: u32,

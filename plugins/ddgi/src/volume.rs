@@ -108,13 +108,14 @@ pub struct DdgiAdaptive {
     /// map has converged, where its noise alone keeps it awake. The average is corrected for its
     /// start (as Adam's moments are), so a fresh probe does not look settled. The price: the slow
     /// average needs about three times as many updates as the fast one to register a small lasting
-    /// change, and a resting probe updates only once every few frames. Measured (BENCHMARKS.md, H200, 0.97 against `None`): 1.3–1.9× fewer
-    /// rays again in the static phases of five of six scenes, up to half the flicker, static error
-    /// within 5% of the fixed budget's in all six (the demo level 3.6× fewer rays than the fixed
-    /// budget at 4.3% less error, where `None` gives 1.96× at 3.4% more); but after the cathedral's
-    /// sun turns, 392 frames to settle against 176 (fixed budget: 232). `None` (the default): the
-    /// error itself decides. No GPU cost either way (a few instructions per texel, stored as
-    /// bfloat16 in the texel's spare words).
+    /// change, and a resting probe updates only once every few frames. Measured (BENCHMARKS.md,
+    /// H200, 0.97 against `None`): 1.3–1.9× fewer rays again in the static phases of five of six
+    /// scenes, up to half the flicker, static error within 5% of the fixed budget's in all six (the
+    /// demo level 3.6× fewer rays than the fixed budget at 4.3% less error, where `None` gives
+    /// 1.96× at 3.4% more); but after the cathedral's sun turns, 392 frames to settle against 176
+    /// (fixed budget: 232). `None` (the default): the error itself decides, and none of this runs.
+    /// Cost when on: a few instructions per texel in the irradiance update (not timed apart), no
+    /// memory (bfloat16 in the texel's spare words).
     pub rest_smoothing: Option<f32>,
 }
 
@@ -468,6 +469,8 @@ impl DdgiLayout {
             });
         }
         let probes = u64::from(probe_count);
+        // The sizes the labels below name.
+        const _: () = assert!(size_of::<crate::gpu::DdgiProbeData>() == 64 && size_of::<crate::gpu::DdgiTexel>() == 32);
         let buffers = [
             ("probe buffer (probes × 64 bytes)", probes * size_of::<crate::gpu::DdgiProbeData>() as u64),
             ("per-ray buffer (probes × rays_per_probe × 16 bytes)", probes * u64::from(volume.rays_per_probe) * BYTES_PER_RAY),
