@@ -341,6 +341,57 @@ impl<'a> PassContext<'a> {
     }
 }
 
+/// What a pass binds to one WGSL global, by name ([`PassContext::bind_group`]): a resource the pass
+/// declared (through the access [`PassBuilder::read`] or [`PassBuilder::write`] returned) or a
+/// sampler. There is no way to name an undeclared graph resource here, so the graph's culling and
+/// ordering see every resource a pass binds.
+#[derive(Clone)]
+pub enum Bind {
+    Buffer(usize),
+    Texture(usize),
+    Sampler(wgpu::Sampler),
+}
+
+impl Bind {
+    pub fn buffer(access: impl Access<Buffer>) -> Self {
+        Bind::Buffer(access.id())
+    }
+
+    pub fn texture(access: impl Access<Texture>) -> Self {
+        Bind::Texture(access.id())
+    }
+}
+
+impl<'a> PassContext<'a> {
+    /// Builds bind group `group` of `program` from named bindings ([`Bind`]); like
+    /// [`crate::shader::Program::bind_group`], names the pipeline does not use are ignored.
+    pub fn bind_group<P: crate::shader::AutoLayout>(
+        &self,
+        program: &crate::shader::Program<P>,
+        group: u32,
+        entries: &[(&str, Bind)],
+    ) -> wgpu::BindGroup {
+        let resources: Vec<(&str, wgpu::BindingResource<'_>)> = entries
+            .iter()
+            .map(|(name, bind)| {
+                let resource = match bind {
+                    Bind::Buffer(id) => match &self.resources[*id] {
+                        Resolved::Buffer(b) => b.as_entire_binding(),
+                        Resolved::Texture(..) => unreachable!("buffer accesses only name buffers"),
+                    },
+                    Bind::Texture(id) => match &self.resources[*id] {
+                        Resolved::Texture(_, v) => wgpu::BindingResource::TextureView(v),
+                        Resolved::Buffer(_) => unreachable!("texture accesses only name textures"),
+                    },
+                    Bind::Sampler(s) => wgpu::BindingResource::Sampler(s),
+                };
+                (*name, resource)
+            })
+            .collect();
+        program.bind_group(&self.gpu.device, group, &resources)
+    }
+}
+
 /// Transient textures and buffers kept between frames for reuse.
 #[derive(Resource, Default)]
 pub struct TransientPool {

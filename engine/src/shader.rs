@@ -1,4 +1,11 @@
-//! WGSL shaders: the embedded library, `#include` resolution, naga validation and binding reflection.
+//! WGSL shaders: a registry of modules that any crate adds to, `#include` resolution with a map
+//! back to each module's own lines, naga validation and binding reflection.
+//!
+//! Each crate owns its WGSL, in a folder beside its sources, and registers it with [`register`]
+//! (the engine's own modules, [`ENGINE_SHADERS`], are always there). A module includes another by
+//! name — `#include "ray_tracing.inc.wgsl"` — whichever crate registered it; modules named
+//! `*.inc.wgsl` are libraries (no entry point). A naga error is reported in the included module's
+//! own file and line, not in the expanded source.
 //!
 //! The WGSL files are the one place where bindings are declared. Pipelines use wgpu's automatic
 //! layouts, and Rust code fills a bind group by the *names* of the WGSL globals
@@ -6,67 +13,161 @@
 
 use std::borrow::Cow;
 use std::collections::BTreeMap;
+use std::path::Path;
+use std::sync::{LazyLock, RwLock};
 
-/// Every WGSL file of `shaders/`, embedded. A test checks that this list matches the folder.
-pub const SHADER_FILES: &[(&str, &str)] = &[
-    ("common.inc.wgsl", include_str!("../../shaders/common.inc.wgsl")),
-    ("scene.inc.wgsl", include_str!("../../shaders/scene.inc.wgsl")),
-    ("ray_tracing.inc.wgsl", include_str!("../../shaders/ray_tracing.inc.wgsl")),
-    ("trace_rays.wgsl", include_str!("../../shaders/trace_rays.wgsl")),
-    ("bench_trace.wgsl", include_str!("../../shaders/bench_trace.wgsl")),
-    ("pathtrace.wgsl", include_str!("../../shaders/pathtrace.wgsl")),
-    ("gbuffer.wgsl", include_str!("../../shaders/gbuffer.wgsl")),
-    ("direct_lighting.wgsl", include_str!("../../shaders/direct_lighting.wgsl")),
-    ("tonemap.wgsl", include_str!("../../shaders/tonemap.wgsl")),
-    ("blit.wgsl", include_str!("../../shaders/blit.wgsl")),
-    ("ddgi.inc.wgsl", include_str!("../../shaders/ddgi.inc.wgsl")),
-    ("ddgi_rays.wgsl", include_str!("../../shaders/ddgi_rays.wgsl")),
-    ("ddgi_update.wgsl", include_str!("../../shaders/ddgi_update.wgsl")),
-    ("ddgi_gather.wgsl", include_str!("../../shaders/ddgi_gather.wgsl")),
-    ("ddgi_probes.wgsl", include_str!("../../shaders/ddgi_probes.wgsl")),
-    ("ddgi_selftest.wgsl", include_str!("../../shaders/ddgi_selftest.wgsl")),
+/// One WGSL module: the name `#include` and the pipeline constructors use, and its source.
+pub type ShaderModule = (&'static str, &'static str);
+
+/// The engine's own WGSL (`engine/shaders/`): scene, ray-tracing core, G-buffer, direct light,
+/// tonemap, blit, common. A test checks that this list matches the folder.
+pub const ENGINE_SHADERS: &[ShaderModule] = &[
+    ("common.inc.wgsl", include_str!("../shaders/common.inc.wgsl")),
+    ("scene.inc.wgsl", include_str!("../shaders/scene.inc.wgsl")),
+    ("ray_tracing.inc.wgsl", include_str!("../shaders/ray_tracing.inc.wgsl")),
+    ("trace_rays.wgsl", include_str!("../shaders/trace_rays.wgsl")),
+    ("gbuffer.wgsl", include_str!("../shaders/gbuffer.wgsl")),
+    ("direct_lighting.wgsl", include_str!("../shaders/direct_lighting.wgsl")),
+    ("tonemap.wgsl", include_str!("../shaders/tonemap.wgsl")),
+    ("blit.wgsl", include_str!("../shaders/blit.wgsl")),
 ];
+
+/// Every registered module by name: the engine's, then whatever crates added.
+static REGISTRY: LazyLock<RwLock<BTreeMap<&'static str, &'static str>>> =
+    LazyLock::new(|| RwLock::new(ENGINE_SHADERS.iter().copied().collect()));
 
 /// A shader that failed to load; the message carries naga's report with file and line.
 #[derive(Debug, thiserror::Error)]
 pub enum ShaderError {
-    #[error("shader '{0}' is not in the shader library")]
+    #[error("shader '{0}' is not registered (is the crate that owns it registered with engine::shader::register?)")]
     Missing(String),
     #[error("{file}: include of '{include}' cannot be resolved")]
     BadInclude { file: String, include: String },
+    #[error("shader module '{0}' is registered twice with different sources (module names are global: prefix them with the crate)")]
+    Conflict(String),
     #[error("{file}: WGSL parse error:\n{report}")]
     Parse { file: String, report: String },
     #[error("{file}: WGSL validation error:\n{report}")]
     Validation { file: String, report: String },
 }
 
-/// The embedded source of one file.
-pub fn source(name: &str) -> Result<&'static str, ShaderError> {
-    SHADER_FILES.iter().find(|(n, _)| *n == name).map(|(_, s)| *s).ok_or_else(|| ShaderError::Missing(name.into()))
+/// Adds `modules` to the registry, so that pipelines and `#include` find them. Registering the
+/// same module again is a no-op; a different source under a taken name is an error.
+pub fn register(modules: &[ShaderModule]) -> Result<(), ShaderError> {
+    let mut registry = REGISTRY.write().unwrap_or_else(|e| e.into_inner());
+    for &(name, source) in modules {
+        match registry.get(name) {
+            Some(&old) if old != source => return Err(ShaderError::Conflict(name.into())),
+            Some(_) => {}
+            None => {
+                registry.insert(name, source);
+            }
+        }
+    }
+    Ok(())
 }
 
-/// The source with every `#include "file"` line replaced by that file's text (each file at most once).
-pub fn preprocess(name: &str) -> Result<String, ShaderError> {
-    fn expand(name: &str, out: &mut String, seen: &mut Vec<String>) -> Result<(), ShaderError> {
+/// Registers a module whose source a crate generates at run time (e.g. WGSL constants written from
+/// their Rust definitions, so that each has one home). Same rules as [`register`].
+pub fn register_generated(name: &'static str, source: String) -> Result<(), ShaderError> {
+    if let Some(old) = REGISTRY.read().unwrap_or_else(|e| e.into_inner()).get(name) {
+        return if *old == source { Ok(()) } else { Err(ShaderError::Conflict(name.into())) };
+    }
+    // Leaked once per name: the registry lives as long as the process.
+    register(&[(name, Box::leak(source.into_boxed_str()))])
+}
+
+/// The names of every registered module.
+pub fn registered() -> Vec<&'static str> {
+    REGISTRY.read().unwrap_or_else(|e| e.into_inner()).keys().copied().collect()
+}
+
+/// The source of a registered module.
+pub fn source(name: &str) -> Result<&'static str, ShaderError> {
+    REGISTRY.read().unwrap_or_else(|e| e.into_inner()).get(name).copied().ok_or_else(|| ShaderError::Missing(name.into()))
+}
+
+/// For a crate's test: `modules` lists exactly the `.wgsl` files of `dir`, with their current text.
+pub fn check_shader_folder(dir: &Path, modules: &[ShaderModule]) -> Result<(), String> {
+    let on_disk: std::collections::BTreeSet<String> = std::fs::read_dir(dir)
+        .map_err(|e| format!("{}: {e}", dir.display()))?
+        .filter_map(|e| e.ok().map(|e| e.file_name().to_string_lossy().into_owned()))
+        .filter(|n| n.ends_with(".wgsl"))
+        .collect();
+    let listed: std::collections::BTreeSet<String> = modules.iter().map(|(n, _)| n.to_string()).collect();
+    if on_disk != listed {
+        return Err(format!("{}: the files {on_disk:?} differ from the registered list {listed:?}", dir.display()));
+    }
+    for (name, source) in modules {
+        let disk = std::fs::read_to_string(dir.join(name)).map_err(|e| format!("{name}: {e}"))?;
+        if disk != *source {
+            return Err(format!("{name}: the embedded copy is stale"));
+        }
+    }
+    Ok(())
+}
+
+/// A module with its includes expanded, and where each of its lines came from.
+pub struct Preprocessed {
+    pub source: String,
+    /// For each line of `source`: the module it came from and its line there (1-based).
+    origins: Vec<(&'static str, u32)>,
+}
+
+impl Preprocessed {
+    /// The module, line and column (1-based) of byte `offset` of the expanded source.
+    pub fn locate(&self, offset: usize) -> (&'static str, u32, u32) {
+        let offset = offset.min(self.source.len());
+        let prefix = &self.source[..offset];
+        let line = prefix.matches('\n').count();
+        let column = offset - prefix.rfind('\n').map_or(0, |p| p + 1) + 1;
+        let (module, original) = self.origins.get(line).copied().unwrap_or(("?", 0));
+        (module, original, column as u32)
+    }
+
+    /// `module:line:column: message` and the source line, for each labelled span of a naga error.
+    fn report(&self, message: &str, labels: &[(naga::Span, String)]) -> String {
+        let mut out = String::new();
+        for (i, (span, label)) in labels.iter().enumerate() {
+            let Some(range) = span.to_range() else { continue };
+            let (module, line, column) = self.locate(range.start);
+            let text = source(module).ok().and_then(|s| s.lines().nth(line.saturating_sub(1) as usize)).unwrap_or("");
+            let head = if i == 0 { message } else { "note" };
+            out.push_str(&format!("{module}:{line}:{column}: {head}: {label}\n    {}\n", text.trim_end()));
+        }
+        if out.is_empty() {
+            out = format!("{message}\n");
+        }
+        out
+    }
+}
+
+/// The source with every `#include "file"` line replaced by that file's text (each file at most
+/// once), with a map from its lines back to each module's own.
+pub fn preprocess(name: &str) -> Result<Preprocessed, ShaderError> {
+    fn expand(name: &str, out: &mut Preprocessed, seen: &mut Vec<String>) -> Result<(), ShaderError> {
         if seen.iter().any(|s| s == name) {
             return Ok(());
         }
         seen.push(name.to_string());
-        for line in source(name)?.lines() {
+        let text = source(name)?;
+        let module = REGISTRY.read().unwrap_or_else(|e| e.into_inner()).get_key_value(name).map(|(k, _)| *k).unwrap_or("?");
+        for (number, line) in text.lines().enumerate() {
             if let Some(rest) = line.trim().strip_prefix("#include") {
                 let include = rest.trim().trim_matches('"');
                 expand(include, out, seen).map_err(|e| match e {
-                    ShaderError::Missing(_) => ShaderError::BadInclude { file: name.into(), include: include.into() },
+                    ShaderError::Missing(_) => ShaderError::BadInclude { file: format!("{name}:{}", number + 1), include: include.into() },
                     other => other,
                 })?;
             } else {
-                out.push_str(line);
-                out.push('\n');
+                out.source.push_str(line);
+                out.source.push('\n');
+                out.origins.push((module, number as u32 + 1));
             }
         }
         Ok(())
     }
-    let mut out = String::new();
+    let mut out = Preprocessed { source: String::new(), origins: Vec::new() };
     expand(name, &mut out, &mut Vec::new())?;
     Ok(out)
 }
@@ -79,15 +180,31 @@ pub struct ParsedShader {
     pub info: naga::valid::ModuleInfo,
 }
 
-/// Parses and validates a file of the library with naga (no GPU needed).
+/// Parses and validates a registered module with naga (no GPU needed). Errors name the module and
+/// line where the fault is, included modules too.
 pub fn parse(name: &str) -> Result<ParsedShader, ShaderError> {
-    let source = preprocess(name)?;
-    let module = naga::front::wgsl::parse_str(&source)
-        .map_err(|e| ShaderError::Parse { file: name.into(), report: e.emit_to_string_with_path(&source, name) })?;
+    let expanded = preprocess(name)?;
+    let module = naga::front::wgsl::parse_str(&expanded.source).map_err(|e| {
+        let labels: Vec<(naga::Span, String)> = e.labels().map(|(s, l)| (s, l.to_string())).collect();
+        let mut report = expanded.report(e.message(), &labels);
+        for note in e.notes() {
+            report.push_str(&format!("note: {note}\n"));
+        }
+        ShaderError::Parse { file: name.into(), report }
+    })?;
     let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::default())
         .validate(&module)
-        .map_err(|e| ShaderError::Validation { file: name.into(), report: e.emit_to_string_with_path(&source, name) })?;
-    Ok(ParsedShader { name: name.into(), source, module, info })
+        .map_err(|e| {
+            let mut message = e.as_inner().to_string();
+            let mut cause = std::error::Error::source(e.as_inner());
+            while let Some(c) = cause {
+                message.push_str(&format!(": {c}"));
+                cause = c.source();
+            }
+            let labels: Vec<(naga::Span, String)> = e.spans().cloned().collect();
+            ShaderError::Validation { file: name.into(), report: expanded.report(&message, &labels) }
+        })?;
+    Ok(ParsedShader { name: name.into(), source: expanded.source, module, info })
 }
 
 impl ParsedShader {
@@ -102,20 +219,21 @@ impl ParsedShader {
         }
     }
 
-    /// Size in bytes of the WGSL struct named `name` as naga lays it out (for host-side mirror checks).
-    pub fn struct_size(&self, name: &str) -> Option<u32> {
-        let mut layouter = naga::proc::Layouter::default();
-        layouter.update(self.module.to_ctx()).ok()?;
-        self.module
-            .types
-            .iter()
-            .find(|(_, ty)| ty.name.as_deref() == Some(name) && matches!(ty.inner, naga::TypeInner::Struct { .. }))
-            .map(|(h, _)| layouter[h].size)
+    /// The members of the WGSL struct `name` with their byte offsets as naga lays them out, and the
+    /// struct's size (for host-side mirror checks: [`check_struct_layout`]).
+    pub fn struct_layout(&self, name: &str) -> Option<(Vec<(String, u32)>, u32)> {
+        self.module.types.iter().find_map(|(_, ty)| match &ty.inner {
+            naga::TypeInner::Struct { members, span } if ty.name.as_deref() == Some(name) => {
+                Some((members.iter().map(|m| (m.name.clone().unwrap_or_default(), m.offset)).collect(), *span))
+            }
+            _ => None,
+        })
     }
 
     /// The resource bindings that the given entry points use: `group → (name → binding)`.
     pub fn used_bindings(&self, entry_points: &[&str]) -> BindingMap {
         let mut groups: BTreeMap<u32, BTreeMap<String, u32>> = BTreeMap::new();
+        let mut writes = std::collections::BTreeSet::new();
         for (index, ep) in self.module.entry_points.iter().enumerate() {
             if !entry_points.contains(&ep.name.as_str()) {
                 continue;
@@ -123,12 +241,16 @@ impl ParsedShader {
             let info = self.info.get_entry_point(index);
             for (handle, var) in self.module.global_variables.iter() {
                 let (Some(binding), Some(name)) = (&var.binding, &var.name) else { continue };
-                if !info[handle].is_empty() {
+                let usage = info[handle];
+                if !usage.is_empty() {
                     groups.entry(binding.group).or_default().insert(name.clone(), binding.binding);
+                }
+                if usage.intersects(naga::valid::GlobalUse::WRITE | naga::valid::GlobalUse::ATOMIC) {
+                    writes.insert(name.clone());
                 }
             }
         }
-        BindingMap { groups }
+        BindingMap { groups, writes }
     }
 
     /// Creates the wgpu module from the preprocessed source.
@@ -140,10 +262,13 @@ impl ParsedShader {
     }
 }
 
-/// Which named globals an entry point binds, per group.
+/// Which named globals an entry point binds, per group, and which of them it writes.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct BindingMap {
     pub groups: BTreeMap<u32, BTreeMap<String, u32>>,
+    /// The bound globals the entry points write (storage buffers and textures), as naga's analysis
+    /// finds them: a render-graph pass declares these as writes, the others as reads.
+    pub writes: std::collections::BTreeSet<String>,
 }
 
 /// A pipeline with the binding names its shader declares.
@@ -260,4 +385,45 @@ pub fn render_program(
         cache: None,
     });
     Ok(Program { label: label.into(), pipeline, bindings: parsed.used_bindings(&["vs_main", "fs_main"]) })
+}
+
+/// A host mirror of a WGSL struct: its WGSL name, size and each field's offset, from
+/// [`gpu_struct_layout!`]. [`check_struct_layout`] compares it with naga's layout.
+#[derive(Clone, Debug)]
+pub struct HostStruct {
+    pub name: &'static str,
+    pub size: usize,
+    pub fields: Vec<(&'static str, usize)>,
+    /// A registered module that declares the struct.
+    pub module: &'static str,
+}
+
+/// The [`HostStruct`] of a `#[repr(C)]` type whose fields carry the WGSL member names:
+/// `gpu_struct_layout!(DdgiRay in "ddgi_common.inc.wgsl" { direction, probe })`. Padding fields the
+/// WGSL struct also declares are listed like the others.
+#[macro_export]
+macro_rules! gpu_struct_layout {
+    ($ty:ident in $module:literal { $($field:ident),* $(,)? }) => {
+        $crate::shader::HostStruct {
+            name: stringify!($ty),
+            size: ::core::mem::size_of::<$ty>(),
+            fields: vec![$((stringify!($field), ::core::mem::offset_of!($ty, $field))),*],
+            module: $module,
+        }
+    };
+}
+
+/// Checks a host mirror against naga's layout of the WGSL struct of the same name: the same
+/// members in the same order at the same offsets, and the same size.
+pub fn check_struct_layout(host: &HostStruct) -> Result<(), String> {
+    let parsed = parse(host.module).map_err(|e| e.to_string())?;
+    let (members, size) = parsed.struct_layout(host.name).ok_or_else(|| format!("{} declares no struct {}", host.module, host.name))?;
+    let wgsl: Vec<(&str, usize)> = members.iter().map(|(n, o)| (n.as_str(), *o as usize)).collect();
+    if wgsl != host.fields {
+        return Err(format!("{}: Rust fields and offsets {:?} differ from WGSL's {:?}", host.name, host.fields, wgsl));
+    }
+    if size as usize != host.size {
+        return Err(format!("{}: Rust mirror is {} bytes, WGSL layout {size}", host.name, host.size));
+    }
+    Ok(())
 }

@@ -60,6 +60,9 @@ pub fn prepared_app(gpu: &GpuContext, scene: SceneDescription) -> App {
     app
 }
 
+/// The bench's WGSL (`game_demo/shaders/`): a kernel that traces probe-like rays and nothing else.
+pub const SHADERS: &[engine::shader::ShaderModule] = &[("bench_trace.wgsl", include_str!("../shaders/bench_trace.wgsl"))];
+
 /// The bench kernel with its buffers; `count_work` builds the diagnostic variant that counts
 /// traversal steps (RT_COUNT_WORK).
 struct TraceKernel {
@@ -76,8 +79,9 @@ struct TraceKernel {
 impl TraceKernel {
     fn new(gpu: &GpuContext, app: &App, count_work: bool) -> Result<Self, String> {
         let constants: &[(&str, f64)] = if count_work { &[("RT_COUNT_WORK", 1.0)] } else { &[] };
-        let program =
-            compute_program_with_constants(&gpu.device, "bench_trace.wgsl", "main", "trace", constants).map_err(|e| e.to_string())?;
+        let program = engine::shader::register(SHADERS)
+            .and_then(|()| compute_program_with_constants(&gpu.device, "bench_trace.wgsl", "main", "trace", constants))
+            .map_err(|e| e.to_string())?;
         let scene = app.world().resource::<GpuScene>();
         let rt = app.world().resource::<RayTracingScene>();
         let max_rays = GRIDS.iter().map(|g| g[0] * g[1] * g[2]).max().unwrap_or(1) * RAYS.iter().max().unwrap_or(&1);

@@ -1,6 +1,6 @@
-//! Host mirrors of the WGSL structs in `shaders/scene.inc.wgsl`. Each is `#[repr(C)]` and `Pod`;
-//! [`GPU_STRUCTS`] lists them so that a test can compare their sizes with naga's layout of the WGSL
-//! struct of the same name.
+//! Host mirrors of the WGSL structs in `engine/shaders/scene.inc.wgsl`. Each is `#[repr(C)]` and `Pod`;
+//! [`gpu_structs`] lists them so that a test can compare each field's offset with naga's layout of
+//! the WGSL struct of the same name.
 
 use bytemuck::{Pod, Zeroable};
 
@@ -75,16 +75,22 @@ pub struct GpuLight {
     pub _pad2: u32,
 }
 
-/// (WGSL struct name, size of the Rust mirror, a shader file that declares it).
-pub const GPU_STRUCTS: &[(&str, usize, &str)] = &[
-    ("ViewUniform", size_of::<ViewUniform>(), "scene.inc.wgsl"),
-    ("GpuVertex", size_of::<GpuVertex>(), "scene.inc.wgsl"),
-    ("GpuInstance", size_of::<GpuInstance>(), "scene.inc.wgsl"),
-    ("TextureSlot", size_of::<TextureSlot>(), "scene.inc.wgsl"),
-    ("GpuMaterial", size_of::<GpuMaterial>(), "scene.inc.wgsl"),
-    ("GpuLight", size_of::<GpuLight>(), "scene.inc.wgsl"),
-    ("GpuBlas", size_of::<crate::rt::GpuBlas>(), "ray_tracing.inc.wgsl"),
-    ("TlasEntry", size_of::<crate::rt::TlasEntry>(), "ray_tracing.inc.wgsl"),
-    ("Ray", size_of::<crate::rt::cpu::GpuRay>(), "ray_tracing.inc.wgsl"),
-    ("TraceResult", size_of::<crate::rt::cpu::TraceResult>(), "trace_rays.wgsl"),
-];
+/// The host mirrors of the engine's WGSL structs, for the test that checks every field's offset
+/// against naga's layout ([`crate::shader::check_struct_layout`]).
+pub fn gpu_structs() -> Vec<crate::shader::HostStruct> {
+    use crate::gpu_struct_layout as layout;
+    use crate::rt::cpu::{GpuRay as Ray, TraceResult};
+    use crate::rt::{GpuBlas, TlasEntry};
+    vec![
+        layout!(ViewUniform in "scene.inc.wgsl" { clip_from_world, world_from_clip, camera_position, exposure, sky_radiance, light_count, size, frame, _pad }),
+        layout!(GpuVertex in "scene.inc.wgsl" { position, u, normal, v }),
+        layout!(GpuInstance in "scene.inc.wgsl" { world_from_local, local_from_world, material, mesh, _pad0, _pad1 }),
+        layout!(TextureSlot in "scene.inc.wgsl" { uv_x, uv_y, rect }),
+        layout!(GpuMaterial in "scene.inc.wgsl" { base_color, emissive, base_color_texture, emissive_texture }),
+        layout!(GpuLight in "scene.inc.wgsl" { position, kind, direction, range, radiance, spot_scale, spot_offset, _pad0, _pad1, _pad2 }),
+        layout!(GpuBlas in "ray_tracing.inc.wgsl" { node_offset, triangle_offset, node_count, triangle_count, first_index, base_vertex, _pad0, _pad1 }),
+        layout!(TlasEntry in "ray_tracing.inc.wgsl" { instance, node_offset, triangle_offset, _pad }),
+        layout!(Ray in "ray_tracing.inc.wgsl" { origin, tmin, direction, tmax }),
+        layout!(TraceResult in "trace_rays.wgsl" { t, instance, primitive, flags, barycentrics, any_hit, _pad, albedo, emissive }),
+    ]
+}

@@ -1,43 +1,32 @@
-//! Copying textures back to the CPU (headless output, tests).
+//! Copying GPU data back to the CPU: blocking reads of a texture or buffer (headless output, tests,
+//! tools) and [`ReadbackRing`], the asynchronous ring that per-frame mirrors use.
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU8, Ordering};
 
 use crate::gpu::GpuContext;
 
-/// Reads a whole 2D texture of a non-block format into tightly packed rows.
+/// Reads a whole 2D texture of a non-block format into tightly packed rows. Blocks until the GPU is idle.
 pub fn read_texture(gpu: &GpuContext, texture: &wgpu::Texture) -> Vec<u8> {
     let (width, height) = (texture.width(), texture.height());
     let texel = texture.format().block_copy_size(None).expect("a colour format");
     let row = width * texel;
     let padded = row.next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
-    let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("texture_readback"),
-        size: u64::from(padded) * u64::from(height),
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
+    let mapped = read_now(gpu, "texture_readback", u64::from(padded) * u64::from(height), |encoder, buffer| {
+        encoder.copy_texture_to_buffer(
+            texture.as_image_copy(),
+            wgpu::TexelCopyBufferInfo {
+                buffer,
+                layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(padded), rows_per_image: None },
+            },
+            wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+        );
     });
-    let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("texture_readback") });
-    encoder.copy_texture_to_buffer(
-        texture.as_image_copy(),
-        wgpu::TexelCopyBufferInfo {
-            buffer: &buffer,
-            layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(padded), rows_per_image: None },
-        },
-        wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
-    );
-    gpu.queue.submit([encoder.finish()]);
-    buffer.slice(..).map_async(wgpu::MapMode::Read, |r| {
-        if let Err(e) = r {
-            log::error!("texture readback failed: {e}");
-        }
-    });
-    gpu.wait_idle();
-    let mapped = buffer.slice(..).get_mapped_range().expect("the readback buffer was mapped");
     let mut out = Vec::with_capacity((row * height) as usize);
     for y in 0..height as usize {
         let start = y * padded as usize;
         out.extend_from_slice(&mapped[start..start + row as usize]);
     }
-    drop(mapped);
-    buffer.unmap();
     out
 }
 
@@ -49,23 +38,103 @@ pub fn read_rgba32f(gpu: &GpuContext, texture: &wgpu::Texture) -> Vec<f32> {
 
 /// Reads a whole buffer (it needs `COPY_SRC` usage). Blocks until the GPU is idle.
 pub fn read_buffer(gpu: &GpuContext, source: &wgpu::Buffer) -> Vec<u8> {
-    let size = source.size();
-    let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("buffer_readback"),
-        size,
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("buffer_readback") });
-    encoder.copy_buffer_to_buffer(source, 0, &buffer, 0, size);
-    gpu.queue.submit([encoder.finish()]);
-    buffer.slice(..).map_async(wgpu::MapMode::Read, |r| {
-        if let Err(e) = r {
-            log::error!("buffer readback failed: {e}");
-        }
-    });
+    read_now(gpu, "buffer_readback", source.size(), |encoder, buffer| encoder.copy_buffer_to_buffer(source, 0, buffer, 0, source.size()))
+}
+
+/// A one-slot [`ReadbackRing`] filled by `copy`, waited for.
+fn read_now(gpu: &GpuContext, label: &'static str, size: u64, copy: impl FnOnce(&mut wgpu::CommandEncoder, &wgpu::Buffer)) -> Vec<u8> {
+    let mut ring = ReadbackRing::new(label, 1);
+    ring.request_with(gpu, size, 0, copy);
     gpu.wait_idle();
-    let out = buffer.slice(..).get_mapped_range().expect("the readback buffer was mapped").to_vec();
-    buffer.unmap();
-    out
+    ring.poll(gpu).pop().map(|(_, bytes)| bytes).unwrap_or_else(|| {
+        log::error!("{label}: the copy could not be mapped");
+        vec![0; size as usize]
+    })
+}
+
+// ---------------------------------------------------------------------------------------------
+// Asynchronous readback: nothing waits.
+
+const SLOT_IDLE: u8 = 0;
+const SLOT_PENDING: u8 = 1;
+const SLOT_READY: u8 = 2;
+
+struct ReadbackSlot {
+    buffer: wgpu::Buffer,
+    state: Arc<AtomicU8>,
+    frame: u64,
+}
+
+/// A ring of mappable copies of a buffer, for state the CPU mirrors a few frames late (DDGI's probe
+/// states and counters): a copy is requested per frame while a slot is free, and read when the GPU
+/// has filled it. Nothing waits; a frame whose slots are all in flight is skipped.
+pub struct ReadbackRing {
+    label: &'static str,
+    capacity: usize,
+    slots: Vec<ReadbackSlot>,
+}
+
+impl ReadbackRing {
+    /// A ring of `capacity` copies (made at the first request, as large as the source; made anew
+    /// when the source's size changes).
+    pub fn new(label: &'static str, capacity: usize) -> Self {
+        Self { label, capacity, slots: Vec::new() }
+    }
+
+    /// Copies `source` (which needs `COPY_SRC`) into a free slot, tagged with `frame`.
+    pub fn request(&mut self, gpu: &GpuContext, source: &wgpu::Buffer, frame: u64) {
+        let size = source.size();
+        self.request_with(gpu, size, frame, |encoder, slot| encoder.copy_buffer_to_buffer(source, 0, slot, 0, size.min(slot.size())));
+    }
+
+    /// Fills a free slot of `size` bytes with the commands `copy` records (a buffer or texture
+    /// copy into the slot's buffer), tagged with `frame`.
+    pub fn request_with(&mut self, gpu: &GpuContext, size: u64, frame: u64, copy: impl FnOnce(&mut wgpu::CommandEncoder, &wgpu::Buffer)) {
+        if self.slots.first().is_some_and(|s| s.buffer.size() != size) {
+            // The source changed size: copies of the old size still in flight are dropped.
+            self.slots.clear();
+        }
+        if self.slots.is_empty() {
+            self.slots = (0..self.capacity)
+                .map(|_| ReadbackSlot {
+                    buffer: gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                        label: Some(self.label),
+                        size,
+                        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                        mapped_at_creation: false,
+                    }),
+                    state: Arc::new(AtomicU8::new(SLOT_IDLE)),
+                    frame: 0,
+                })
+                .collect();
+        }
+        let Some(slot) = self.slots.iter_mut().find(|s| s.state.load(Ordering::Acquire) == SLOT_IDLE) else { return };
+        let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(self.label) });
+        copy(&mut encoder, &slot.buffer);
+        gpu.queue.submit([encoder.finish()]);
+        slot.frame = frame;
+        slot.state.store(SLOT_PENDING, Ordering::Release);
+        let flag = slot.state.clone();
+        slot.buffer.slice(..).map_async(wgpu::MapMode::Read, move |r| {
+            flag.store(if r.is_ok() { SLOT_READY } else { SLOT_IDLE }, Ordering::Release);
+        });
+    }
+
+    /// Every copy that has arrived, as (frame, bytes), oldest first.
+    pub fn poll(&mut self, gpu: &GpuContext) -> Vec<(u64, Vec<u8>)> {
+        let _ = gpu.device.poll(wgpu::PollType::Poll);
+        let mut out = Vec::new();
+        for slot in &mut self.slots {
+            if slot.state.load(Ordering::Acquire) != SLOT_READY {
+                continue;
+            }
+            if let Ok(view) = slot.buffer.slice(..).get_mapped_range() {
+                out.push((slot.frame, view.to_vec()));
+            }
+            slot.buffer.unmap();
+            slot.state.store(SLOT_IDLE, Ordering::Release);
+        }
+        out.sort_by_key(|(f, _)| *f);
+        out
+    }
 }

@@ -7,7 +7,7 @@ use engine::render::readback::read_texture;
 use glam::{UVec2, Vec2, Vec3};
 
 use crate::gpu::{DdgiRay, IRRADIANCE_GAMMA};
-use crate::render::VolumeGpu;
+use crate::resources::VolumeGpu;
 
 /// An atlas read back from the GPU, row-major from the top-left.
 pub struct Atlas<T> {

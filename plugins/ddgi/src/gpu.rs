@@ -1,5 +1,7 @@
-//! Host mirrors of the WGSL structs in `shaders/ddgi.inc.wgsl` and `shaders/ddgi_gather.wgsl`.
-//! [`GPU_STRUCTS`] lists them for the test that compares their sizes with naga's layout.
+//! Host mirrors of the DDGI WGSL structs (`plugins/ddgi/shaders/`) and the constants the host
+//! shares with the shaders. [`gpu_structs`] lists the mirrors for the test that compares each
+//! field's offset with naga's layout; the constants are written into the generated WGSL module
+//! `ddgi_constants.inc.wgsl` ([`wgsl_constants`]), so each is defined once, here.
 
 use bytemuck::{Pod, Zeroable};
 
@@ -67,7 +69,8 @@ pub struct DdgiProbeData {
     pub settled_error: f32,
     /// Irradiance updates since the probe was last fresh.
     pub updates: u32,
-    pub _pad: [u32; 2],
+    pub _pad0: u32,
+    pub _pad1: u32,
 }
 
 impl DdgiProbeData {
@@ -85,7 +88,8 @@ impl DdgiProbeData {
         rest: 0,
         settled_error: 0.0,
         updates: 0,
-        _pad: [0; 2],
+        _pad0: 0,
+        _pad1: 0,
     };
 }
 
@@ -100,7 +104,8 @@ pub struct DdgiCounters {
     pub updated_probes: u32,
     pub max_luma: f32,
     pub budget_scale: f32,
-    pub _pad: [u32; 2],
+    pub _pad0: u32,
+    pub _pad1: u32,
 }
 
 /// One block of 256 probes in the budget pass's prefix sums (written and read on the GPU only).
@@ -151,6 +156,10 @@ pub struct DdgiProbeViewParams {
     pub _pad2: u32,
 }
 
+// Constants shared with the WGSL: each is defined here once and written into the generated
+// module `ddgi_constants.inc.wgsl` ([`wgsl_constants`]) under the name `DDGI_<NAME>`.
+
+/// `DdgiVolumeGpu::flags`: the sampling function's weights ([`crate::DdgiWeights`]) and features.
 pub const WEIGHT_BACKFACE: u32 = 1;
 pub const WEIGHT_CHEBYSHEV: u32 = 2;
 pub const WEIGHT_NORMAL_BIAS: u32 = 4;
@@ -160,16 +169,105 @@ pub const RELOCATION: u32 = 32;
 pub const CLASSIFICATION: u32 = 64;
 pub const ADAPTIVE: u32 = 128;
 
+/// `DdgiProbeData::pinned_rays` of a probe whose ray count is not pinned.
 pub const NO_PIN: u32 = u32::MAX;
+/// No probe (a neighbour beyond the grid's edge).
+pub const NO_PROBE: u32 = u32::MAX;
+/// `DdgiProbeData::pinned_state`: pinned on or off.
 pub const PIN_ACTIVE: u32 = 1;
 pub const PIN_INACTIVE: u32 = 2;
 
+/// `DdgiProbeData::state` bits. Switched off (inside geometry, no surface in reach, or dark).
 pub const PROBE_INACTIVE: u32 = 1;
+/// The probe's maps hold nothing worth keeping: its next update takes the new value at once.
 pub const PROBE_FRESH: u32 = 2;
+/// Relocation moved the probe through a back face this frame (set by relocation, read and cleared
+/// by classification): a probe switched off inside geometry then traces its re-check rays at the
+/// next frame from its new place, not at the next periodic re-check, so it escapes (and lights
+/// again) within a frame per wall.
+pub const PROBE_RELOCATED: u32 = 4;
+pub const PROBE_RECHECK: u32 = 8;
+/// Switched off because its rays found no surface in its region ([`EMPTY_RAYS`]).
+pub const PROBE_EMPTY: u32 = 16;
+/// Set by the camera's gather on a probe that is off for an empty region, or on its way there,
+/// when a pixel in its cage faces it: a visible surface depends on it. The budget gives such an
+/// off probe its re-check rays at the next frame, and classification then counts its region as
+/// not empty (and clears the mark), so the probes the view needs come back within a frame.
+pub const PROBE_SEEN: u32 = 32;
+
+/// A probe counts as affecting no surface only after this many of its rays, over classifications
+/// in a row (each frame's rays rotated anew), found none in its region: one frame's few rays
+/// (adaptive budgets) can miss a small surface at the edge of the region; 512 directions miss a
+/// surface covering 1% of the sphere with a probability of 0.6%.
+pub const EMPTY_RAYS: u32 = 512;
+/// Probes per block of the budget pass's prefix sums (its workgroup size).
+pub const BUDGET_BLOCK: u32 = 256;
+/// Rays per workgroup of the trace (one thread each).
+pub const RAY_GROUP: u32 = 64;
+
 /// Hit distance of a miss in the shaded-ray buffer.
 pub const MISS: f32 = 3.0e38;
-/// Irradiance is stored as `E^(1/gamma)`.
+/// Back-face hits are stored as `-BACKFACE_SCALE · t`: the distance maps see the wall closer, so
+/// Chebyshev rejects probes behind walls; relocation recovers t.
+pub const BACKFACE_SCALE: f32 = 0.2;
+/// Irradiance is stored as `E^(1/gamma)`: perceptual precision in half floats, no banding in the dark.
 pub const IRRADIANCE_GAMMA: f32 = 5.0;
+/// Largest irradiance (W/m²) a probe map holds, and largest radiance of a shaded probe ray: the
+/// documented clamp that keeps a diverging scene finite. 1e24^(1/5) ≈ 63,096 stays under the
+/// largest half float (65,504), so no atlas texel can be infinite, and 4,096 rays of it sum
+/// without overflow. Only a scene whose light grows without bound (a closed box of albedo 1 that
+/// emits) ever reaches it.
+pub const MAX_IRRADIANCE: f32 = 1.0e24;
+
+/// Every constant above as `(WGSL name, value)`.
+const SHARED_CONSTANTS: &[(&str, WgslValue)] = &[
+    ("DDGI_WEIGHT_BACKFACE", WgslValue::U32(WEIGHT_BACKFACE)),
+    ("DDGI_WEIGHT_CHEBYSHEV", WgslValue::U32(WEIGHT_CHEBYSHEV)),
+    ("DDGI_WEIGHT_NORMAL_BIAS", WgslValue::U32(WEIGHT_NORMAL_BIAS)),
+    ("DDGI_WEIGHT_CRUSH", WgslValue::U32(WEIGHT_CRUSH)),
+    ("DDGI_WEIGHT_TRILINEAR", WgslValue::U32(WEIGHT_TRILINEAR)),
+    ("DDGI_RELOCATION", WgslValue::U32(RELOCATION)),
+    ("DDGI_CLASSIFICATION", WgslValue::U32(CLASSIFICATION)),
+    ("DDGI_ADAPTIVE", WgslValue::U32(ADAPTIVE)),
+    ("DDGI_NO_PIN", WgslValue::U32(NO_PIN)),
+    ("DDGI_NO_PROBE", WgslValue::U32(NO_PROBE)),
+    ("DDGI_PIN_ACTIVE", WgslValue::U32(PIN_ACTIVE)),
+    ("DDGI_PIN_INACTIVE", WgslValue::U32(PIN_INACTIVE)),
+    ("DDGI_PROBE_INACTIVE", WgslValue::U32(PROBE_INACTIVE)),
+    ("DDGI_PROBE_FRESH", WgslValue::U32(PROBE_FRESH)),
+    ("DDGI_PROBE_RELOCATED", WgslValue::U32(PROBE_RELOCATED)),
+    ("DDGI_PROBE_RECHECK", WgslValue::U32(PROBE_RECHECK)),
+    ("DDGI_PROBE_EMPTY", WgslValue::U32(PROBE_EMPTY)),
+    ("DDGI_PROBE_SEEN", WgslValue::U32(PROBE_SEEN)),
+    ("DDGI_EMPTY_RAYS", WgslValue::U32(EMPTY_RAYS)),
+    ("DDGI_BUDGET_BLOCK", WgslValue::U32(BUDGET_BLOCK)),
+    ("DDGI_RAY_GROUP", WgslValue::U32(RAY_GROUP)),
+    ("DDGI_MISS", WgslValue::F32(MISS)),
+    ("DDGI_BACKFACE_SCALE", WgslValue::F32(BACKFACE_SCALE)),
+    ("DDGI_IRRADIANCE_GAMMA", WgslValue::F32(IRRADIANCE_GAMMA)),
+    ("DDGI_MAX_IRRADIANCE", WgslValue::F32(MAX_IRRADIANCE)),
+];
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum WgslValue {
+    U32(u32),
+    F32(f32),
+}
+
+/// The WGSL module `ddgi_constants.inc.wgsl`: every constant the passes share with the host,
+/// written from its Rust definition above.
+pub fn wgsl_constants() -> String {
+    let mut out = String::from("// Generated by plugins/ddgi/src/gpu.rs (wgsl_constants): edit the Rust constants there.\n");
+    for (name, value) in SHARED_CONSTANTS {
+        // `{:?}` writes the shortest decimal that reads back as the same f32 (e.g. 3e38, 0.2, 5.0).
+        let line = match value {
+            WgslValue::U32(v) => format!("const {name}: u32 = {v}u;\n"),
+            WgslValue::F32(v) => format!("const {name}: f32 = {v:?};\n"),
+        };
+        out.push_str(&line);
+    }
+    out
+}
 
 /// Longest ray when the volume sets none (finite, below the miss marker).
 pub const UNBOUNDED_RAY: f32 = 1.0e30;
@@ -246,14 +344,29 @@ pub struct DdgiTexel {
     pub settle_b: u32,
 }
 
-/// (WGSL struct name, size of the Rust mirror, a shader file that declares it).
-pub const GPU_STRUCTS: &[(&str, usize, &str)] = &[
-    ("DdgiVolumeGpu", size_of::<DdgiVolumeGpu>(), "ddgi.inc.wgsl"),
-    ("DdgiProbeData", size_of::<DdgiProbeData>(), "ddgi.inc.wgsl"),
-    ("DdgiTexel", size_of::<DdgiTexel>(), "ddgi.inc.wgsl"),
-    ("DdgiRay", size_of::<DdgiRay>(), "ddgi.inc.wgsl"),
-    ("DdgiCounters", size_of::<DdgiCounters>(), "ddgi.inc.wgsl"),
-    ("DdgiBlock", size_of::<DdgiBlock>(), "ddgi.inc.wgsl"),
-    ("DdgiGatherParams", size_of::<DdgiGatherParams>(), "ddgi_gather.wgsl"),
-    ("DdgiProbeViewParams", size_of::<DdgiProbeViewParams>(), "ddgi_probes.wgsl"),
-];
+/// The host mirrors of the DDGI WGSL structs, for the test that checks every field's offset
+/// against naga's layout ([`engine::shader::check_struct_layout`]).
+pub fn gpu_structs() -> Vec<engine::shader::HostStruct> {
+    use engine::gpu_struct_layout as layout;
+    vec![
+        layout!(DdgiVolumeGpu in "ddgi_common.inc.wgsl" {
+            origin, rays_per_probe, spacing, probe_count, counts, flags, ray_rotation, sky_radiance, hysteresis, normal_bias,
+            view_bias, distance_sharpness, max_ray_distance, distance_scale, irradiance_texels, distance_texels, tiles_per_row,
+            firefly_threshold, backface_threshold, min_frontface_distance, recheck, irradiance_atlas_size, distance_atlas_size,
+            min_rays, recheck_rays, error_target, error_decay, error_smoothing, error_floor, dark_fraction, frame_budget,
+            max_rest_frames, rest_error, hysteresis_exponent, rest_smoothing,
+        }),
+        layout!(DdgiProbeData in "ddgi_common.inc.wgsl" {
+            offset, state, error, ray_count, ray_offset, luma, pinned_rays, pinned_state, empty_rays, rest, settled_error, updates,
+            _pad0, _pad1,
+        }),
+        layout!(DdgiTexel in "ddgi_common.inc.wgsl" { irradiance, settle_rg, change, settle_b }),
+        layout!(DdgiRay in "ddgi_common.inc.wgsl" { direction, probe }),
+        layout!(DdgiCounters in "ddgi_common.inc.wgsl" {
+            dispatch, total_rays, probe_dispatch, updated_probes, max_luma, budget_scale, _pad0, _pad1,
+        }),
+        layout!(DdgiBlock in "ddgi_common.inc.wgsl" { rays, unscaled_rays, max_luma, offset, probes, probe_offset }),
+        layout!(DdgiGatherParams in "ddgi_camera.inc.wgsl" { first_volume, debug_view, _pad1, _pad2 }),
+        layout!(DdgiProbeViewParams in "ddgi_probe_spheres.wgsl" { mode, selected, radius, max_rays, max_error, _pad0, _pad1, _pad2 }),
+    ]
+}

@@ -48,11 +48,15 @@
 //! [`DdgiProbe`] mirroring its GPU state. The passes, each with its own timing span:
 //! `ddgi_budget → ddgi_trace → ddgi_probe_update` (maps, atlas tiles, relocation
 //! and classification in one pass), then per camera
-//! `ddgi_gather → ddgi_composite`. Shaders: `shaders/ddgi*.wgsl`.
+//! `ddgi_gather → ddgi_composite`. Shaders: `plugins/ddgi/shaders/`, one file per pass ([`SHADERS`]).
 
 pub mod atlas;
+pub mod debug_view;
+pub mod frame;
 pub mod gpu;
-pub mod render;
+pub mod pipelines;
+pub mod resources;
+pub mod sync;
 pub mod volume;
 
 use bevy_app::{App, Plugin};
@@ -61,8 +65,36 @@ use engine::gpu::GpuContext;
 use engine::render::gpu_scene::{flush_uploads, prepare_gpu_scene};
 use engine::render::{FrameScript, frame_script_is};
 
-pub use render::{DdgiGpuVolumes, DdgiOutput, DdgiPipelines, DdgiProbeColor, DdgiProbeView, VolumeGpu};
+pub use debug_view::{DdgiOutput, DdgiProbeColor, DdgiProbeView};
+pub use frame::{DdgiFrame, VolumeHandles, render_ddgi_frame};
+pub use pipelines::DdgiPipelines;
+pub use resources::{DdgiGpuVolumes, VolumeGpu};
 pub use volume::{DdgiAdaptive, DdgiLayout, DdgiProbe, DdgiProbePin, DdgiProbeState, DdgiSettingsError, DdgiVolume, DdgiWeights};
+
+/// DDGI's WGSL (`plugins/ddgi/shaders/`): one file per pass, named after the pass label, and the
+/// modules they share — `ddgi_common.inc.wgsl` (structs, bindings, helpers), `ddgi_sampling.inc.wgsl`
+/// (the 8-probe sampling function, for any crate's WGSL to include) and `ddgi_camera.inc.wgsl`.
+/// [`register_shaders`] adds them, with the generated `ddgi_constants.inc.wgsl`.
+pub const SHADERS: &[engine::shader::ShaderModule] = &[
+    ("ddgi_common.inc.wgsl", include_str!("../shaders/ddgi_common.inc.wgsl")),
+    ("ddgi_sampling.inc.wgsl", include_str!("../shaders/ddgi_sampling.inc.wgsl")),
+    ("ddgi_camera.inc.wgsl", include_str!("../shaders/ddgi_camera.inc.wgsl")),
+    ("ddgi_budget.wgsl", include_str!("../shaders/ddgi_budget.wgsl")),
+    ("ddgi_trace.wgsl", include_str!("../shaders/ddgi_trace.wgsl")),
+    ("ddgi_probe_update.wgsl", include_str!("../shaders/ddgi_probe_update.wgsl")),
+    ("ddgi_gather.wgsl", include_str!("../shaders/ddgi_gather.wgsl")),
+    ("ddgi_composite.wgsl", include_str!("../shaders/ddgi_composite.wgsl")),
+    ("ddgi_probe_spheres.wgsl", include_str!("../shaders/ddgi_probe_spheres.wgsl")),
+];
+
+/// Adds DDGI's WGSL ([`SHADERS`] and the generated constants) to the engine's shader registry, so
+/// that its pipelines build and any crate's WGSL can `#include "ddgi_sampling.inc.wgsl"`. The
+/// plugin calls it; call it yourself to build your own pipelines that include DDGI modules before
+/// the plugin is added. Idempotent.
+pub fn register_shaders() -> Result<(), engine::shader::ShaderError> {
+    engine::shader::register(SHADERS)?;
+    engine::shader::register_generated("ddgi_constants.inc.wgsl", gpu::wgsl_constants())
+}
 
 /// The name of the DDGI frame script.
 pub const FRAME_SCRIPT: &str = "ddgi";
@@ -90,11 +122,11 @@ impl Plugin for DdgiPlugin {
             .init_resource::<DdgiOutput>()
             .add_systems(
                 engine::app::Prepare,
-                (render::read_back_ddgi_probes, render::prepare_ddgi_volumes, render::upload_ddgi_probe_pins)
+                (sync::read_back_ddgi_probes, resources::prepare_ddgi_volumes, sync::upload_ddgi_probe_pins)
                     .chain()
                     .after(prepare_gpu_scene),
             )
-            .add_systems(engine::app::Render, render::render_ddgi_frame.run_if(frame_script_is(FRAME_SCRIPT)).after(flush_uploads));
+            .add_systems(engine::app::Render, frame::render_ddgi_frame.run_if(frame_script_is(FRAME_SCRIPT)).after(flush_uploads));
     }
 }
 

@@ -415,6 +415,53 @@ pub struct DdgiLayout {
     pub distance_texels: u32,
     pub irradiance_atlas: UVec2,
     pub distance_atlas: UVec2,
+    /// The size of every per-volume buffer: the limit checks and the allocation both read them here.
+    pub sizes: DdgiBufferSizes,
+}
+
+/// Bytes of each per-volume GPU buffer, computed once per layout.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DdgiBufferSizes {
+    /// Probe data (`DdgiProbeData` per probe).
+    pub probes: u64,
+    /// Each of the two per-ray buffers (rays, shaded radiance): probes × rays_per_probe × 16 bytes.
+    pub rays: u64,
+    /// Full-precision irradiance maps (`DdgiTexel` per texel).
+    pub irradiance_history: u64,
+    /// Full-precision distance moments (two floats per texel).
+    pub distance_history: u64,
+    /// The budget pass's per-block sums (`DdgiBlock` per [`crate::gpu::BUDGET_BLOCK`] probes).
+    pub blocks: u64,
+    /// Each of the per-probe word lists (probes with rays this frame; each probe's luma).
+    pub probe_words: u64,
+}
+
+impl DdgiBufferSizes {
+    fn new(probe_count: u32, volume: &DdgiVolume) -> Self {
+        use crate::gpu::{BUDGET_BLOCK, DdgiBlock, DdgiProbeData, DdgiTexel};
+        let probes = u64::from(probe_count);
+        let texels = |n: u32| probes * u64::from(n) * u64::from(n);
+        Self {
+            probes: probes * size_of::<DdgiProbeData>() as u64,
+            rays: probes * u64::from(volume.rays_per_probe) * BYTES_PER_RAY,
+            irradiance_history: texels(volume.irradiance_texels) * size_of::<DdgiTexel>() as u64,
+            distance_history: texels(volume.distance_texels) * 8,
+            blocks: u64::from(probe_count.div_ceil(BUDGET_BLOCK)) * size_of::<DdgiBlock>() as u64,
+            probe_words: probes * 4,
+        }
+    }
+
+    /// The storage buffers that may outgrow the adapter's binding limit, with what they are.
+    fn storage_buffers(&self) -> [(&'static str, u64); 4] {
+        // The sizes the labels name.
+        const _: () = assert!(size_of::<crate::gpu::DdgiProbeData>() == 64 && size_of::<crate::gpu::DdgiTexel>() == 32);
+        [
+            ("probe buffer (probes × 64 bytes)", self.probes),
+            ("per-ray buffer (probes × rays_per_probe × 16 bytes)", self.rays),
+            ("irradiance map buffer (probes × irradiance_texels² × 32 bytes)", self.irradiance_history),
+            ("distance map buffer (probes × distance_texels² × 8 bytes)", self.distance_history),
+        ]
+    }
 }
 
 /// Adapter limits a layout must fit in.
@@ -468,19 +515,8 @@ impl DdgiLayout {
                 unit: "texels of height",
             });
         }
-        let probes = u64::from(probe_count);
-        // The sizes the labels below name.
-        const _: () = assert!(size_of::<crate::gpu::DdgiProbeData>() == 64 && size_of::<crate::gpu::DdgiTexel>() == 32);
-        let buffers = [
-            ("probe buffer (probes × 64 bytes)", probes * size_of::<crate::gpu::DdgiProbeData>() as u64),
-            ("per-ray buffer (probes × rays_per_probe × 16 bytes)", probes * u64::from(volume.rays_per_probe) * BYTES_PER_RAY),
-            (
-                "irradiance map buffer (probes × irradiance_texels² × 32 bytes)",
-                probes * u64::from(volume.irradiance_texels.pow(2)) * size_of::<crate::gpu::DdgiTexel>() as u64,
-            ),
-            ("distance map buffer (probes × distance_texels² × 8 bytes)", probes * u64::from(volume.distance_texels.pow(2)) * 8),
-        ];
-        for (what, needed) in buffers {
+        let sizes = DdgiBufferSizes::new(probe_count, volume);
+        for (what, needed) in sizes.storage_buffers() {
             if needed > limits.max_storage_buffer_bytes {
                 return Err(DdgiSettingsError::OverLimit { what, needed, limit: limits.max_storage_buffer_bytes, unit: "bytes" });
             }
@@ -496,6 +532,7 @@ impl DdgiLayout {
             distance_texels: volume.distance_texels,
             irradiance_atlas,
             distance_atlas,
+            sizes,
         })
     }
 

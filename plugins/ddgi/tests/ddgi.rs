@@ -20,12 +20,29 @@ fn gpu(test: &str) -> Option<GpuContext> {
 
 #[test]
 fn host_structs_match_naga_layout() {
-    for &(name, rust_size, file) in ddgi::gpu::GPU_STRUCTS {
-        let parsed = engine::shader::parse(file).unwrap_or_else(|e| panic!("{e}"));
-        let wgsl = parsed.struct_size(name).unwrap_or_else(|| panic!("{file} declares no struct {name}"));
-        assert_eq!(rust_size as u32, wgsl, "{name}: Rust mirror is {rust_size} bytes, WGSL layout {wgsl}");
+    ddgi::register_shaders().expect("register");
+    for host in ddgi::gpu::gpu_structs() {
+        engine::shader::check_struct_layout(&host).unwrap_or_else(|e| panic!("{e}"));
     }
 }
+
+#[test]
+fn every_ddgi_module_is_registered_parses_and_validates() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
+    engine::shader::check_shader_folder(&dir, ddgi::SHADERS).unwrap_or_else(|e| panic!("{e}"));
+    ddgi::register_shaders().expect("register");
+    for (name, _) in ddgi::SHADERS.iter().chain(SELFTEST_SHADERS) {
+        let parsed = engine::shader::parse(name).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(!parsed.module.entry_points.is_empty(), !name.ends_with(".inc.wgsl"), "{name}: entry points only outside libraries");
+    }
+    // The generated constants read back from the parsed shader as the host's values.
+    let parsed = engine::shader::parse("ddgi_budget.wgsl").expect("parse");
+    assert_eq!(parsed.u32_constant("DDGI_BUDGET_BLOCK"), Some(ddgi::gpu::BUDGET_BLOCK));
+    assert_eq!(parsed.u32_constant("DDGI_NO_PIN"), Some(ddgi::gpu::NO_PIN));
+}
+
+/// The self-test kernels (GPU functions checked against the CPU), registered by the tests only.
+const SELFTEST_SHADERS: &[engine::shader::ShaderModule] = &[("ddgi_selftest.wgsl", include_str!("shaders/ddgi_selftest.wgsl"))];
 
 #[test]
 fn invalid_settings_name_their_field_and_value() {
@@ -79,6 +96,7 @@ fn layout_puts_probes_at_cell_centres_and_tiles_in_rows() {
 fn run_selftest(gpu: &GpuContext, entry: &str, input: &[[f32; 4]]) -> Vec<[f32; 4]> {
     use engine::wgpu::util::DeviceExt;
     let device = &gpu.device;
+    ddgi::register_shaders().and_then(|()| engine::shader::register(SELFTEST_SHADERS)).expect("register");
     let program = engine::shader::compute_program(device, "ddgi_selftest.wgsl", entry, entry).expect("selftest shader");
     let input_buffer = device.create_buffer_init(&engine::wgpu::util::BufferInitDescriptor {
         label: Some("selftest_in"),

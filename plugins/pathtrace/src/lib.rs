@@ -73,6 +73,9 @@ pub fn use_path_tracer(app: &mut App, settings: PathTraceSettings) {
     app.insert_resource(settings).insert_resource(engine::render::FrameScript(FRAME_SCRIPT)).add_plugins(PathTracePlugin);
 }
 
+/// The path tracer's WGSL (`plugins/pathtrace/shaders/`), registered by [`PathTracePlugin`].
+pub const SHADERS: &[engine::shader::ShaderModule] = &[("pathtrace.wgsl", include_str!("../shaders/pathtrace.wgsl"))];
+
 /// Adds the `"pathtrace"` frame script.
 pub struct PathTracePlugin;
 
@@ -82,7 +85,7 @@ impl Plugin for PathTracePlugin {
             log::warn!("PathTracePlugin needs the engine's RenderPlugin (a GPU); path tracing is off");
             return;
         };
-        let program = match compute_program(&gpu.device, "pathtrace.wgsl", "main", "pathtrace") {
+        let program = match engine::shader::register(SHADERS).and_then(|()| compute_program(&gpu.device, "pathtrace.wgsl", "main", "pathtrace")) {
             Ok(p) => Arc::new(p),
             Err(e) => {
                 log::warn!("path tracer shader failed, path tracing is off: {e}");
@@ -170,4 +173,18 @@ fn render_path_traced_frame(
         });
     }
     frame.finish(script);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_shader_folder_is_registered_and_the_params_match_naga_layout() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
+        engine::shader::check_shader_folder(&dir, SHADERS).unwrap_or_else(|e| panic!("{e}"));
+        engine::shader::register(SHADERS).expect("register");
+        let host = engine::gpu_struct_layout!(PathTraceParams in "pathtrace.wgsl" { sample_offset, samples, max_bounces, seed });
+        engine::shader::check_struct_layout(&host).unwrap_or_else(|e| panic!("{e}"));
+    }
 }

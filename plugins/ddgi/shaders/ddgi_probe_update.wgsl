@@ -1,10 +1,10 @@
-// The DDGI probe update, one pass of two dispatches, each with one workgroup per probe traced this
+// DDGI pass `ddgi_probe_update`: one pass of two dispatches, each with one workgroup per probe traced this
 // frame (resting and switched-off probes cost nothing): blending the shaded rays into the irradiance
 // map, then into the distance map, writing both maps with their borders into the atlases,
 // relocating the probe out of geometry and classifying it as active or inactive. One pass, not
 // five: at the published grids each pass cost 0.02–0.08 ms on an H200 however little it did, more
 // than the work itself.
-#include "ddgi.inc.wgsl"
+#include "ddgi_common.inc.wgsl"
 
 const DDGI_GROUP: u32 = 64u;
 

@@ -1,24 +1,13 @@
-// DDGI probe rays: the budget (how many rays each probe traces this frame, packed into one array
-// by a prefix sum), then generation, trace and shading in one pass, one thread per packed ray, dispatched
-// indirectly with the budget's count (two-dimensional beyond 65,535 workgroups).
-#include "ddgi.inc.wgsl"
-
-const DDGI_RAY_GROUP: u32 = 64u;
-
-fn ddgi_ray_index(id: vec3<u32>) -> u32 {
-    return id.x + id.y * 65535u * DDGI_RAY_GROUP;
-}
-
-fn ddgi_ray_total() -> u32 {
-    return ddgi_counters_in.total_rays;
-}
+// DDGI pass `ddgi_budget`: how many rays each probe traces this frame (its temporal error, resting,
+// pins, re-checks, an optional frame budget), packed into one array by a prefix sum, with the
+// indirect dispatches of `ddgi_trace` and `ddgi_probe_update` and the list of probes with rays.
+#include "ddgi_common.inc.wgsl"
 
 // ---------------------------------------------------------------------------------------------
 // Budget
 
-const DDGI_SCAN: u32 = 256u;
-var<workgroup> wg_scan: array<u32, 256>;
-var<workgroup> wg_max: array<f32, 256>;
+var<workgroup> wg_scan: array<u32, DDGI_BUDGET_BLOCK>;
+var<workgroup> wg_max: array<f32, DDGI_BUDGET_BLOCK>;
 
 // This frame's ray count of probe p, before any frame budget.
 fn ddgi_probe_budget(p: u32) -> u32 {
@@ -54,7 +43,7 @@ fn ddgi_probe_budget(p: u32) -> u32 {
 fn ddgi_scan(value: u32, local: u32) -> vec2<u32> {
     wg_scan[local] = value;
     workgroupBarrier();
-    for (var step = 1u; step < DDGI_SCAN; step *= 2u) {
+    for (var step = 1u; step < DDGI_BUDGET_BLOCK; step *= 2u) {
         var add = 0u;
         if local >= step {
             add = wg_scan[local - step];
@@ -64,7 +53,7 @@ fn ddgi_scan(value: u32, local: u32) -> vec2<u32> {
         workgroupBarrier();
     }
     let inclusive = wg_scan[local];
-    let total = wg_scan[DDGI_SCAN - 1u];
+    let total = wg_scan[DDGI_BUDGET_BLOCK - 1u];
     workgroupBarrier();
     return vec2<u32>(inclusive - value, total);
 }
@@ -74,7 +63,7 @@ fn ddgi_scan(value: u32, local: u32) -> vec2<u32> {
 fn ddgi_workgroup_max(value: f32, local: u32) -> f32 {
     wg_max[local] = value;
     workgroupBarrier();
-    for (var stride = DDGI_SCAN / 2u; stride > 0u; stride /= 2u) {
+    for (var stride = DDGI_BUDGET_BLOCK / 2u; stride > 0u; stride /= 2u) {
         if local < stride {
             wg_max[local] = max(wg_max[local], wg_max[local + stride]);
         }
@@ -163,9 +152,9 @@ fn ddgi_hash(x_in: u32) -> u32 {
 // 4. plan_ray_blocks: one workgroup scans the blocks' sums, writes the indirect dispatches of the
 //    ray passes and of the per-probe passes, and the brightest probe's luma;
 // 5. place_rays: each probe's offset plus its block's, and the list of probes with rays.
-@compute @workgroup_size(256)
+@compute @workgroup_size(DDGI_BUDGET_BLOCK)
 fn plan_rays(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) local: u32) {
-    let p = group.x * DDGI_SCAN + local;
+    let p = group.x * DDGI_BUDGET_BLOCK + local;
     var count = 0u;
     var luma = 0.0;
     if p < ddgi_volume.probe_count {
@@ -197,14 +186,14 @@ fn ddgi_place_in_block(p: u32, count: u32, local: u32) -> vec2<u32> {
 }
 
 fn ddgi_block_count() -> u32 {
-    return (ddgi_volume.probe_count + DDGI_SCAN - 1u) / DDGI_SCAN;
+    return (ddgi_volume.probe_count + DDGI_BUDGET_BLOCK - 1u) / DDGI_BUDGET_BLOCK;
 }
 
-@compute @workgroup_size(256)
+@compute @workgroup_size(DDGI_BUDGET_BLOCK)
 fn plan_budget_scale(@builtin(local_invocation_index) local: u32) {
     let blocks = ddgi_block_count();
     var wanted = 0u;
-    for (var first = 0u; first < blocks; first += DDGI_SCAN) {
+    for (var first = 0u; first < blocks; first += DDGI_BUDGET_BLOCK) {
         let b = first + local;
         var rays = 0u;
         if b < blocks {
@@ -218,9 +207,9 @@ fn plan_budget_scale(@builtin(local_invocation_index) local: u32) {
     }
 }
 
-@compute @workgroup_size(256)
+@compute @workgroup_size(DDGI_BUDGET_BLOCK)
 fn scale_rays(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) local: u32) {
-    let p = group.x * DDGI_SCAN + local;
+    let p = group.x * DDGI_BUDGET_BLOCK + local;
     let scale = ddgi_counters.budget_scale;
     var count = 0u;
     if p < ddgi_volume.probe_count {
@@ -241,13 +230,13 @@ fn scale_rays(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation
     }
 }
 
-@compute @workgroup_size(256)
+@compute @workgroup_size(DDGI_BUDGET_BLOCK)
 fn plan_ray_blocks(@builtin(local_invocation_index) local: u32) {
     let blocks = ddgi_block_count();
     var offset = 0u;
     var probes = 0u;
     var brightest = 0.0;
-    for (var first = 0u; first < blocks; first += DDGI_SCAN) {
+    for (var first = 0u; first < blocks; first += DDGI_BUDGET_BLOCK) {
         let b = first + local;
         var block = DdgiBlock(0u, 0u, 0.0, 0u, 0u, 0u);
         if b < blocks {
@@ -274,9 +263,9 @@ fn plan_ray_blocks(@builtin(local_invocation_index) local: u32) {
     }
 }
 
-@compute @workgroup_size(256)
+@compute @workgroup_size(DDGI_BUDGET_BLOCK)
 fn place_rays(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) local: u32) {
-    let p = group.x * DDGI_SCAN + local;
+    let p = group.x * DDGI_BUDGET_BLOCK + local;
     var traced = false;
     if p < ddgi_volume.probe_count {
         ddgi_probes[p].ray_offset += ddgi_blocks[group.x].offset;
@@ -287,77 +276,4 @@ fn place_rays(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation
     if traced {
         ddgi_updated[ddgi_blocks[group.x].probe_offset + slot] = p;
     }
-}
-
-// The probe whose packed rays hold ray i: the last probe whose offset is at most i (probes with no
-// rays share the offset of the next one, so the search lands on the probe that has rays).
-fn ddgi_probe_of_ray(i: u32) -> u32 {
-    var lo = 0u;
-    var hi = ddgi_volume.probe_count;
-    while hi - lo > 1u {
-        let mid = (lo + hi) / 2u;
-        if ddgi_probes[mid].ray_offset <= i {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    return lo;
-}
-
-// Ray i of the frame: its probe, and its direction — one of the spherical Fibonacci directions for
-// the probe's own ray count, under this frame's random rotation.
-fn ddgi_generate_ray(i: u32) -> DdgiRay {
-    let probe = ddgi_probe_of_ray(i);
-    let data = ddgi_probes[probe];
-    let direction = ddgi_volume.ray_rotation * ddgi_spherical_fibonacci(i - data.ray_offset, max(data.ray_count, 1u));
-    return DdgiRay(safe_normalize(direction, vec3<f32>(0.0, 0.0, 1.0)), probe);
-}
-
-// Trace and shading: generates ray i (kept in ddgi_rays for the probe update), traces its closest
-// hit, back faces included (they mark probes inside geometry), and shades the hit (Lambertian): its
-// emission, direct light (a shadow ray per light) and indirect light from the previous frame's
-// probes. One pass, not two: a separate shading pass cost its own launch and a round trip of every
-// hit through memory, which at the published grids took longer than the shading itself.
-@compute @workgroup_size(64)
-fn trace_rays(@builtin(global_invocation_id) id: vec3<u32>) {
-    let i = ddgi_ray_index(id);
-    if i >= ddgi_ray_total() {
-        return;
-    }
-    let ray_info = ddgi_generate_ray(i);
-    ddgi_rays[i] = ray_info;
-    let origin = ddgi_probe_position(ray_info.probe);
-    let ray = Ray(origin, 0.0, ray_info.direction, ddgi_volume.max_ray_distance);
-    let hit = trace_closest(ray);
-    if hit.instance == RT_NO_HIT {
-        // Misses see the sky.
-        ddgi_radiance[i] = vec4<f32>(min(sanitize_radiance(ddgi_volume.sky_radiance), vec3<f32>(DDGI_MAX_IRRADIANCE)), DDGI_MISS);
-        return;
-    }
-    if !hit.front_face {
-        // Back faces are black.
-        ddgi_radiance[i] = vec4<f32>(0.0, 0.0, 0.0, -hit.t * DDGI_BACKFACE_SCALE);
-        return;
-    }
-    let surface = hit_surface(ray, hit);
-    let t = hit.t;
-    let position = origin + ray_info.direction * t;
-    let normal = surface.normal;
-    // `position` comes from origin + direction · t, which is only as exact as the larger of the two
-    // magnitudes: at large scales (10^4 units) that error dwarfs the float-step offset of a hit near
-    // a coordinate plane, and the shadow ray would start under the surface (the floor goes dark).
-    // Lift it by a few ulps of that magnitude first.
-    let magnitude = max(t, max(abs(origin.x), max(abs(origin.y), abs(origin.z))));
-    let shadow_origin = offset_ray_origin(position + normal * (1e-5 * magnitude), normal);
-    var irradiance = vec3<f32>(0.0);
-    for (var l = 0u; l < view.light_count; l++) {
-        let s = sample_light(lights[l], position, normal);
-        if any(s.irradiance > vec3<f32>(0.0)) && !trace_any(Ray(shadow_origin, 0.0, s.to_light, s.distance * (1.0 - 1e-4))) {
-            irradiance += s.irradiance;
-        }
-    }
-    irradiance += ddgi_sample_irradiance(position, normal, -ray_info.direction);
-    let radiance = surface.emissive + surface.albedo * INV_PI * irradiance;
-    ddgi_radiance[i] = vec4<f32>(min(sanitize_radiance(radiance), vec3<f32>(DDGI_MAX_IRRADIANCE)), t);
 }

@@ -2,7 +2,7 @@
 // depth-tested against the G-buffer. The sphere shows the probe's irradiance in the direction of
 // each point of its surface (a white diffuse ball lit by the probe's map), or a false colour of
 // its state, its ray budget or its temporal error.
-#include "ddgi.inc.wgsl"
+#include "ddgi_common.inc.wgsl"
 
 struct DdgiProbeViewParams {
     // 1 irradiance, 2 state, 3 ray budget, 4 temporal error.

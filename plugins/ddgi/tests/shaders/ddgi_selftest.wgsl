@@ -1,7 +1,7 @@
 // Kernels that run single DDGI functions on a buffer of inputs, for the tests to compare with the
 // CPU: octahedral round trips, spherical Fibonacci directions, SMAPE in YCoCg and the bfloat16
 // packing of the slow error average.
-#include "ddgi.inc.wgsl"
+#include "ddgi_common.inc.wgsl"
 
 @group(3) @binding(0) var<storage, read> selftest_in: array<vec4<f32>>;
 @group(3) @binding(1) var<storage, read_write> selftest_out: array<vec4<f32>>;

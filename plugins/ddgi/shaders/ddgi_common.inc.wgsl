@@ -1,12 +1,14 @@
-// DDGI: the probe volume, its atlases and the sampling function shared by the probe rays' shading and
-// the camera's final gather. Host mirrors of these structs are in plugins/ddgi/src/gpu.rs (a test
-// compares sizes); every DDGI binding (group 1) is declared here and nowhere else.
+// DDGI: the probe volume, its probes, atlases and per-frame buffers, and the helpers every DDGI pass
+// shares. Host mirrors of these structs are in plugins/ddgi/src/gpu.rs (a test compares every
+// field's offset); every DDGI binding (group 1) is declared here and nowhere else. The constants
+// (DDGI_*) are generated from their Rust definitions in gpu.rs (module ddgi_constants.inc.wgsl).
 //
 // Probe p sits at grid coordinates (x, y, z) with p = x + counts.x · (y + counts.y · z), at
 // origin + spacing · (x, y, z) + its relocation offset. Each probe owns one tile of each atlas: an
 // octahedral map of N × N interior texels (N = irradiance_texels or distance_texels) framed by a
 // one-texel border that repeats the map's opposite edges, so bilinear filtering wraps correctly.
 #include "ray_tracing.inc.wgsl"
+#include "ddgi_constants.inc.wgsl"
 
 struct DdgiVolumeGpu {
     // World position of probe (0, 0, 0), before relocation.
@@ -102,12 +104,6 @@ struct DdgiProbeData {
     _pad1: u32,
 }
 
-// A probe counts as affecting no surface only after this many of its rays, over classifications
-// in a row (each frame's rays rotated anew), found none in its region: one frame's few rays
-// (adaptive budgets) can miss a small surface at the edge of the region; 512 directions miss a
-// surface covering 1% of the sphere with a probability of 0.6%.
-const DDGI_EMPTY_RAYS: u32 = 512u;
-
 // What the budget pass leaves for the rest of the frame: the indirect dispatch of the ray passes
 // and the number of rays, the indirect dispatch of the per-probe passes (one workgroup per probe
 // updated this frame, listed in ddgi_updated) and their number, and the brightest probe's luma.
@@ -140,50 +136,6 @@ struct DdgiRay {
     direction: vec3<f32>,
     probe: u32,
 }
-
-const DDGI_WEIGHT_BACKFACE: u32 = 1u;
-const DDGI_WEIGHT_CHEBYSHEV: u32 = 2u;
-const DDGI_WEIGHT_NORMAL_BIAS: u32 = 4u;
-const DDGI_WEIGHT_CRUSH: u32 = 8u;
-const DDGI_WEIGHT_TRILINEAR: u32 = 16u;
-const DDGI_RELOCATION: u32 = 32u;
-const DDGI_CLASSIFICATION: u32 = 64u;
-const DDGI_ADAPTIVE: u32 = 128u;
-
-const DDGI_NO_PIN: u32 = 0xffffffffu;
-const DDGI_NO_PROBE: u32 = 0xffffffffu;
-const DDGI_PIN_ACTIVE: u32 = 1u;
-const DDGI_PIN_INACTIVE: u32 = 2u;
-
-const DDGI_PROBE_INACTIVE: u32 = 1u;
-// The probe's maps hold nothing worth keeping: its next update takes the new value at once.
-const DDGI_PROBE_FRESH: u32 = 2u;
-// Relocation moved the probe through a back face this frame (set by relocation, read and cleared
-// by classification): a probe switched off inside geometry then traces its re-check rays at the
-// next frame from its new place, not at the next periodic re-check, so it escapes (and lights
-// again) within a frame per wall.
-const DDGI_PROBE_RELOCATED: u32 = 4u;
-const DDGI_PROBE_RECHECK: u32 = 8u;
-// Switched off because its rays found no surface in its region (DDGI_EMPTY_RAYS).
-const DDGI_PROBE_EMPTY: u32 = 16u;
-// Set by the camera's gather on a probe that is off for an empty region, or on its way there,
-// when a pixel in its cage faces it: a visible surface depends on it. The budget gives such an
-// off probe its re-check rays at the next frame, and classification then counts its region as
-// not empty (and clears the mark), so the probes the view needs come back within a frame.
-const DDGI_PROBE_SEEN: u32 = 32u;
-
-// Hit distance of a miss in the radiance buffer.
-const DDGI_MISS: f32 = 3.0e38;
-// Back-face hits are stored as -DDGI_BACKFACE_SCALE · t: the distance maps see the wall closer, so
-// Chebyshev rejects probes behind walls; relocation recovers t.
-const DDGI_BACKFACE_SCALE: f32 = 0.2;
-// Irradiance is stored as E^(1/gamma): perceptual precision in half floats, no banding in the dark.
-const DDGI_IRRADIANCE_GAMMA: f32 = 5.0;
-// Largest irradiance (W/m²) the maps hold, and largest radiance of a shaded probe ray: 1e24^(1/5)
-// ≈ 63,096 stays under the largest half float (65,504), so no atlas texel can be infinite, and
-// 4,096 rays of it sum without overflow. Only a scene whose light grows without bound (a closed
-// box of albedo 1 that emits) ever reaches it.
-const DDGI_MAX_IRRADIANCE: f32 = 1.0e24;
 
 @group(1) @binding(0) var<uniform> ddgi_volume: DdgiVolumeGpu;
 @group(1) @binding(1) var<storage, read_write> ddgi_probes: array<DdgiProbeData>;
@@ -360,99 +312,3 @@ fn ddgi_decode_irradiance(v: vec3<f32>) -> vec3<f32> {
     let c = clamp(v, vec3<f32>(0.0), vec3<f32>(HALF_MAX));
     return select(vec3<f32>(0.0), pow(c, vec3<f32>(DDGI_IRRADIANCE_GAMMA)), c > vec3<f32>(0.0));
 }
-
-// ---------------------------------------------------------------------------------------------
-// Sampling: irradiance at a surface point from the 8 probes of the cage around it.
-
-// Point p in grid units (probe (0, 0, 0) at the origin, one unit per cell).
-fn ddgi_grid_coords(p: vec3<f32>) -> vec3<f32> {
-    return (p - ddgi_volume.origin) / max(ddgi_volume.spacing, vec3<f32>(1e-30));
-}
-
-// The cage (the grid cell whose 8 corner probes light a point) around `grid` (grid units): its
-// lowest corner, clamped so that the cage stays inside the grid (points beyond the outer probes
-// take the outer cell).
-fn ddgi_cage_base(grid: vec3<f32>) -> vec3<i32> {
-    let max_base = vec3<i32>(max(ddgi_volume.counts, vec3<u32>(2u)) - vec3<u32>(2u));
-    return clamp(vec3<i32>(floor(grid)), vec3<i32>(0), max_base);
-}
-
-// Corner i (0–7) of a cage: its offset from the lowest corner.
-fn ddgi_cage_step(i: u32) -> vec3<u32> {
-    return vec3<u32>(i & 1u, (i >> 1u) & 1u, (i >> 2u) & 1u);
-}
-
-// The probe at corner `step` of the cage at `base` (a grid one probe thick repeats its layer).
-fn ddgi_cage_probe(base: vec3<i32>, step: vec3<u32>) -> u32 {
-    return ddgi_probe_index(min(vec3<u32>(base) + step, ddgi_volume.counts - vec3<u32>(1u)));
-}
-
-// Irradiance arriving at point `p` with unit normal `n`, seen from direction `to_viewer` (unit, from
-// p towards the camera or ray origin), from the volume's probes. Each weight can be switched off:
-// back-face (wrap shading), Chebyshev visibility on the distance moments, crush of small weights,
-// trilinear; the normal/view bias moves the lookup point off the surface first.
-fn ddgi_sample_irradiance(p: vec3<f32>, n: vec3<f32>, to_viewer: vec3<f32>) -> vec3<f32> {
-    let v = ddgi_volume;
-    var biased = p;
-    if ddgi_has(DDGI_WEIGHT_NORMAL_BIAS) {
-        biased = p + n * v.normal_bias + to_viewer * v.view_bias;
-    }
-    let grid = ddgi_grid_coords(biased);
-    let base = ddgi_cage_base(grid);
-    let alpha = clamp(grid - vec3<f32>(base), vec3<f32>(0.0), vec3<f32>(1.0));
-    var sum = vec3<f32>(0.0);
-    var total = 0.0;
-    for (var i = 0u; i < 8u; i++) {
-        let step = ddgi_cage_step(i);
-        let probe = ddgi_cage_probe(base, step);
-        if !ddgi_probe_active(probe) {
-            continue;
-        }
-        let probe_position = ddgi_probe_position(probe);
-        var weight = 1.0;
-        if ddgi_has(DDGI_WEIGHT_BACKFACE) {
-            // Wrap shading: probes behind the surface fade out smoothly instead of being cut off.
-            let to_probe = safe_normalize(probe_position - p, n);
-            let wrap = (dot(to_probe, n) + 1.0) * 0.5;
-            weight *= wrap * wrap + 0.2;
-        }
-        if ddgi_has(DDGI_WEIGHT_CHEBYSHEV) {
-            let from_probe = biased - probe_position;
-            let distance = length(from_probe);
-            let dir = safe_normalize(from_probe, n);
-            let uv = ddgi_atlas_uv(probe, dir, v.distance_texels, v.distance_atlas_size);
-            let moments = textureSampleLevel(ddgi_distance, ddgi_sampler, uv, 0.0).xy * vec2<f32>(v.distance_scale, v.distance_scale * v.distance_scale);
-            let mean = moments.x;
-            if distance > mean {
-                // One-tailed Chebyshev bound on the probability that the point is visible.
-                let variance = abs(mean * mean - moments.y);
-                let d = distance - mean;
-                var visibility = clamp(variance / max(variance + d * d, 1e-30), 0.0, 1.0);
-                visibility = visibility * visibility * visibility;
-                weight *= max(visibility, 0.05);
-            }
-        }
-        // Never exactly zero, so that a point whose probes all fail a test still gets something.
-        weight = max(weight, 1e-6);
-        if ddgi_has(DDGI_WEIGHT_CRUSH) {
-            // Log-perception: crush tiny weights (they would otherwise leak faint light).
-            let threshold = 0.2;
-            if weight < threshold {
-                weight *= weight * weight / (threshold * threshold);
-            }
-        }
-        if ddgi_has(DDGI_WEIGHT_TRILINEAR) {
-            let t = mix(vec3<f32>(1.0) - alpha, alpha, vec3<f32>(step));
-            weight *= t.x * t.y * t.z;
-        }
-        let uv = ddgi_atlas_uv(probe, n, v.irradiance_texels, v.irradiance_atlas_size);
-        let irradiance = ddgi_decode_irradiance(textureSampleLevel(ddgi_irradiance, ddgi_sampler, uv, 0.0).rgb);
-        sum += weight * irradiance;
-        total += weight;
-    }
-    if !(total > 0.0) {
-        return vec3<f32>(0.0);
-    }
-    return sanitize_radiance(sum / total);
-}
-

@@ -1,0 +1,21 @@
+// DDGI on the camera: the parameters and G-buffer bindings (group 2) that the passes `ddgi_gather`
+// and `ddgi_composite` share.
+#include "scene.inc.wgsl"
+
+struct DdgiGatherParams {
+    // 1 for the first volume of the frame: the accumulation starts from zero.
+    first_volume: u32,
+    // composite_debug: 1 direct light only, 2 albedo, 3 normals.
+    debug_view: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+@group(2) @binding(0) var<uniform> ddgi_gather_params: DdgiGatherParams;
+@group(2) @binding(1) var gbuffer_depth: texture_depth_2d;
+@group(2) @binding(2) var gbuffer_normal: texture_2d<f32>;
+@group(2) @binding(3) var gbuffer_albedo: texture_2d<f32>;
+@group(2) @binding(4) var direct_in: texture_2d<f32>;
+// Per pixel: (Σ volume weight · irradiance, Σ volume weight).
+@group(2) @binding(5) var<storage, read_write> ddgi_indirect: array<vec4<f32>>;
+@group(2) @binding(6) var radiance_out: texture_storage_2d<rgba32float, write>;

@@ -1,0 +1,190 @@
+//! What the `"ddgi"` frame script shows ([`DdgiOutput`]) and the probe debug view
+//! ([`DdgiProbeView`], pass `ddgi_probe_spheres`).
+
+use bevy_ecs::prelude::*;
+use std::sync::Arc;
+
+use engine::graph::{Bind, Handle, RenderGraph, Texture as GraphTexture};
+use engine::render::CameraFrame;
+use engine::shader::{Program, ShaderError};
+use engine::wgpu;
+
+use crate::frame::VolumeHandles;
+use crate::gpu::DdgiProbeViewParams;
+use crate::resources::VolumeGpu;
+
+/// What the `"ddgi"` frame script writes into the image.
+#[derive(Resource, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum DdgiOutput {
+    /// Direct light plus DDGI's indirect light.
+    #[default]
+    Full,
+    /// DDGI's indirect light alone (albedo / π × irradiance).
+    Indirect,
+    /// Direct light alone (the probes still update; the gather is skipped).
+    Direct,
+    /// The G-buffer's albedo (debug view).
+    Albedo,
+    /// The G-buffer's normals as colours, 0.5 + 0.5 n (debug view).
+    Normals,
+}
+
+impl DdgiOutput {
+    pub const ALL: [DdgiOutput; 5] = [Self::Full, Self::Direct, Self::Indirect, Self::Albedo, Self::Normals];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Full => "full",
+            Self::Indirect => "indirect light only",
+            Self::Direct => "direct light only",
+            Self::Albedo => "albedo",
+            Self::Normals => "normals",
+        }
+    }
+
+    /// The `debug_view` of `composite_debug`, for the outputs it draws.
+    pub(crate) fn debug_view(self) -> Option<u32> {
+        match self {
+            Self::Full | Self::Indirect => None,
+            Self::Direct => Some(1),
+            Self::Albedo => Some(2),
+            Self::Normals => Some(3),
+        }
+    }
+}
+
+/// What the probe debug view paints on each probe's sphere.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum DdgiProbeColor {
+    /// No spheres (the pass is left out).
+    #[default]
+    Off,
+    /// The probe's irradiance in the direction of each point of the sphere.
+    Irradiance,
+    /// Green active, red inactive (inside geometry or dark), yellow fresh.
+    State,
+    /// Rays this frame, blue (none) to red (`max_rays`).
+    Rays,
+    /// Temporal error, blue (0) to red (`max_error`).
+    Error,
+}
+
+impl DdgiProbeColor {
+    pub const ALL: [DdgiProbeColor; 5] = [Self::Off, Self::Irradiance, Self::State, Self::Rays, Self::Error];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Off => "off",
+            Self::Irradiance => "irradiance",
+            Self::State => "state",
+            Self::Rays => "ray budget",
+            Self::Error => "temporal error",
+        }
+    }
+}
+
+/// The probe debug view: every probe of the first volume drawn as a small sphere in the image
+/// (pass `ddgi_probe_spheres`, after the composite, depth-tested against the G-buffer). Costs one
+/// instanced draw of 576 vertices per probe when on, nothing when off.
+#[derive(Resource, Clone, Copy, Debug, PartialEq)]
+pub struct DdgiProbeView {
+    pub color: DdgiProbeColor,
+    /// Sphere radius as a fraction of the smallest probe spacing.
+    pub radius: f32,
+    /// The highlighted probe (index in the volume).
+    pub selected: Option<u32>,
+    /// Temporal error drawn as the hottest colour.
+    pub max_error: f32,
+}
+
+impl Default for DdgiProbeView {
+    fn default() -> Self {
+        Self { color: DdgiProbeColor::Off, radius: 0.12, selected: None, max_error: 0.1 }
+    }
+}
+
+/// Vertices of one probe sphere: two triangles per ring × segment of `ddgi_probe_spheres.wgsl`.
+pub fn probe_sphere_vertices() -> Result<u32, ShaderError> {
+    let parsed = engine::shader::parse("ddgi_probe_spheres.wgsl")?;
+    let missing = |name: &str| ShaderError::Missing(format!("ddgi_probes.wgsl: const {name}"));
+    let rings = parsed.u32_constant("SPHERE_RINGS").ok_or_else(|| missing("SPHERE_RINGS"))?;
+    let segments = parsed.u32_constant("SPHERE_SEGMENTS").ok_or_else(|| missing("SPHERE_SEGMENTS"))?;
+    Ok(6 * rings * segments)
+}
+
+/// The probe debug view's pass: one sphere per probe of `volume`, rasterized into `hdr` with the
+/// G-buffer's depth.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn add_probe_spheres(
+    graph: &mut RenderGraph,
+    frame: &CameraFrame,
+    (program, vertices): (Arc<Program<wgpu::RenderPipeline>>, u32),
+    volume: &VolumeGpu,
+    handles: &mut VolumeHandles,
+    depth: &mut Handle<GraphTexture>,
+    hdr: &mut Handle<GraphTexture>,
+    view: &DdgiProbeView,
+) {
+    let gpu = &frame.gpu;
+    let spacing = volume.layout.spacing.min_element().max(0.0);
+    let params = DdgiProbeViewParams {
+        mode: match view.color {
+            DdgiProbeColor::Off | DdgiProbeColor::Irradiance => 1,
+            DdgiProbeColor::State => 2,
+            DdgiProbeColor::Rays => 3,
+            DdgiProbeColor::Error => 4,
+        },
+        selected: view.selected.unwrap_or(u32::MAX),
+        radius: view.radius.clamp(0.0, 0.5) * spacing,
+        max_rays: volume.settings.rays_per_probe as f32,
+        max_error: view.max_error,
+        ..Default::default()
+    };
+    let uniform = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("ddgi_probe_view"),
+        size: size_of::<DdgiProbeViewParams>() as u64,
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    gpu.queue.write_buffer(&uniform, 0, bytemuck::bytes_of(&params));
+    let uniform = graph.import_buffer("ddgi_probe_view", &uniform);
+    let mut pass = graph.add_pass("ddgi_probe_spheres");
+    pass.note(view.color.name());
+    let group1 = handles.declare(&mut pass, &program.bindings, 1);
+    let group2 = [
+        ("ddgi_probe_view", Bind::buffer(pass.read(&uniform))),
+        ("ddgi_probe_view_probes", Bind::buffer(pass.read(&handles.probes))),
+    ];
+    pass.read(hdr);
+    pass.read(depth);
+    let color = pass.write(hdr);
+    let depth = pass.write(depth);
+    let group0 = program.bind_group(&gpu.device, 0, &frame.scene_bindings());
+    let count = volume.layout.probe_count;
+    pass.render(move |ctx| {
+        let group1 = ctx.bind_group(&*program, 1, &group1);
+        let group2 = ctx.bind_group(&*program, 2, &group2);
+        let mut rp = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some(ctx.label),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: ctx.view(color),
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: ctx.view(depth),
+                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        rp.set_pipeline(&program.pipeline);
+        rp.set_bind_group(0, &group0, &[]);
+        rp.set_bind_group(1, &group1, &[]);
+        rp.set_bind_group(2, &group2, &[]);
+        rp.draw(0..vertices, 0..count);
+    });
+}

@@ -1,0 +1,457 @@
+//! The DDGI passes as functions any frame script calls, and the `"ddgi"` frame script built from them.
+//!
+//! ```text
+//! per volume:  ddgi_budget ─▶ ddgi_trace ─▶ ddgi_probe_update      (DdgiFrame::add_volume_updates)
+//! per camera:  ddgi_gather (each volume) ─▶ ddgi_composite         (add_gather, add_composite)
+//! debug:       ddgi_probe_spheres                                  (add_probe_spheres)
+//! ```
+//!
+//! Every resource of a volume enters the frame's graph as a handle ([`VolumeHandles`]); a pass
+//! declares what its shaders use — read or written as naga finds it — and binds only what it
+//! declared. A pass of the app's own that lights its surfaces by the probes includes
+//! `ddgi_sampling.inc.wgsl` and binds group 1 with [`VolumeHandles::declare`].
+
+use bevy_ecs::prelude::*;
+use bevy_ecs::system::SystemParam;
+use engine::graph::{Bind, Buffer as GraphBuffer, BufferDesc, Handle, PassBuilder, RenderGraph, Texture as GraphTexture, TextureDesc};
+use engine::render::{CameraFrame, GBuffer, HDR_FORMAT};
+use engine::shader::{AutoLayout, BindingMap, Program, ShaderError};
+use engine::wgpu;
+
+use crate::debug_view::{DdgiOutput, DdgiProbeColor, DdgiProbeView, add_probe_spheres};
+use crate::gpu::{DdgiCounters, DdgiGatherParams};
+use crate::pipelines::{ComputeProgram, DdgiPipelines, Specialization};
+use crate::resources::{DdgiGpuVolumes, VolumeGpu};
+
+/// Where in [`DdgiCounters`] the indirect dispatches of the ray passes and of the per-probe passes are.
+const RAY_DISPATCH_OFFSET: u64 = std::mem::offset_of!(DdgiCounters, dispatch) as u64;
+const PROBE_DISPATCH_OFFSET: u64 = std::mem::offset_of!(DdgiCounters, probe_dispatch) as u64;
+
+/// One volume's resources in a frame's graph: every buffer and texture of its [`VolumeGpu`],
+/// imported, so that passes declare and bind them by handle.
+pub struct VolumeHandles {
+    /// Index of the volume in [`DdgiGpuVolumes::volumes`].
+    pub index: usize,
+    /// Appended to pass labels when there are several volumes (`_0`, `_1`, …), else empty.
+    pub suffix: String,
+    pub uniform: Handle<GraphBuffer>,
+    pub probes: Handle<GraphBuffer>,
+    pub counters: Handle<GraphBuffer>,
+    pub blocks: Handle<GraphBuffer>,
+    pub updated: Handle<GraphBuffer>,
+    pub lit: Handle<GraphBuffer>,
+    pub rays: Handle<GraphBuffer>,
+    pub radiance: Handle<GraphBuffer>,
+    pub irradiance_history: Handle<GraphBuffer>,
+    pub distance_history: Handle<GraphBuffer>,
+    /// The atlases that sampling reads.
+    pub irradiance: Handle<GraphTexture>,
+    pub distance: Handle<GraphTexture>,
+    sampler: wgpu::Sampler,
+}
+
+enum Slot<'a> {
+    Buffer(&'a mut Handle<GraphBuffer>),
+    Texture(&'a mut Handle<GraphTexture>),
+    Sampler,
+}
+
+impl VolumeHandles {
+    fn import(graph: &mut RenderGraph, index: usize, suffix: String, volume: &VolumeGpu, sampler: &wgpu::Sampler) -> Self {
+        let mut buffer = |name: &str, b: &wgpu::Buffer| graph.import_buffer(&format!("{name}{suffix}"), b);
+        let (uniform, probes, counters, blocks) =
+            (buffer("ddgi_volume", &volume.uniform), buffer("ddgi_probes", &volume.probes), buffer("ddgi_counters", &volume.counters), buffer("ddgi_blocks", &volume.blocks));
+        let (updated, lit, rays, radiance) =
+            (buffer("ddgi_updated", &volume.updated), buffer("ddgi_lit", &volume.lit), buffer("ddgi_rays", &volume.rays), buffer("ddgi_radiance", &volume.radiance));
+        let irradiance_history = buffer("ddgi_irradiance_history", &volume.irradiance_history);
+        let distance_history = buffer("ddgi_distance_history", &volume.distance_history);
+        let irradiance = graph.import_texture(&format!("ddgi_irradiance{suffix}"), &volume.irradiance);
+        let distance = graph.import_texture(&format!("ddgi_distance{suffix}"), &volume.distance);
+        Self {
+            index,
+            suffix,
+            uniform,
+            probes,
+            counters,
+            blocks,
+            updated,
+            lit,
+            rays,
+            radiance,
+            irradiance_history,
+            distance_history,
+            irradiance,
+            distance,
+            sampler: sampler.clone(),
+        }
+    }
+
+    /// The resource behind each WGSL name of group 1 (`ddgi_common.inc.wgsl`): the one table from
+    /// binding names to a volume's resources.
+    fn slot(&mut self, name: &str) -> Option<(&'static str, Slot<'_>)> {
+        Some(match name {
+            "ddgi_volume" => ("ddgi_volume", Slot::Buffer(&mut self.uniform)),
+            "ddgi_probes" => ("ddgi_probes", Slot::Buffer(&mut self.probes)),
+            "ddgi_irradiance" => ("ddgi_irradiance", Slot::Texture(&mut self.irradiance)),
+            "ddgi_irradiance_out" => ("ddgi_irradiance_out", Slot::Texture(&mut self.irradiance)),
+            "ddgi_distance" => ("ddgi_distance", Slot::Texture(&mut self.distance)),
+            "ddgi_distance_out" => ("ddgi_distance_out", Slot::Texture(&mut self.distance)),
+            "ddgi_sampler" => ("ddgi_sampler", Slot::Sampler),
+            "ddgi_rays" => ("ddgi_rays", Slot::Buffer(&mut self.rays)),
+            "ddgi_radiance" => ("ddgi_radiance", Slot::Buffer(&mut self.radiance)),
+            "ddgi_irradiance_history" => ("ddgi_irradiance_history", Slot::Buffer(&mut self.irradiance_history)),
+            "ddgi_distance_history" => ("ddgi_distance_history", Slot::Buffer(&mut self.distance_history)),
+            "ddgi_counters" => ("ddgi_counters", Slot::Buffer(&mut self.counters)),
+            "ddgi_counters_in" => ("ddgi_counters_in", Slot::Buffer(&mut self.counters)),
+            "ddgi_blocks" => ("ddgi_blocks", Slot::Buffer(&mut self.blocks)),
+            "ddgi_updated" => ("ddgi_updated", Slot::Buffer(&mut self.updated)),
+            "ddgi_lit" => ("ddgi_lit", Slot::Buffer(&mut self.lit)),
+            _ => return None,
+        })
+    }
+
+    /// Declares on `pass` every volume resource that `bindings` (a pipeline's, or several merged)
+    /// uses in `group` — a write where naga finds the shader writes it, a read otherwise — and
+    /// returns the bindings to build that group from ([`engine::graph::PassContext::bind_group`]).
+    pub fn declare(&mut self, pass: &mut PassBuilder<'_>, bindings: &BindingMap, group: u32) -> Vec<(&'static str, Bind)> {
+        let mut out = Vec::new();
+        for name in bindings.groups.get(&group).into_iter().flat_map(|g| g.keys()) {
+            let writes = bindings.writes.contains(name);
+            let Some((name, slot)) = self.slot(name) else { continue };
+            let bind = match slot {
+                Slot::Buffer(h) => {
+                    let read = pass.read(h);
+                    if writes { Bind::buffer(pass.write(h)) } else { Bind::buffer(read) }
+                }
+                Slot::Texture(h) => {
+                    let read = pass.read(h);
+                    if writes { Bind::texture(pass.write(h)) } else { Bind::texture(read) }
+                }
+                Slot::Sampler => Bind::Sampler(self.sampler.clone()),
+            };
+            out.push((name, bind));
+        }
+        out
+    }
+
+    /// Marks what lives on into the next frame: the maps, their histories and the probe states.
+    fn export(&self, graph: &mut RenderGraph) {
+        graph.export(&self.probes);
+        graph.export(&self.irradiance);
+        graph.export(&self.distance);
+        graph.export(&self.irradiance_history);
+        graph.export(&self.distance_history);
+    }
+}
+
+/// The bindings of several pipelines merged (a pass of several dispatches declares them all).
+fn merged(programs: &[&ComputeProgram]) -> BindingMap {
+    let mut map = BindingMap::default();
+    for p in programs {
+        for (group, names) in &p.bindings.groups {
+            map.groups.entry(*group).or_default().extend(names.iter().map(|(n, b)| (n.clone(), *b)));
+        }
+        map.writes.extend(p.bindings.writes.iter().cloned());
+    }
+    map
+}
+
+/// Group 0 (the engine's scene) of a pipeline, or an empty group when it reads no scene.
+fn scene_group<P: AutoLayout>(frame: &CameraFrame, program: &Program<P>) -> wgpu::BindGroup {
+    if program.uses_group(0) {
+        program.bind_group(&frame.gpu.device, 0, &frame.scene_bindings())
+    } else {
+        frame.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("empty"), layout: &program.pipeline.layout(0), entries: &[] })
+    }
+}
+
+/// The DDGI resources a frame script needs, as one system parameter: take it beside
+/// [`CameraFrame`] and call its `add_*` functions between `begin` and `finish`, then
+/// [`DdgiFrame::finish`].
+#[derive(SystemParam)]
+pub struct DdgiFrame<'w> {
+    pub pipelines: ResMut<'w, DdgiPipelines>,
+    pub volumes: ResMut<'w, DdgiGpuVolumes>,
+    pub output: Res<'w, DdgiOutput>,
+    pub probe_view: Option<Res<'w, DdgiProbeView>>,
+}
+
+impl DdgiFrame<'_> {
+    /// Adds every volume's probe update to `graph`: budget → trace (ray generation and shading
+    /// included) → probe update (maps, atlas tiles, relocation, classification). Returns each
+    /// volume's handles, for the gather and for the app's own passes that sample the probes.
+    pub fn add_volume_updates(&mut self, graph: &mut RenderGraph, frame: &CameraFrame) -> Vec<VolumeHandles> {
+        let specialization = Specialization { spot_lights: frame.scene.has_spot_lights, emissive: frame.scene.has_emissive };
+        let several = self.volumes.volumes.len() > 1;
+        let mut out = Vec::new();
+        for (k, (_, volume)) in self.volumes.volumes.iter().enumerate() {
+            let suffix = if several { format!("_{k}") } else { String::new() };
+            let mut handles = VolumeHandles::import(graph, k, suffix, volume, &self.pipelines.sampler);
+            match add_volume_update(graph, frame, &mut self.pipelines, specialization, volume, &mut handles) {
+                Ok(()) => out.push(handles),
+                Err(e) => log::error!("DDGI pipelines failed, the volume is off: {e}"),
+            }
+        }
+        out
+    }
+
+    /// Adds the gather of every volume for the camera: each pixel's irradiance from the probes,
+    /// weighted by how far inside each volume it lies. Returns the per-pixel accumulation
+    /// `(Σ weight · irradiance, Σ weight)` that [`DdgiFrame::add_composite`] reads. Left out when the
+    /// output reads no indirect light.
+    pub fn add_gather(
+        &self,
+        graph: &mut RenderGraph,
+        frame: &CameraFrame,
+        volumes: &mut [VolumeHandles],
+        gbuffer: &GBuffer,
+    ) -> Handle<GraphBuffer> {
+        let size = frame.size();
+        let pixels = u64::from(size.width.max(1)) * u64::from(size.height.max(1));
+        let mut indirect =
+            graph.create_buffer("ddgi_indirect", BufferDesc { size: pixels * 16, usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST });
+        if volumes.is_empty() {
+            // No volume: the indirect term is zero.
+            let mut pass = graph.add_pass("ddgi_clear_indirect");
+            let out = pass.write(&mut indirect);
+            pass.render(move |ctx| ctx.encoder.clear_buffer(ctx.buffer(out), 0, None));
+        }
+        // The debug views read no indirect light: the gather (which also marks the probes the view
+        // needs, so it writes the exported probe states and would otherwise always run) is left out.
+        let reads_indirect = self.output.debug_view().is_none();
+        for (i, h) in volumes.iter_mut().enumerate() {
+            let label = format!("ddgi_gather{}", h.suffix);
+            if !reads_indirect {
+                graph.leave_out(&label, "the view reads no indirect light");
+                continue;
+            }
+            let params = self.gather_params(graph, frame, i == 0);
+            let program = self.pipelines.gather.clone();
+            let mut pass = graph.add_pass(&label);
+            let group1 = h.declare(&mut pass, &program.bindings, 1);
+            let group2 = vec![
+                ("ddgi_gather_params", Bind::buffer(pass.read(&params))),
+                ("gbuffer_depth", Bind::texture(pass.read(&gbuffer.depth))),
+                ("gbuffer_normal", Bind::texture(pass.read(&gbuffer.normal))),
+                ("ddgi_indirect", {
+                    pass.read(&indirect);
+                    Bind::buffer(pass.write(&mut indirect))
+                }),
+            ];
+            let group0 = scene_group(frame, &*program);
+            let workgroups = workgroups(frame);
+            pass.render(move |ctx| {
+                let groups = [group0, ctx.bind_group(&*program, 1, &group1), ctx.bind_group(&*program, 2, &group2)];
+                engine::render::dispatch(ctx.encoder, ctx.label, &program.pipeline, &groups.each_ref(), workgroups);
+            });
+        }
+        indirect
+    }
+
+    /// Adds the composite: `direct` plus the gathered indirect light (albedo / π × irradiance) into
+    /// `hdr`, or what [`DdgiOutput`] asks for instead.
+    pub fn add_composite(
+        &self,
+        graph: &mut RenderGraph,
+        frame: &CameraFrame,
+        gbuffer: &GBuffer,
+        direct: &Handle<GraphTexture>,
+        indirect: &Handle<GraphBuffer>,
+        hdr: &mut Handle<GraphTexture>,
+    ) {
+        // What the composite reads depends on the output: `composite` direct + indirect,
+        // `composite_indirect` the indirect light alone, `composite_debug` direct light, albedo or
+        // normals. When it reads no gathered light, nobody does: the graph leaves the gather out.
+        let output = *self.output;
+        let debug = output.debug_view().is_some();
+        let full = output == DdgiOutput::Full;
+        let params = self.gather_params(graph, frame, true);
+        let mut pass = graph.add_pass("ddgi_composite");
+        let mut group2 = vec![
+            ("ddgi_gather_params", Bind::buffer(pass.read(&params))),
+            ("gbuffer_depth", Bind::texture(pass.read(&gbuffer.depth))),
+            ("gbuffer_albedo", Bind::texture(pass.read(&gbuffer.albedo))),
+        ];
+        if debug {
+            group2.push(("gbuffer_normal", Bind::texture(pass.read(&gbuffer.normal))));
+        }
+        if full || debug {
+            group2.push(("direct_in", Bind::texture(pass.read(direct))));
+        }
+        if !debug {
+            group2.push(("ddgi_indirect", Bind::buffer(pass.read(indirect))));
+        }
+        group2.push(("radiance_out", Bind::texture(pass.write(hdr))));
+        if !full {
+            pass.note(output.name());
+        }
+        let program = match (debug, full) {
+            (true, _) => self.pipelines.composite_debug.clone(),
+            (false, true) => self.pipelines.composite.clone(),
+            (false, false) => self.pipelines.composite_indirect.clone(),
+        };
+        let group0 = scene_group(frame, &*program);
+        let workgroups = workgroups(frame);
+        pass.render(move |ctx| {
+            let empty = ctx.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("empty"),
+                layout: &program.pipeline.get_bind_group_layout(1),
+                entries: &[],
+            });
+            let groups = [group0, empty, ctx.bind_group(&*program, 2, &group2)];
+            engine::render::dispatch(ctx.encoder, ctx.label, &program.pipeline, &groups.each_ref(), workgroups);
+        });
+    }
+
+    /// Adds the probe debug view of the first volume when [`DdgiProbeView`] is on: one sphere per
+    /// probe, rasterized into `hdr` against the G-buffer's depth.
+    pub fn add_probe_spheres(
+        &mut self,
+        graph: &mut RenderGraph,
+        frame: &CameraFrame,
+        volumes: &mut [VolumeHandles],
+        depth: &mut Handle<GraphTexture>,
+        hdr: &mut Handle<GraphTexture>,
+    ) {
+        let Some(view) = self.probe_view.as_deref().copied().filter(|v| v.color != DdgiProbeColor::Off) else { return };
+        let Some(handles) = volumes.first_mut() else { return };
+        match self.pipelines.probe_spheres_program(&frame.gpu) {
+            Ok(program) => add_probe_spheres(graph, frame, program, &self.volumes.volumes[handles.index].1, handles, depth, hdr, &view),
+            Err(e) => log::error!("DDGI probe view: {e}"),
+        }
+    }
+
+    /// After the graph has run ([`CameraFrame::finish`]): counts the frame and asks for the probe
+    /// states and counters to come back (the asynchronous readback into the probe entities).
+    pub fn finish(&mut self, frame: &CameraFrame) {
+        let frame_index = frame.time.frame;
+        for (_, v) in self.volumes.volumes.iter_mut() {
+            v.frames += 1;
+            v.readback.request(&frame.gpu, &v.probes, frame_index);
+            v.counter_readback.request(&frame.gpu, &v.counters, frame_index);
+        }
+    }
+
+    /// This frame's gather parameters, as a uniform in the graph.
+    fn gather_params(&self, graph: &mut RenderGraph, frame: &CameraFrame, first: bool) -> Handle<GraphBuffer> {
+        let p = DdgiGatherParams { first_volume: u32::from(first), debug_view: self.output.debug_view().unwrap_or(0), _pad1: 0, _pad2: 0 };
+        let buffer = frame.gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("ddgi_gather_params"),
+            size: size_of::<DdgiGatherParams>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        frame.gpu.queue.write_buffer(&buffer, 0, bytemuck::bytes_of(&p));
+        graph.import_buffer("ddgi_gather_params", &buffer)
+    }
+}
+
+fn workgroups(frame: &CameraFrame) -> (u32, u32) {
+    let size = frame.size();
+    (size.width.div_ceil(8), size.height.div_ceil(8))
+}
+
+/// Adds the probe update of one volume: budget → trace → probe update.
+fn add_volume_update(
+    graph: &mut RenderGraph,
+    frame: &CameraFrame,
+    pipelines: &mut DdgiPipelines,
+    specialization: Specialization,
+    volume: &VolumeGpu,
+    h: &mut VolumeHandles,
+) -> Result<(), ShaderError> {
+    let trace = pipelines.trace_program(&frame.gpu, specialization)?;
+    let suffix = h.suffix.clone();
+    let label = |name: &str| format!("{name}{suffix}");
+    // The trace runs as many threads as the budget pass packed rays, the probe update one workgroup
+    // per probe it gave rays (indirect dispatches, from `DdgiCounters`).
+    type Steps = Vec<(ComputeProgram, wgpu::BindGroup, u32)>;
+    let steps = |programs: &[(&ComputeProgram, u32)]| -> Steps {
+        programs.iter().map(|&(p, n)| (p.clone(), scene_group(frame, &**p), n)).collect()
+    };
+    let record = |steps: Steps, group1: Vec<(&'static str, Bind)>, indirect: Option<(engine::graph::Read<GraphBuffer>, u64)>| {
+        move |ctx: &mut engine::graph::PassContext<'_>| {
+            let groups: Vec<wgpu::BindGroup> = steps.iter().map(|(p, ..)| ctx.bind_group(&**p, 1, &group1)).collect();
+            let args = indirect.map(|(a, offset)| (ctx.buffer(a), offset));
+            let mut cp = ctx.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(ctx.label), timestamp_writes: None });
+            for ((program, group0, n), group1) in steps.iter().zip(&groups) {
+                cp.set_pipeline(&program.pipeline);
+                cp.set_bind_group(0, group0, &[]);
+                cp.set_bind_group(1, group1, &[]);
+                match args {
+                    Some((buffer, offset)) => cp.dispatch_workgroups_indirect(buffer, offset),
+                    None => cp.dispatch_workgroups(*n, 1, 1),
+                }
+            }
+        }
+    };
+
+    {
+        let mut pass = graph.add_pass(&label("ddgi_budget"));
+        if volume.settings.adaptive.enabled {
+            pass.note("adaptive: rays by each probe's temporal error");
+        }
+        let blocks = volume.layout.probe_count.div_ceil(crate::gpu::BUDGET_BLOCK);
+        // Without a frame budget the planned rays stand: the two scaling steps are left out.
+        let frame_budget = volume.settings.adaptive.enabled && volume.settings.adaptive.frame_budget.is_some();
+        let mut plan = vec![(&pipelines.plan, blocks)];
+        if frame_budget {
+            plan.extend([(&pipelines.plan_scale, 1), (&pipelines.scale, blocks)]);
+        }
+        plan.extend([(&pipelines.plan_blocks, 1), (&pipelines.place, blocks)]);
+        let group1 = h.declare(&mut pass, &merged(&plan.iter().map(|(p, _)| *p).collect::<Vec<_>>()), 1);
+        pass.render(record(steps(&plan), group1, None));
+    }
+    {
+        // Shading reads the previous frame's atlases, which the probe update then overwrites.
+        let mut pass = graph.add_pass(&label("ddgi_trace"));
+        let group1 = h.declare(&mut pass, &trace.bindings, 1);
+        let args = pass.read(&h.counters);
+        pass.note(&specialization.note());
+        pass.render(record(steps(&[(&trace, 0)]), group1, Some((args, RAY_DISPATCH_OFFSET))));
+    }
+    {
+        let mut pass = graph.add_pass(&label("ddgi_probe_update"));
+        // Each atlas is read (the trace's shading) and written (here) in one frame but never in one
+        // dispatch, so a single copy of each suffices.
+        let programs = [(&pipelines.update_irradiance, 0), (&pipelines.update, 0)];
+        let group1 = h.declare(&mut pass, &merged(&[&pipelines.update_irradiance, &pipelines.update]), 1);
+        let args = pass.read(&h.counters);
+        if !volume.settings.relocation {
+            pass.note("relocation off in the volume's settings");
+        }
+        if !volume.settings.classification {
+            pass.note("classification off: only clears the fresh-probe flags");
+        }
+        // Two dispatches: the irradiance maps (and each probe's error), then the rest.
+        pass.render(record(steps(&programs), group1, Some((args, PROBE_DISPATCH_OFFSET))));
+    }
+    h.export(graph);
+    Ok(())
+}
+
+/// Render stage: the `"ddgi"` frame script — G-buffer, direct light, each volume's probe update,
+/// the final gather of every volume, the composite, then the engine's tonemap and present.
+pub fn render_ddgi_frame(mut frame: CameraFrame, mut ddgi: DdgiFrame) {
+    let mut script = frame.begin();
+    let mut gbuffer = frame.add_gbuffer(&mut script.graph);
+    let mut direct = script.graph.create_texture("ddgi_direct", direct_texture(&frame));
+    frame.add_direct_lighting(&mut script.graph, &gbuffer, &mut direct);
+    let mut volumes = ddgi.add_volume_updates(&mut script.graph, &frame);
+    let indirect = ddgi.add_gather(&mut script.graph, &frame, &mut volumes, &gbuffer);
+    ddgi.add_composite(&mut script.graph, &frame, &gbuffer, &direct, &indirect, &mut script.hdr);
+    ddgi.add_probe_spheres(&mut script.graph, &frame, &mut volumes, &mut gbuffer.depth, &mut script.hdr);
+    frame.finish(script);
+    ddgi.finish(&frame);
+}
+
+/// The description of a texture that holds the direct light apart (the composite adds to it).
+pub fn direct_texture(frame: &CameraFrame) -> TextureDesc {
+    let size = frame.size();
+    TextureDesc {
+        width: size.width,
+        height: size.height,
+        format: HDR_FORMAT,
+        usage: wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::TEXTURE_BINDING,
+    }
+}

@@ -1,0 +1,351 @@
+//! Prepare: each volume's GPU resources ([`VolumeGpu`]), made (or remade when the layout
+//! changes) with its probe entities, and this frame's uniform.
+
+use std::collections::HashMap;
+
+use bevy_ecs::prelude::*;
+use engine::gpu::GpuContext;
+use engine::render::SkyRadiance;
+use engine::render::gpu_scene::GpuScene;
+use engine::render::readback::ReadbackRing;
+use engine::rng::SplitMix64;
+use engine::scene::{Assets, Image, Material, Mesh};
+use engine::wgpu;
+use glam::{Mat3, Quat, Vec3};
+
+use crate::gpu::{DdgiCounters, DdgiProbeData, DdgiVolumeGpu, MAX_IRRADIANCE, PROBE_INACTIVE};
+use crate::volume::{DdgiLayout, DdgiLimits, DdgiProbe, DdgiProbeState, DdgiVolume};
+
+/// Format of both atlases (irradiance perceptually encoded; distances
+/// divided by the volume's distance scale, so half floats neither overflow nor lose precision at
+/// any scene scale).
+pub const ATLAS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+
+/// The GPU resources and state of one volume.
+pub struct VolumeGpu {
+    pub layout: DdgiLayout,
+    /// This frame's settings (copied from the volume's component each frame; those that size the
+    /// resources — grid, rays, map sizes, bounds, seed — rebuild them when they change).
+    pub settings: DdgiVolume,
+    pub uniform: wgpu::Buffer,
+    pub probes: wgpu::Buffer,
+    /// The budget pass's results: the indirect dispatches of the ray passes and of the per-probe
+    /// passes, the ray count and the count of probes with rays.
+    pub counters: wgpu::Buffer,
+    /// The budget pass's per-block sums (one `DdgiBlock` per 256 probes).
+    pub blocks: wgpu::Buffer,
+    /// The probes with rays this frame, listed by the budget pass for the per-probe passes.
+    pub updated: wgpu::Buffer,
+    /// Each probe's luma (−1: switched off) as the budget pass found it, for the dark test.
+    pub lit: wgpu::Buffer,
+    pub rays: wgpu::Buffer,
+    pub radiance: wgpu::Buffer,
+    /// The maps at full precision (see `ddgi.inc.wgsl`): irradiance and its smoothed change (two
+    /// vec4 per texel) and distance moments (vec2 per texel), in probe order.
+    pub irradiance_history: wgpu::Buffer,
+    pub distance_history: wgpu::Buffer,
+    /// The atlases that sampling reads (half floats, irradiance perceptually encoded).
+    pub irradiance: wgpu::Texture,
+    pub distance: wgpu::Texture,
+    /// Frames updated so far.
+    pub frames: u64,
+    pub(crate) rng: SplitMix64,
+    /// The probe entities, by probe index.
+    pub probe_entities: Vec<Entity>,
+    pub(crate) readback: ReadbackRing,
+    pub(crate) counter_readback: ReadbackRing,
+    /// The last probe data read back (offsets and states), by probe index.
+    pub probe_data: Vec<DdgiProbeData>,
+}
+
+impl VolumeGpu {
+    fn new(gpu: &GpuContext, settings: &DdgiVolume, layout: DdgiLayout) -> Self {
+        use wgpu::BufferUsages as B;
+        let device = &gpu.device;
+        let buffer = |label: &str, size: u64, usage: B| {
+            device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size: size.max(16), usage, mapped_at_creation: false })
+        };
+        let sizes = layout.sizes;
+        let probes = buffer("ddgi_probes", sizes.probes, B::STORAGE | B::COPY_SRC | B::COPY_DST);
+        let initial = vec![DdgiProbeData::NEW; layout.probe_count as usize];
+        gpu.queue.write_buffer(&probes, 0, bytemuck::cast_slice(&initial));
+        let texture = |label: &str, size: glam::UVec2| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d { width: size.x, height: size.y, depth_or_array_layers: 1 },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: ATLAS_FORMAT,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::COPY_SRC,
+                view_formats: &[],
+            })
+        };
+        let irradiance = texture("ddgi_irradiance", layout.irradiance_atlas);
+        let distance = texture("ddgi_distance", layout.distance_atlas);
+        Self {
+            uniform: buffer("ddgi_volume", size_of::<DdgiVolumeGpu>() as u64, B::UNIFORM | B::COPY_DST),
+            probes,
+            counters: buffer("ddgi_counters", size_of::<DdgiCounters>() as u64, B::STORAGE | B::INDIRECT | B::COPY_SRC),
+            blocks: buffer("ddgi_blocks", sizes.blocks, B::STORAGE),
+            updated: buffer("ddgi_updated", sizes.probe_words, B::STORAGE),
+            lit: buffer("ddgi_lit", sizes.probe_words, B::STORAGE),
+            rays: buffer("ddgi_rays", sizes.rays, B::STORAGE | B::COPY_SRC),
+            radiance: buffer("ddgi_radiance", sizes.rays, B::STORAGE | B::COPY_SRC),
+            irradiance_history: buffer("ddgi_irradiance_history", sizes.irradiance_history, B::STORAGE),
+            distance_history: buffer("ddgi_distance_history", sizes.distance_history, B::STORAGE),
+            irradiance,
+            distance,
+            frames: 0,
+            rng: SplitMix64::new(settings.seed),
+            probe_entities: Vec::new(),
+            readback: ReadbackRing::new("ddgi_probes_readback", 3),
+            counter_readback: ReadbackRing::new("ddgi_counters_readback", 8),
+            probe_data: initial,
+            settings: settings.clone(),
+            layout,
+        }
+    }
+
+    pub fn probe_state(&self, index: usize) -> DdgiProbeState {
+        match self.probe_data.get(index) {
+            Some(p) if p.state & PROBE_INACTIVE != 0 => DdgiProbeState::Inactive,
+            _ => DdgiProbeState::Active,
+        }
+    }
+}
+
+/// The GPU state of every volume, by volume entity.
+#[derive(Resource, Default)]
+pub struct DdgiGpuVolumes {
+    pub volumes: Vec<(Entity, VolumeGpu)>,
+    /// The last settings error of each volume entity (logged once).
+    errors: HashMap<Entity, String>,
+    /// Local bounds of each mesh, computed once.
+    mesh_bounds: HashMap<u32, Option<(Vec3, Vec3)>>,
+    /// Warnings about the scene ([`divergence_warnings`]) and the material generation they are of.
+    warnings: Vec<String>,
+    warned_generation: Option<u64>,
+}
+
+/// Materials that reflect all the light they receive (albedo 1 in some channel). A closed scene of
+/// such a material that emits (or is lit) is physically divergent: every frame adds one bounce,
+/// so its indirect light grows without bound, by the first bounce's irradiance each frame. DDGI
+/// keeps it finite (irradiance is clamped at [`MAX_IRRADIANCE`]) but not meaningful; these
+/// warnings say so, one per material.
+pub fn divergence_warnings(materials: &Assets<Material>, images: &Assets<Image>) -> Vec<String> {
+    materials
+        .iter()
+        .filter_map(|(h, m)| {
+            // A texture scales the factor by its texels: its mean (linear) is the surface's albedo.
+            let texture = m.base_color_texture.as_ref().map_or(Some(Vec3::ONE), |t| images.get(t.image).map(mean_linear_texel));
+            let albedo = m.base_color.truncate() * texture.unwrap_or(Vec3::ONE);
+            (albedo.max_element() >= 1.0 - 1e-6).then_some((h, m, albedo.min(Vec3::ONE)))
+        })
+        .map(|(h, m, c)| {
+            format!(
+                "material {} '{}' has albedo ({}, {}, {}): it reflects all the light it receives, so in a closed scene the indirect \
+                 light does not converge (it grows by one bounce every frame); DDGI clamps irradiance at {MAX_IRRADIANCE:e} W/m², \
+                 which keeps it finite but not physical. Use an albedo below 1",
+                h.index(),
+                m.name,
+                c.x,
+                c.y,
+                c.z
+            )
+        })
+        .collect()
+}
+
+/// The mean of an sRGB-encoded texture's texels, decoded to linear.
+fn mean_linear_texel(image: &Image) -> Vec3 {
+    let decode = engine::metrics::srgb8_to_linear;
+    let texels = image.rgba8.chunks_exact(4);
+    let count = texels.len().max(1) as f32;
+    texels.fold(Vec3::ZERO, |sum, t| sum + Vec3::new(decode(t[0]), decode(t[1]), decode(t[2]))) / count
+}
+
+impl DdgiGpuVolumes {
+    pub fn get(&self, entity: Entity) -> Option<&VolumeGpu> {
+        self.volumes.iter().find(|(e, _)| *e == entity).map(|(_, v)| v)
+    }
+
+    /// The settings error that keeps `entity`'s volume from lighting the scene, if any.
+    pub fn error(&self, entity: Entity) -> Option<&str> {
+        self.errors.get(&entity).map(String::as_str)
+    }
+
+    /// Warnings about the scene's materials while a volume is on ([`divergence_warnings`]).
+    pub fn warnings(&self) -> &[String] {
+        &self.warnings
+    }
+
+    /// Any volume's settings error (for tools that run a single volume).
+    pub fn first_error(&self) -> Option<&str> {
+        self.errors.values().next().map(String::as_str)
+    }
+
+    fn scene_bounds(&mut self, scene: &GpuScene, meshes: &Assets<Mesh>) -> Option<(Vec3, Vec3)> {
+        let mut out: Option<(Vec3, Vec3)> = None;
+        for (_, mesh, transform) in scene.live_instances() {
+            let local = *self.mesh_bounds.entry(mesh).or_insert_with(|| {
+                meshes.iter().find(|(h, _)| h.index() == mesh).and_then(|(_, m)| m.bounds()).filter(|(a, b)| a.is_finite() && b.is_finite())
+            });
+            let Some((lo, hi)) = local else { continue };
+            for i in 0..8 {
+                let corner = Vec3::new(
+                    if i & 1 == 0 { lo.x } else { hi.x },
+                    if i & 2 == 0 { lo.y } else { hi.y },
+                    if i & 4 == 0 { lo.z } else { hi.z },
+                );
+                let p = transform.transform_point3(corner);
+                out = Some(out.map_or((p, p), |(a, b)| (a.min(p), b.max(p))));
+            }
+        }
+        out
+    }
+}
+
+fn random_rotation(rng: &mut SplitMix64) -> Mat3 {
+    // Shoemake's uniform random unit quaternion.
+    let (u1, u2, u3) = (rng.unit(), rng.unit() * std::f32::consts::TAU, rng.unit() * std::f32::consts::TAU);
+    let (a, b) = ((1.0 - u1).sqrt(), u1.sqrt());
+    Mat3::from_quat(Quat::from_xyzw(a * u2.sin(), a * u2.cos(), b * u3.sin(), b * u3.cos()).normalize())
+}
+
+/// Whether two settings need the same resources (probe layout, ray count, map sizes).
+fn same_resources(a: &DdgiVolume, b: &DdgiVolume) -> bool {
+    a.bounds == b.bounds
+        && a.probe_counts == b.probe_counts
+        && a.rays_per_probe == b.rays_per_probe
+        && a.irradiance_texels == b.irradiance_texels
+        && a.distance_texels == b.distance_texels
+        && a.seed == b.seed
+}
+
+/// Prepare stage: creates (or re-creates, when the layout changes) each volume's resources and its
+/// probe entities, and writes this frame's uniform (a new random rotation of the rays, re-check
+/// flag).
+#[allow(clippy::too_many_arguments)]
+pub fn prepare_ddgi_volumes(
+    mut commands: Commands,
+    gpu: Res<GpuContext>,
+    scene: Res<GpuScene>,
+    sky: Res<SkyRadiance>,
+    meshes: Res<Assets<Mesh>>,
+    materials: Res<Assets<Material>>,
+    images: Res<Assets<Image>>,
+    volumes: Query<(Entity, &DdgiVolume)>,
+    mut state: ResMut<DdgiGpuVolumes>,
+) {
+    let state = &mut *state;
+    if !volumes.is_empty() && state.warned_generation != Some(materials.generation()) {
+        state.warned_generation = Some(materials.generation());
+        let warnings = divergence_warnings(&materials, &images);
+        for w in warnings.iter().filter(|w| !state.warnings.contains(w)) {
+            log::warn!("DDGI: {w}");
+        }
+        state.warnings = warnings;
+    }
+    state.volumes.retain(|(e, v)| {
+        let keep = volumes.get(*e).is_ok();
+        if !keep {
+            for &probe in &v.probe_entities {
+                commands.entity(probe).try_despawn();
+            }
+        }
+        keep
+    });
+    let mut list: Vec<(Entity, &DdgiVolume)> = volumes.iter().collect();
+    list.sort_by_key(|(e, _)| *e);
+    let scene_changed = {
+        let c = scene.instance_changes();
+        c.structure_changed || !c.moved.is_empty()
+    };
+    for (entity, volume) in list {
+        let existing = state.volumes.iter().position(|(e, _)| *e == entity);
+        let rebuild = existing.is_none_or(|i| !same_resources(&state.volumes[i].1.settings, volume));
+        if rebuild {
+            let bounds = match volume.bounds {
+                Some(b) => Some(b),
+                None => state.scene_bounds(&scene, &meshes),
+            };
+            let layout = bounds
+                .ok_or(crate::volume::DdgiSettingsError::NoBounds)
+                .and_then(|b| DdgiLayout::new(volume, b, DdgiLimits::of(&gpu.device)));
+            let old = existing.map(|i| state.volumes.remove(i));
+            if let Some((_, old)) = &old {
+                for &probe in &old.probe_entities {
+                    commands.entity(probe).try_despawn();
+                }
+            }
+            let layout = match layout {
+                Ok(l) => {
+                    state.errors.remove(&entity);
+                    l
+                }
+                Err(e) => {
+                    let message = e.to_string();
+                    if state.errors.get(&entity) != Some(&message) {
+                        log::error!("DDGI volume {entity}: {message}; the volume is off");
+                    }
+                    state.errors.insert(entity, message);
+                    continue;
+                }
+            };
+            let mut v = VolumeGpu::new(&gpu, volume, layout);
+            v.probe_entities = (0..v.layout.probe_count)
+                .map(|i| {
+                    commands
+                        .spawn(DdgiProbe {
+                            volume: entity,
+                            grid: v.layout.probe_grid(i),
+                            index: i,
+                            offset: Vec3::ZERO,
+                            position: v.layout.grid_position(i),
+                            state: DdgiProbeState::Active,
+                            ray_count: volume.rays_per_probe,
+                            error: 0.0,
+                            resting_frames: 0,
+                        })
+                        .id()
+                })
+                .collect();
+            state.volumes.push((entity, v));
+            state.volumes.sort_by_key(|(e, _)| *e);
+        }
+        let Some((_, v)) = state.volumes.iter_mut().find(|(e, _)| *e == entity) else { continue };
+        v.settings = volume.clone();
+        let interval = u64::from(volume.recheck_interval);
+        let recheck = scene_changed || (interval > 0 && v.frames % interval == 0);
+        let rotation = random_rotation(&mut v.rng);
+        let uniform = DdgiVolumeGpu::new(volume, &v.layout, rotation, volume.sky_radiance.unwrap_or(sky.0), recheck);
+        gpu.queue.write_buffer(&v.uniform, 0, bytemuck::bytes_of(&uniform));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use engine::scene::{TextureRef, UvTransform};
+
+    #[test]
+    fn albedo_one_warns_unless_a_texture_darkens_it() {
+        let mut images = Assets::<Image>::default();
+        let grey = images.add(Image { name: "grey".into(), width: 1, height: 1, rgba8: vec![128, 128, 128, 255] });
+        let white = images.add(Image { name: "white".into(), width: 2, height: 1, rgba8: vec![255; 8] });
+        let textured = |name: &str, image| Material {
+            name: name.into(),
+            base_color_texture: Some(TextureRef { image, transform: UvTransform::default() }),
+            ..Default::default()
+        };
+        let mut materials = Assets::<Material>::default();
+        materials.add(Material { name: "plain_white".into(), ..Default::default() });
+        materials.add(textured("grey_texture", grey));
+        materials.add(textured("white_texture", white));
+        materials.add(Material::diffuse("half", Vec3::splat(0.5)));
+        let warnings = divergence_warnings(&materials, &images);
+        assert_eq!(warnings.len(), 2, "{warnings:?}");
+        assert!(warnings[0].contains("'plain_white'") && warnings[1].contains("'white_texture'"), "{warnings:?}");
+    }
+}

@@ -1,0 +1,86 @@
+//! The probes as entities: their GPU state mirrored into [`DdgiProbe`] components through the
+//! engine's asynchronous readback, and pins written back.
+
+use bevy_ecs::prelude::*;
+use engine::gpu::GpuContext;
+use glam::Vec3;
+
+use crate::gpu::{DdgiCounters, DdgiProbeData, NO_PIN, PIN_ACTIVE, PIN_INACTIVE};
+use crate::resources::DdgiGpuVolumes;
+use crate::volume::{DdgiProbe, DdgiProbePin, DdgiProbeState};
+
+/// Prepare stage: copies the probe states that have come back from the GPU into the
+/// [`DdgiProbe`] components (only those that changed, so change detection stays meaningful), and
+/// the rays traced and the probes updated per frame into the frame timings (`ddgi_rays`,
+/// `ddgi_probes_updated`).
+pub fn read_back_ddgi_probes(
+    gpu: Res<GpuContext>,
+    mut volumes: ResMut<DdgiGpuVolumes>,
+    mut probes: Query<&mut DdgiProbe>,
+    mut timings: ResMut<engine::render::FrameTimings>,
+) {
+    let several = volumes.volumes.len() > 1;
+    for (k, (_, v)) in volumes.volumes.iter_mut().enumerate() {
+        for (frame, bytes) in v.counter_readback.poll(&gpu) {
+            if let Ok(c) = bytemuck::try_pod_read_unaligned::<DdgiCounters>(&bytes[..size_of::<DdgiCounters>().min(bytes.len())]) {
+                let name = |base: &str| if several { format!("{base}_{k}") } else { base.to_string() };
+                timings.record_counter(frame, &name("ddgi_rays"), f64::from(c.total_rays));
+                timings.record_counter(frame, &name("ddgi_probes_updated"), f64::from(c.updated_probes));
+            }
+        }
+        let Some((_, bytes)) = v.readback.poll(&gpu).pop() else { continue };
+        let data: Vec<DdgiProbeData> = bytemuck::pod_collect_to_vec(&bytes);
+        if data.len() < v.layout.probe_count as usize {
+            continue;
+        }
+        v.probe_data = data;
+        for (i, &entity) in v.probe_entities.iter().enumerate() {
+            let Ok(mut probe) = probes.get_mut(entity) else { continue };
+            let d = v.probe_data[i];
+            let offset = Vec3::from_array(d.offset);
+            let next = DdgiProbe {
+                offset,
+                position: v.layout.grid_position(i as u32) + offset,
+                state: v.probe_state(i),
+                ray_count: d.ray_count,
+                error: d.error,
+                resting_frames: d.rest >> 16,
+                ..probe.clone()
+            };
+            probe.set_if_neq(next);
+        }
+    }
+}
+
+/// Prepare stage: writes the pins of probes whose [`DdgiProbePin`] was added, changed or removed
+/// into the GPU's probe data.
+pub fn upload_ddgi_probe_pins(
+    gpu: Res<GpuContext>,
+    volumes: Res<DdgiGpuVolumes>,
+    pins: Query<(&DdgiProbe, &DdgiProbePin), Changed<DdgiProbePin>>,
+    mut unpinned: RemovedComponents<DdgiProbePin>,
+    probes: Query<&DdgiProbe>,
+) {
+    let write = |probe: &DdgiProbe, pin: Option<&DdgiProbePin>| {
+        let Some(v) = volumes.get(probe.volume) else { return };
+        if probe.index >= v.layout.probe_count {
+            return;
+        }
+        let rays = pin.and_then(|p| p.rays).unwrap_or(NO_PIN);
+        let state = match pin.and_then(|p| p.state) {
+            Some(DdgiProbeState::Active) => PIN_ACTIVE,
+            Some(DdgiProbeState::Inactive) => PIN_INACTIVE,
+            None => 0,
+        };
+        let offset = u64::from(probe.index) * size_of::<DdgiProbeData>() as u64 + std::mem::offset_of!(DdgiProbeData, pinned_rays) as u64;
+        gpu.queue.write_buffer(&v.probes, offset, bytemuck::cast_slice(&[rays, state]));
+    };
+    for (probe, pin) in &pins {
+        write(probe, Some(pin));
+    }
+    for entity in unpinned.read() {
+        if let Ok(probe) = probes.get(entity) {
+            write(probe, None);
+        }
+    }
+}
