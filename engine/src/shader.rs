@@ -7,6 +7,12 @@
 //! `*.inc.wgsl` are libraries (no entry point). A naga error is reported in the included module's
 //! own file and line, not in the expanded source.
 //!
+//! Why a registry of our own rather than a composer: `naga_oil` 0.23 (naga 30) composes into naga IR
+//! and renames every imported item, which our bind-by-name reflection and pipeline-override
+//! specialization would have to undo; `wesl` 0.6 needs Rust 1.97 (the workspace pins 1.95) and a
+//! build script per crate. What we need — modules from several crates, includes by name, errors
+//! in each module's own lines — is this file's hundred lines.
+//!
 //! The WGSL files are the one place where bindings are declared. Pipelines use wgpu's automatic
 //! layouts, and Rust code fills a bind group by the *names* of the WGSL globals
 //! ([`Program::bind_group`]): binding numbers are read off the shader with naga, never repeated in Rust.

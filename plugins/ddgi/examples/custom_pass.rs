@@ -40,26 +40,31 @@ struct ProbeFog {
     params: FogParams,
 }
 
-fn main() -> Result<(), String> {
-    let (mut scene_name, mut frames, mut out) = ("cornell".to_string(), 60, PathBuf::from("out/custom_pass"));
-    let mut args = std::env::args().skip(1);
-    while let Some(flag) = args.next() {
-        let value = args.next().ok_or(format!("{flag} needs a value"))?;
-        match flag.as_str() {
-            "--scene" => scene_name = value,
-            "--frames" => frames = value.parse().map_err(|e| format!("--frames {value}: {e}"))?,
-            "--out" => out = value.into(),
-            _ => return Err(format!("unknown argument {flag} (use --scene NAME, --frames N, --out DIR)")),
-        }
-    }
-    let scene = engine::builtin::builtin_scene(&scene_name).ok_or(format!("no built-in scene '{scene_name}'"))?;
-    let gpu = engine::gpu::GpuContext::new(Default::default()).map_err(|e| e.to_string())?;
-    let settings = HeadlessSettings { width: 256, height: 256, frames, ..Default::default() };
-    let bounds = engine::builtin::builtin_gi_bounds(&scene_name);
-    let frame = render_scene_with(&gpu, scene, &settings, |app| add_probe_fog(app, bounds)).map_err(|e| e.to_string())?;
-    frame.write(&out).map_err(|e| e.to_string())?;
-    println!("wrote {}", out.join("image.png").display());
-    Ok(())
+#[derive(clap::Parser)]
+pub struct Args {
+    /// A built-in scene (cornell, door_room, …).
+    #[arg(long, default_value = "cornell")]
+    scene: String,
+    #[arg(long, default_value_t = 60)]
+    frames: u32,
+    #[arg(long, default_value = "out/custom_pass")]
+    out: PathBuf,
+    /// Width and height of the image in pixels.
+    #[arg(long, default_value_t = 256)]
+    size: u32,
+}
+
+pub fn run(args: Args) -> Result<(), Box<dyn std::error::Error>> {
+    let scene = engine::builtin::builtin_scene(&args.scene).ok_or(format!("no built-in scene '{}'", args.scene))?;
+    let bounds = engine::builtin::builtin_gi_bounds(&args.scene);
+    let gpu = engine::gpu::GpuContext::new(Default::default())?;
+    let settings = HeadlessSettings { width: args.size, height: args.size, frames: args.frames, ..Default::default() };
+    let frame = render_scene_with(&gpu, scene, &settings, |app| add_probe_fog(app, bounds))?;
+    Ok(frame.write(&args.out)?)
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    run(clap::Parser::parse())
 }
 
 /// DDGI with one volume, and the `"probe_fog"` frame script instead of `"ddgi"`.
