@@ -111,11 +111,12 @@ fn only_live_passes_record_commands_on_the_gpu_and_report_their_time() {
         });
     }
     g.export(&ext);
-    let mut report = g.execute(&gpu, &mut TransientPool::default(), Some(&mut GpuTimer::default()));
+    let mut timer = GpuTimer::default();
+    let mut report = g.execute(&gpu, &mut TransientPool::default(), Some(&mut timer));
     assert_eq!(*ran.lock().unwrap(), ["clear_first", "copy_out"]);
     let skipped: Vec<_> = report.passes.iter().filter(|p| !p.ran).map(|p| p.label.as_str()).collect();
     assert_eq!(skipped, ["clear_skipped"]);
-    if let Some(times) = report.wait_for_timings(&gpu) {
+    if let Some(times) = report.wait_for_timings(&gpu, &mut timer) {
         let labels: Vec<_> = times.iter().map(|(l, _)| l.as_str()).collect();
         assert_eq!(labels, ["clear_first", "copy_out"]);
         assert!(times.iter().all(|(_, ms)| ms.is_finite() && *ms >= 0.0), "{times:?}");

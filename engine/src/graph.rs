@@ -9,12 +9,11 @@
 
 use std::collections::HashMap;
 use std::marker::PhantomData;
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 use bevy_ecs::prelude::*;
 
 use crate::gpu::GpuContext;
+use crate::render::readback::ReadbackRing;
 
 /// Marker for texture handles.
 pub struct Texture;
@@ -249,10 +248,14 @@ impl RenderGraph {
             encoder.pop_debug_group();
             report.passes.push(PassRecord { label: pass.label.clone(), ran: true, note: std::mem::take(&mut pass.note) });
         }
-        let pending = queries.map(|t| t.resolve(&gpu.device, &mut encoder, query_index));
+        if let Some(t) = queries.as_mut() {
+            t.resolve(&mut encoder, query_index);
+        }
         gpu.queue.submit([encoder.finish()]);
-        if let Some(p) = pending {
-            report.pending_timings = Some(p.map(gpu.timestamp_period, report.ran_labels()));
+        if let Some(t) = queries {
+            let id = t.request(gpu, query_index);
+            report.pending_timings =
+                Some(PendingTimings { id, count: query_index, period_ns: gpu.timestamp_period, labels: report.ran_labels() });
         }
         for (desc, t) in taken_textures {
             pool.give_texture(desc, t);
@@ -457,24 +460,37 @@ impl FrameReport {
     }
 
     /// Blocks until the GPU time of each pass that ran is known (`None` without timestamp support).
-    pub fn wait_for_timings(&mut self, gpu: &GpuContext) -> Option<Vec<(String, f64)>> {
+    pub fn wait_for_timings(&mut self, gpu: &GpuContext, timer: &mut GpuTimer) -> Option<Vec<(String, f64)>> {
         let pending = self.pending_timings.take()?;
         gpu.wait_idle();
-        pending.read()
+        timer.take(gpu, pending.id).and_then(|bytes| pending.read(&bytes))
     }
 
     /// The timings if they have arrived, without waiting; call again later otherwise.
-    pub fn try_timings(&mut self, gpu: &GpuContext) -> Option<Vec<(String, f64)>> {
-        let _ = gpu.device.poll(wgpu::PollType::Poll);
-        if self.pending_timings.as_ref()?.ready.load(Ordering::Acquire) { self.pending_timings.take()?.read() } else { None }
+    pub fn try_timings(&mut self, gpu: &GpuContext, timer: &mut GpuTimer) -> Option<Vec<(String, f64)>> {
+        let bytes = timer.take(gpu, self.pending_timings.as_ref()?.id)?;
+        self.pending_timings.take()?.read(&bytes)
     }
 }
 
-/// Timestamp queries for per-pass spans, reused across frames.
-#[derive(Resource, Default)]
+/// Timestamp queries for per-pass spans, reused across frames; their values come back through a
+/// [`ReadbackRing`] (a frame whose copies are all in flight gets no timings).
+#[derive(Resource)]
 pub struct GpuTimer {
     query_set: Option<wgpu::QuerySet>,
     capacity: u32,
+    /// The queries resolved to ticks, copied into the ring after the frame's submission.
+    resolved: Option<wgpu::Buffer>,
+    ring: ReadbackRing,
+    /// Copies that came back before their frame asked, by request id.
+    arrived: HashMap<u64, Vec<u8>>,
+    next_id: u64,
+}
+
+impl Default for GpuTimer {
+    fn default() -> Self {
+        Self { query_set: None, capacity: 0, resolved: None, ring: ReadbackRing::new("pass_timestamps_readback", 8), arrived: HashMap::new(), next_id: 0 }
+    }
 }
 
 impl GpuTimer {
@@ -486,63 +502,52 @@ impl GpuTimer {
                 ty: wgpu::QueryType::Timestamp,
                 count: self.capacity,
             }));
+            self.resolved = Some(device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("pass_timestamps_resolve"),
+                size: u64::from(self.capacity) * 8,
+                usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            }));
         }
     }
-}
 
-impl GpuTimer {
-    fn resolve(&self, device: &wgpu::Device, encoder: &mut wgpu::CommandEncoder, count: u32) -> UnmappedTimings {
-        let size = u64::from(count.max(2)) * 8;
-        let resolve = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("pass_timestamps_resolve"),
-            size,
-            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let readback = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("pass_timestamps_readback"),
-            size,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        if count > 0 {
-            let qs = self.query_set.as_ref().expect("reserved before use");
-            encoder.resolve_query_set(qs, 0..count, &resolve, 0);
-            encoder.copy_buffer_to_buffer(&resolve, 0, &readback, 0, size);
+    fn resolve(&self, encoder: &mut wgpu::CommandEncoder, count: u32) {
+        if let (Some(qs), Some(resolved), true) = (&self.query_set, &self.resolved, count > 0) {
+            encoder.resolve_query_set(qs, 0..count, resolved, 0);
         }
-        UnmappedTimings { readback, count }
     }
-}
 
-struct UnmappedTimings {
-    readback: wgpu::Buffer,
-    count: u32,
-}
+    /// After the frame's submission: asks for its resolved ticks; returns the request's id.
+    fn request(&mut self, gpu: &GpuContext, count: u32) -> u64 {
+        let id = self.next_id;
+        self.next_id += 1;
+        if let (Some(resolved), true) = (&self.resolved, count > 0) {
+            self.ring.request(gpu, resolved, id);
+        }
+        id
+    }
 
-impl UnmappedTimings {
-    fn map(self, period_ns: f32, labels: Vec<String>) -> PendingTimings {
-        let ready = Arc::new(AtomicBool::new(false));
-        let flag = ready.clone();
-        self.readback.slice(..).map_async(wgpu::MapMode::Read, move |r| flag.store(r.is_ok(), Ordering::Release));
-        PendingTimings { readback: self.readback, count: self.count, period_ns, labels, ready }
+    /// The ticks of request `id` once they have arrived (the others that arrived are kept).
+    fn take(&mut self, gpu: &GpuContext, id: u64) -> Option<Vec<u8>> {
+        for (frame, bytes) in self.ring.poll(gpu) {
+            self.arrived.insert(frame, bytes);
+        }
+        // Requests older than the ring's depth never come back (dropped while every copy was in flight).
+        self.arrived.retain(|&k, _| k + 64 >= id);
+        self.arrived.remove(&id)
     }
 }
 
 struct PendingTimings {
-    readback: wgpu::Buffer,
+    id: u64,
     count: u32,
     period_ns: f32,
     labels: Vec<String>,
-    ready: Arc<AtomicBool>,
 }
 
 impl PendingTimings {
-    fn read(self) -> Option<Vec<(String, f64)>> {
-        if !self.ready.load(Ordering::Acquire) {
-            return None;
-        }
-        let ticks: Vec<u64> = bytemuck::pod_collect_to_vec(&self.readback.slice(..).get_mapped_range().ok()?);
-        self.readback.unmap();
+    fn read(self, bytes: &[u8]) -> Option<Vec<(String, f64)>> {
+        let ticks: Vec<u64> = bytemuck::pod_collect_to_vec(bytes.get(..self.count as usize * 8)?);
         let n = (self.count as usize / 2).min(self.labels.len());
         Some(
             (0..n)

@@ -192,13 +192,13 @@ pub struct PassTiming {
 }
 
 impl FrameTimings {
-    fn push(&mut self, gpu: &GpuContext, frame: u64, mut report: FrameReport) {
+    fn push(&mut self, gpu: &GpuContext, timer: &mut GpuTimer, frame: u64, mut report: FrameReport) {
         if self.wait_each_frame {
-            let times = report.wait_for_timings(gpu);
+            let times = report.wait_for_timings(gpu, timer);
             self.record(frame, &report, times);
         } else {
             self.pending.push_back((frame, report));
-            self.collect(gpu);
+            self.collect(gpu, timer);
         }
         if self.keep > 0 && self.frames.len() > self.keep {
             let excess = self.frames.len() - self.keep;
@@ -207,11 +207,11 @@ impl FrameTimings {
     }
 
     /// Moves every frame whose timestamps have arrived into `frames`, without blocking.
-    pub fn collect(&mut self, gpu: &GpuContext) {
+    pub fn collect(&mut self, gpu: &GpuContext, timer: &mut GpuTimer) {
         while let Some((frame, report)) = self.pending.front_mut() {
             let frame = *frame;
             let times = if gpu.timestamps {
-                match report.try_timings(gpu) {
+                match report.try_timings(gpu, timer) {
                     Some(t) => Some(t),
                     None if self.pending.len() > 8 => None,
                     None => return,
@@ -504,7 +504,7 @@ impl CameraFrame<'_> {
             gpu.queue.present(frame);
         }
         let frame_index = self.time.frame;
-        self.timings.push(&gpu, frame_index, report);
+        self.timings.push(&gpu, &mut self.timer, frame_index, report);
     }
 }
 
