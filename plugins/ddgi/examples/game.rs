@@ -112,7 +112,7 @@ fn setup_game(app: &mut App, light: Vec3, boxes: Boxes) {
 /// The scripted player of headless runs: the light sweeps right then left, a box drops every 4
 /// frames.
 fn script_game_input(time: Res<Time>, mut input: ResMut<GameInput>) {
-    let direction = if (time.frame / 60) % 2 == 0 { 1.0 } else { -1.0 };
+    let direction = if (time.frame / 60).is_multiple_of(2) { 1.0 } else { -1.0 };
     *input = GameInput { light: Vec3::new(direction, 0.0, 0.0), drop_box: time.frame % 4 == 1 };
 }
 
