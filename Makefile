@@ -38,9 +38,12 @@ soak: vulkan-driver
 	@mkdir -p $(XDG_RUNTIME_DIR) && chmod 700 $(XDG_RUNTIME_DIR)
 	$(CARGO) run --release -p game_demo -- play --headless --soak --frames $(SOAK_FRAMES) $(SOAK_ARGS) --out out/soak
 
-# Re-create the golden images of the image tests from the current renderer.
-bless: vulkan-driver
-	BLESS=1 $(CARGO) test --workspace
+# Re-makes every reference image in tests/golden/ (testkit): the golden images from the current
+# renderer, and the path-traced references from the path tracer at 4096 paths per pixel (minutes on
+# a software driver).
+bless: vulkan-driver xvfb
+	@mkdir -p $(XDG_RUNTIME_DIR) && chmod 700 $(XDG_RUNTIME_DIR)
+	BLESS=1 $(CARGO) test --workspace --no-fail-fast
 
 # Fuzzes both scene importers for FUZZ_SECONDS each (cargo-fuzz, nightly; seeds in fuzz/corpus/).
 # Crashes land in fuzz/artifacts/<target>/; turn each into a fixture and a test. Without a

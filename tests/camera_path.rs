@@ -40,7 +40,7 @@ fn small() -> HeadlessSettings {
 
 #[test]
 fn directional_light_gives_lambertian_radiance_albedo_times_irradiance_over_pi() {
-    let Some(gpu) = workspace_tests::gpu("directional_light_gives_lambertian_radiance") else { return };
+    let Some(gpu) = testkit::gpu("directional_light_gives_lambertian_radiance") else { return };
     let (albedo, irradiance) = (0.5, 2.0);
     // 60° from the normal: the floor receives E·cos60°.
     let sun = Transform::IDENTITY.looking_at(Vec3::new(3f32.sqrt(), -1.0, 0.0), Vec3::Y);
@@ -53,7 +53,7 @@ fn directional_light_gives_lambertian_radiance_albedo_times_irradiance_over_pi()
 
 #[test]
 fn point_light_follows_the_inverse_square_law() {
-    let Some(gpu) = workspace_tests::gpu("point_light_follows_the_inverse_square_law") else { return };
+    let Some(gpu) = testkit::gpu("point_light_follows_the_inverse_square_law") else { return };
     let intensity = 40.0;
     for height in [1.0f32, 2.0, 4.0] {
         let light = NodeContent::PointLight(PointLight { color: Vec3::new(1.0, 0.5, 0.25), intensity, range: None });
@@ -68,14 +68,14 @@ fn point_light_follows_the_inverse_square_law() {
 
 #[test]
 fn cornell_box_direct_light_matches_its_golden_image() {
-    let Some(gpu) = workspace_tests::gpu("cornell_box_direct_light_matches_its_golden_image") else { return };
+    let Some(gpu) = testkit::gpu("cornell_box_direct_light_matches_its_golden_image") else { return };
     let scene = engine::builtin::builtin_scene("cornell").expect("built-in cornell");
     let settings = HeadlessSettings { width: 256, height: 256, ..Default::default() };
     let frame = render_scene(&gpu, scene, &settings).expect("render");
     assert!(frame.hdr.iter().all(|v| v.is_finite()), "non-finite radiance");
     // Bound: rasterization and float differences between Vulkan drivers (lavapipe, NVIDIA) move
     // edge pixels only; a wrong light, material or camera moves the mean FLIP by well over 0.05.
-    let mean = workspace_tests::assert_golden("cornell_direct", 256, 256, &frame.ldr, 0.02);
+    let mean = testkit::assert_golden("cornell_direct", 256, 256, &frame.ldr, 0.02);
     eprintln!("cornell_direct: mean FLIP {mean:.5}");
 }
 
@@ -87,26 +87,26 @@ fn kenney_model_renders_with_its_texture() {
         eprintln!("SKIPPED kenney_model_renders_with_its_texture: {} is absent", dir.display());
         return;
     }
-    let Some(gpu) = workspace_tests::gpu("kenney_model_renders_with_its_texture") else { return };
+    let Some(gpu) = testkit::gpu("kenney_model_renders_with_its_texture") else { return };
     let mut scene = engine::import::load_scene(&dir.join("platform-large-grass.glb")).expect("load");
     let sun = Transform::IDENTITY.looking_at(Vec3::new(-0.3, -1.0, -0.5), Vec3::Y);
     scene.add_node("sun", sun, None, vec![NodeContent::DirectionalLight(DirectionalLight { color: Vec3::ONE, intensity: 3.0 })]);
     let settings = HeadlessSettings { width: 160, height: 120, ..Default::default() };
     let frame = render_scene(&gpu, scene, &settings).expect("render");
-    workspace_tests::assert_golden("kenney_platform", 160, 120, &frame.ldr, 0.02);
+    testkit::assert_golden("kenney_platform", 160, 120, &frame.ldr, 0.02);
 }
 
 #[test]
 fn an_adapter_is_found_in_ci() {
     // Under CI=true this fails when no Vulkan driver is installed; elsewhere it reports a skip.
-    if let Some(gpu) = workspace_tests::gpu("an_adapter_is_found_in_ci") {
+    if let Some(gpu) = testkit::gpu("an_adapter_is_found_in_ci") {
         eprintln!("adapter: {} (timestamps: {})", gpu.adapter_name(), gpu.timestamps);
     }
 }
 
 #[test]
 fn absurd_sizes_are_refused_with_a_clear_error() {
-    let Some(gpu) = workspace_tests::gpu("absurd_sizes_are_refused_with_a_clear_error") else { return };
+    let Some(gpu) = testkit::gpu("absurd_sizes_are_refused_with_a_clear_error") else { return };
     let scene = engine::builtin::builtin_scene("cornell").expect("cornell");
     for (w, h) in [(0, 10), (10, 0), (1 << 20, 4)] {
         let settings = HeadlessSettings { width: w, height: h, ..Default::default() };

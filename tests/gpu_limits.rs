@@ -14,7 +14,7 @@ const LIMIT: u64 = 1 << 20;
 
 fn small_gpu(test: &str) -> Option<GpuContext> {
     let limits = engine::wgpu::Limits { max_storage_buffer_binding_size: LIMIT, max_buffer_size: LIMIT, ..Default::default() };
-    GpuContext::for_tests_with(test, GpuOptions { limits: Some(limits), ..Default::default() })
+    testkit::gpu_with(test, GpuOptions { limits: Some(limits), ..Default::default() })
 }
 
 /// A flat grid of `n` × `n` quads, 10 m wide: (n + 1)² vertices of 32 bytes, 2n² triangles of 48

@@ -20,7 +20,7 @@ fn mean_rgb(frame: &RenderedFrame) -> Vec3 {
 
 #[test]
 fn white_furnace_converges_to_emission_over_one_minus_albedo() {
-    let Some(gpu) = workspace_tests::gpu("white_furnace_converges_to_emission_over_one_minus_albedo") else { return };
+    let Some(gpu) = testkit::gpu("white_furnace_converges_to_emission_over_one_minus_albedo") else { return };
     // A closed box of albedo ρ emitting Le everywhere: every path sees Le·Σρᵏ = Le/(1−ρ).
     for albedo in [0.5f32, 0.8] {
         let emission = 0.25;
@@ -41,7 +41,7 @@ fn white_furnace_converges_to_emission_over_one_minus_albedo() {
 
 #[test]
 fn path_traced_point_light_follows_the_inverse_square_law() {
-    let Some(gpu) = workspace_tests::gpu("path_traced_point_light_follows_the_inverse_square_law") else { return };
+    let Some(gpu) = testkit::gpu("path_traced_point_light_follows_the_inverse_square_law") else { return };
     for height in [1.0f32, 2.0] {
         let mut s = SceneDescription { name: "floor".into(), ..Default::default() };
         let floor = s.add_mesh(engine::builtin::quad("floor", Vec2::splat(20.0)));
@@ -78,7 +78,7 @@ const CORNELL_SPP: u32 = 256;
 
 #[test]
 fn path_traced_cornell_box_matches_its_stored_reference() {
-    let Some(gpu) = workspace_tests::gpu("path_traced_cornell_box_matches_its_stored_reference") else { return };
+    let Some(gpu) = testkit::gpu("path_traced_cornell_box_matches_its_stored_reference") else { return };
     let frame = cornell(&gpu, PathTraceSettings::default().seed);
     assert!(frame.hdr.iter().all(|v| v.is_finite()));
     // The bound: with the reference's own seed only float differences between drivers remain, well
@@ -86,9 +86,9 @@ fn path_traced_cornell_box_matches_its_stored_reference() {
     // 0.046 and relative MSE 0.008 on lavapipe (2026-11-22). A wrong light, material or bounce moves
     // the image further than that noise, so 0.02 against the reference is a real check, and the
     // noise level itself is bounded below.
-    let mean = workspace_tests::assert_golden("cornell_pathtrace_256spp", 128, 128, &frame.ldr, 0.02);
+    let mean = testkit::assert_golden("cornell_pathtrace_256spp", 128, 128, &frame.ldr, 0.02);
     let other = cornell(&gpu, 12345);
-    let (noise, _) = workspace_tests::flip(&frame.ldr, &other.ldr, 128, 128);
+    let (noise, _) = testkit::flip(&frame.ldr, &other.ldr, 128, 128);
     let relative = engine::metrics::relative_mse(&frame.hdr, &other.hdr);
     eprintln!("cornell path traced: FLIP {mean:.4} against the reference; between seeds FLIP {noise:.4}, relative MSE {relative:.5}");
     assert!(noise > mean && noise < 0.08, "noise between seeds: FLIP {noise}");

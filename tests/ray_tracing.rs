@@ -164,7 +164,7 @@ fn crowd_scene() -> SceneDescription {
 
 #[test]
 fn gpu_closest_hits_match_the_cpu_reference() {
-    let Some(gpu) = workspace_tests::gpu("gpu_closest_hits_match_the_cpu_reference") else { return };
+    let Some(gpu) = testkit::gpu("gpu_closest_hits_match_the_cpu_reference") else { return };
     let mut scenes = vec![cuboid_scene(), crowd_scene()];
     for name in ["cornell", "color_bleed", "door_room"] {
         scenes.push(engine::builtin::builtin_scene(name).expect("built-in"));
@@ -182,7 +182,7 @@ fn gpu_closest_hits_match_the_cpu_reference() {
 
 #[test]
 fn a_moved_entity_is_seen_at_its_new_place_in_the_same_frame() {
-    let Some(gpu) = workspace_tests::gpu("a_moved_entity_is_seen_at_its_new_place_in_the_same_frame") else { return };
+    let Some(gpu) = testkit::gpu("a_moved_entity_is_seen_at_its_new_place_in_the_same_frame") else { return };
     let mut s = SceneDescription { name: "move_test".into(), ..Default::default() };
     let cube = s.add_mesh(engine::builtin::cuboid("cube", Vec3::splat(0.5)));
     let m = s.add_material(Material::diffuse("grey", Vec3::splat(0.5)));
@@ -219,7 +219,7 @@ fn a_moved_entity_is_seen_at_its_new_place_in_the_same_frame() {
 
 #[test]
 fn rays_parallel_to_axes_from_surfaces_and_past_degenerate_triangles_are_robust() {
-    let Some(gpu) = workspace_tests::gpu("rays_parallel_to_axes_from_surfaces_and_past_degenerate_triangles_are_robust") else { return };
+    let Some(gpu) = testkit::gpu("rays_parallel_to_axes_from_surfaces_and_past_degenerate_triangles_are_robust") else { return };
     let mut s = SceneDescription { name: "robust".into(), ..Default::default() };
     let mut cube = engine::builtin::cuboid("cube", Vec3::splat(1.0));
     // Degenerate triangles: a zero-area sliver and a collapsed one, in the middle of the box.
@@ -275,7 +275,7 @@ fn lit_floor(occluder: bool) -> SceneDescription {
 
 #[test]
 fn point_light_irradiance_is_i_cos_over_d2_and_zero_in_shadow() {
-    let Some(gpu) = workspace_tests::gpu("point_light_irradiance_is_i_cos_over_d2_and_zero_in_shadow") else { return };
+    let Some(gpu) = testkit::gpu("point_light_irradiance_is_i_cos_over_d2_and_zero_in_shadow") else { return };
     let settings = HeadlessSettings { width: 33, height: 33, ..Default::default() };
     let centre = |f: &engine::headless::RenderedFrame| f.hdr[((16 * 33 + 16) * 4) as usize];
     let lit = render_scene(&gpu, lit_floor(false), &settings).expect("render");
@@ -289,7 +289,7 @@ fn point_light_irradiance_is_i_cos_over_d2_and_zero_in_shadow() {
 
 #[test]
 fn after_many_moves_and_refits_hits_still_match_the_cpu_reference() {
-    let Some(gpu) = workspace_tests::gpu("after_many_moves_and_refits_hits_still_match_the_cpu_reference") else { return };
+    let Some(gpu) = testkit::gpu("after_many_moves_and_refits_hits_still_match_the_cpu_reference") else { return };
     let scene = cuboid_scene();
     let bounds = scene.bounds().expect("bounds");
     let mut app = app_for(&gpu, scene);
@@ -314,7 +314,7 @@ fn after_many_moves_and_refits_hits_still_match_the_cpu_reference() {
 #[test]
 fn hits_report_the_material_with_texture_and_texture_transform() {
     use engine::scene::{Handle, Image, TextureRef, UvTransform};
-    let Some(gpu) = workspace_tests::gpu("hits_report_the_material_with_texture_and_texture_transform") else { return };
+    let Some(gpu) = testkit::gpu("hits_report_the_material_with_texture_and_texture_transform") else { return };
     // A 2×2 texture: red, green / blue, white (sRGB bytes), on a quad whose uv is ((x+1)/2, (z+1)/2).
     let texels: [[u8; 4]; 4] = [[200, 30, 30, 255], [30, 200, 30, 255], [30, 30, 200, 255], [250, 250, 250, 255]];
     let quad = Mesh {
@@ -366,7 +366,7 @@ fn hits_report_the_material_with_texture_and_texture_transform() {
 
 #[test]
 fn large_blas_builds_run_off_the_frame_loop_and_report_progress() {
-    let Some(gpu) = workspace_tests::gpu("large_blas_builds_run_off_the_frame_loop_and_report_progress") else { return };
+    let Some(gpu) = testkit::gpu("large_blas_builds_run_off_the_frame_loop_and_report_progress") else { return };
     // A grid mesh just over the asynchronous-build threshold.
     let n = ((engine::rt::ASYNC_BLAS_TRIANGLES / 2) as f64).sqrt().ceil() as u32 + 1;
     let mut grid = Mesh { name: "big_grid".into(), ..Default::default() };

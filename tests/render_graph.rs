@@ -82,7 +82,7 @@ fn nothing_exported_means_nothing_runs() {
 
 #[test]
 fn only_live_passes_record_commands_on_the_gpu_and_report_their_time() {
-    let Some(gpu) = workspace_tests::gpu("only_live_passes_record_commands_on_the_gpu_and_report_their_time") else { return };
+    let Some(gpu) = testkit::gpu("only_live_passes_record_commands_on_the_gpu_and_report_their_time") else { return };
     let ran = Arc::new(Mutex::new(Vec::new()));
     let mut g = RenderGraph::new();
     let usage = wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC;

@@ -1,7 +1,7 @@
 //! A small game engine on bevy_ecs/bevy_app and wgpu.
 //!
 //! - [`app`]: schedules (bevy_app's main ones plus the render stages extract → prepare → render),
-//!   fixed-step time, headless and windowed runners.
+//!   fixed-step time, the headless runner; [`window`]: the windowed runner and its hooks for apps.
 //! - [`scene`]: the scene model as ECS components (transforms and their propagation, cameras,
 //!   lights, mesh instances) and the shared asset stores.
 //! - [`gpu`]: adapter choice and the device; [`shader`]: the WGSL library, validated by naga, with
@@ -28,3 +28,4 @@ pub use bevy_app;
 pub use bevy_ecs;
 pub use glam;
 pub use wgpu;
+pub use winit;

@@ -1,5 +1,19 @@
-//! The windowed runner (winit 0.30): one window, the camera path presented to its surface, wall-clock
-//! time. A window resized to zero or minimized skips frames instead of failing.
+//! The windowed runner (winit 0.30): one window presenting the camera path, on wall-clock time or a
+//! fixed step. An app brings its plugins, systems, input and overlay through [`WindowHooks`]; the
+//! runner keeps the surface: a window resized to zero or minimized skips its frames, a lost surface
+//! is replaced, and a lost GPU device is reopened and the app rebuilt on it.
+//!
+//! ```no_run
+//! use engine::window::{WindowContext, WindowHooks, run_window};
+//! struct Viewer(engine::scene::SceneDescription);
+//! impl WindowHooks for Viewer {
+//!     fn build(&mut self, window: &mut WindowContext) -> Result<(), String> {
+//!         self.0.clone().spawn(window.app.world_mut());
+//!         Ok(())
+//!     }
+//! }
+//! run_window(Viewer(engine::builtin::builtin_scene("cornell").unwrap())).unwrap();
+//! ```
 
 use std::sync::Arc;
 
@@ -7,10 +21,10 @@ use bevy_app::App;
 use bevy_ecs::world::World;
 use winit::application::ApplicationHandler;
 use winit::dpi::PhysicalSize;
-use winit::event::{ElementState, KeyEvent, WindowEvent};
+use winit::event::{DeviceEvent, DeviceId, ElementState, KeyEvent, WindowEvent};
 use winit::event_loop::{ActiveEventLoop, EventLoop};
 use winit::keyboard::{Key, NamedKey};
-use winit::window::{Window, WindowId};
+use winit::window::{Window, WindowAttributes, WindowId};
 
 use crate::app::{EnginePlugin, GpuLost, Time, finish_plugins};
 use crate::gpu::{GpuContext, GpuOptions};
@@ -29,74 +43,272 @@ pub enum WindowError {
     Gpu(#[from] crate::gpu::GpuError),
     #[error("the GPU device was lost {count} times in a row (last: {reason}); giving up")]
     DeviceLost { count: u32, reason: String },
+    /// An error of the app's hooks.
+    #[error("{0}")]
+    App(String),
 }
 
-/// Opens a window showing `scene` until it is closed or Esc is pressed.
-pub fn run_windowed(mut scene: SceneDescription) -> Result<(), WindowError> {
-    if !scene.has_camera() {
-        add_default_camera(&mut scene);
+/// How many times in a row the runner reopens the GPU after losing it before it gives up.
+pub const MAX_DEVICE_RECOVERIES: u32 = 3;
+
+/// What an app adds to the windowed runner. Only [`WindowHooks::build`] is required; the other
+/// hooks default to nothing (and Esc closing the window).
+pub trait WindowHooks: 'static {
+    /// The window to open. Default: titled "engine", 1280×720 logical pixels.
+    fn attributes(&self) -> WindowAttributes {
+        Window::default_attributes().with_title("engine").with_inner_size(winit::dpi::LogicalSize::new(1280, 720))
     }
+
+    /// The app's clock. Default: wall-clock time; a fixed step makes a windowed run render frame for
+    /// frame what a headless one does.
+    fn time(&self) -> Time {
+        Time::real()
+    }
+
+    /// Adds the app's plugins, systems, scene and overlay ([`crate::render::SurfaceOverlayHook`]) to
+    /// `window.app`, which already has the engine, the camera path and the window's surface; the
+    /// runner finishes the plugins afterwards. Called when the window opens and again on a new GPU
+    /// device after a lost one, the clock going on.
+    fn build(&mut self, window: &mut WindowContext) -> Result<(), String>;
+
+    /// The GPU device was lost: `window.app` is dropped next and [`WindowHooks::build`] called on a
+    /// new device. Keep here what must outlive the app (where the player stands, say).
+    fn device_lost(&mut self, _window: &mut WindowContext) {}
+
+    /// A window event, before the runner handles it (it handles closing, resizing and redrawing).
+    /// Default: Esc exits.
+    fn window_event(&mut self, window: &mut WindowContext, event: &WindowEvent) {
+        if let WindowEvent::KeyboardInput {
+            event: KeyEvent { logical_key: Key::Named(NamedKey::Escape), state: ElementState::Pressed, .. },
+            ..
+        } = event
+        {
+            window.exit();
+        }
+    }
+
+    /// A device event (raw mouse motion, say).
+    fn device_event(&mut self, _window: &mut WindowContext, _event: &DeviceEvent) {}
+
+    /// Before each frame's update: input into resources, the overlay's UI.
+    fn before_frame(&mut self, _window: &mut WindowContext) {}
+
+    /// After each redraw, before lost surfaces and devices are dealt with: `rendered` is false when
+    /// the window had no pixels and the frame was skipped. An error ends the run with it.
+    fn after_redraw(&mut self, _window: &mut WindowContext, _rendered: bool) -> Result<(), String> {
+        Ok(())
+    }
+}
+
+/// Opens a window driven by `hooks` and runs it until it is closed or a hook calls
+/// [`WindowContext::exit`].
+pub fn run_window(hooks: impl WindowHooks) -> Result<(), WindowError> {
     let event_loop = EventLoop::new().map_err(|e| WindowError::EventLoop(e.to_string()))?;
-    let mut runner = WindowedRunner { scene, state: None, error: None, recoveries: 0 };
+    let mut runner = Runner { hooks, state: None, error: None, recoveries: 0 };
     event_loop.run_app(&mut runner).map_err(|e| WindowError::EventLoop(e.to_string()))?;
     runner.error.map_or(Ok(()), Err)
 }
 
-struct WindowState {
-    window: Arc<Window>,
-    app: App,
+/// Opens a window showing `scene` (with a default camera if it has none) until it is closed or Esc
+/// is pressed.
+pub fn run_windowed(mut scene: SceneDescription) -> Result<(), WindowError> {
+    if !scene.has_camera() {
+        add_default_camera(&mut scene);
+    }
+    run_window(SceneViewer(scene))
 }
 
-struct WindowedRunner {
-    /// The scene, kept to rebuild the app on a new device after a lost one.
-    scene: SceneDescription,
-    state: Option<WindowState>,
+/// The scene viewer: the scene, kept to spawn it again on a new device.
+struct SceneViewer(SceneDescription);
+
+impl WindowHooks for SceneViewer {
+    fn attributes(&self) -> WindowAttributes {
+        Window::default_attributes().with_title("game_demo").with_inner_size(winit::dpi::LogicalSize::new(1280, 720))
+    }
+
+    fn build(&mut self, window: &mut WindowContext) -> Result<(), String> {
+        self.0.clone().spawn(window.app.world_mut());
+        Ok(())
+    }
+}
+
+/// The window and the app presenting to it, as the hooks see them.
+pub struct WindowContext {
+    pub window: Arc<Window>,
+    /// The engine, the camera path and the window's surface, plus what the hooks built.
+    pub app: App,
+    /// The GPU (an adapter that can present to the window).
+    pub gpu: GpuContext,
+    /// The surface's format (not sRGB: the image is already encoded).
+    pub format: wgpu::TextureFormat,
+    /// The window's size as last reported (zero while minimized).
+    size: PhysicalSize<u32>,
+    frames: u32,
+    skipped: u32,
+    exit: bool,
+}
+
+impl WindowContext {
+    /// Frames rendered since the window opened, across rebuilds on new devices.
+    pub fn frames(&self) -> u32 {
+        self.frames
+    }
+
+    /// Redraws skipped because the window had no pixels, since it opened.
+    pub fn skipped_redraws(&self) -> u32 {
+        self.skipped
+    }
+
+    /// The window's size as last reported.
+    pub fn size(&self) -> PhysicalSize<u32> {
+        self.size
+    }
+
+    /// Follows a new window size, as a `Resized` event does: the surface and the render size are
+    /// reconfigured; at zero pixels the configuration stays and frames are skipped until the
+    /// window has pixels again.
+    pub fn resize(&mut self, size: PhysicalSize<u32>) {
+        self.size = size;
+        resize_surface(self.app.world_mut(), size);
+        self.window.request_redraw();
+    }
+
+    /// Ends the run after the current event.
+    pub fn exit(&mut self) {
+        self.exit = true;
+    }
+}
+
+struct Runner<H> {
+    hooks: H,
+    state: Option<WindowContext>,
     error: Option<WindowError>,
     /// Devices reopened since the last frame that rendered.
     recoveries: u32,
 }
 
-impl WindowedRunner {
-    fn open(&mut self, event_loop: &ActiveEventLoop) -> Result<WindowState, WindowError> {
-        let attributes = Window::default_attributes().with_title("game_demo").with_inner_size(winit::dpi::LogicalSize::new(1280, 720));
-        let window = Arc::new(event_loop.create_window(attributes).map_err(|e| WindowError::Surface(e.to_string()))?);
-        self.build(window, Time::real())
+impl<H: WindowHooks> Runner<H> {
+    fn open(&mut self, event_loop: &ActiveEventLoop) -> Result<WindowContext, WindowError> {
+        let window = Arc::new(event_loop.create_window(self.hooks.attributes()).map_err(|e| WindowError::Surface(e.to_string()))?);
+        let size = window.inner_size();
+        self.build(window, self.hooks.time(), size, 0, 0)
     }
 
-    fn build(&self, window: Arc<Window>, time: Time) -> Result<WindowState, WindowError> {
-        let mut app = windowed_app(&window, time)?.app;
-        self.scene.clone().spawn(app.world_mut());
-        finish_plugins(&mut app);
-        window.request_redraw();
-        Ok(WindowState { window, app })
+    /// A new app on a new device for `window`, built by the hooks; `frames` and `skipped` go on.
+    fn build(
+        &mut self,
+        window: Arc<Window>,
+        time: Time,
+        size: PhysicalSize<u32>,
+        frames: u32,
+        skipped: u32,
+    ) -> Result<WindowContext, WindowError> {
+        let (app, gpu, format) = windowed_app(&window, time)?;
+        let mut state = WindowContext { window, app, gpu, format, size, frames, skipped, exit: false };
+        self.hooks.build(&mut state).map_err(WindowError::App)?;
+        finish_plugins(&mut state.app);
+        state.window.request_redraw();
+        Ok(state)
     }
 
-    /// After a frame: a lost surface is replaced; a lost device is reopened and the scene rebuilt
-    /// on it, the clock going on (at most [`MAX_DEVICE_RECOVERIES`] times in a row).
+    /// One redraw: a frame when the window has pixels, a skip (counted) when it has none; then the
+    /// hooks' look at it, and lost surfaces and devices dealt with.
+    fn redraw(&mut self) -> Result<(), WindowError> {
+        let Some(state) = &mut self.state else { return Ok(()) };
+        let rendered = state.size.width > 0 && state.size.height > 0;
+        if rendered {
+            self.hooks.before_frame(state);
+            state.app.update();
+            state.frames += 1;
+        } else {
+            state.skipped += 1;
+        }
+        self.hooks.after_redraw(state, rendered).map_err(WindowError::App)?;
+        if state.exit {
+            return Ok(());
+        }
+        self.recover()
+    }
+
+    /// A lost surface is replaced; a lost device is reopened and the app rebuilt on it, the clock
+    /// going on (at most [`MAX_DEVICE_RECOVERIES`] times in a row).
     fn recover(&mut self) -> Result<(), WindowError> {
         let Some(state) = &mut self.state else { return Ok(()) };
-        let Some(lost) = check_surface_and_device(state.app.world_mut(), &state.window, &mut self.recoveries)? else { return Ok(()) };
-        log::warn!("the GPU device was lost ({}): opening a new one and rebuilding the scene", lost.reason);
+        replace_lost_surface(state.app.world_mut(), &state.window)?;
+        let Some(lost) = state.app.world().get_resource::<GpuLost>().cloned() else {
+            self.recoveries = 0;
+            return Ok(());
+        };
+        self.recoveries += 1;
+        if self.recoveries > MAX_DEVICE_RECOVERIES {
+            return Err(WindowError::DeviceLost { count: self.recoveries, reason: lost.reason });
+        }
+        log::warn!("the GPU device was lost ({}): opening a new one and rebuilding the app", lost.reason);
+        self.hooks.device_lost(state);
         let time = state.app.world().resource::<Time>().continuing();
-        let window = state.window.clone();
+        let (window, size, frames, skipped) = (state.window.clone(), state.size, state.frames, state.skipped);
+        // The old surface goes before a new one is created on the same window.
         self.state = None;
-        self.state = Some(self.build(window, time)?);
+        self.state = Some(self.build(window, time, size, frames, skipped)?);
         Ok(())
     }
 }
 
-/// An app presenting to a window: the GPU (an adapter that can present to the window), the
-/// window's surface configured for the tonemapped image, and the engine with the camera path.
-pub struct WindowedApp {
-    pub app: App,
-    pub gpu: GpuContext,
-    /// The surface's format (not sRGB: the image is already encoded).
-    pub format: wgpu::TextureFormat,
+impl<H: WindowHooks> ApplicationHandler for Runner<H> {
+    fn resumed(&mut self, event_loop: &ActiveEventLoop) {
+        if self.state.is_some() {
+            return;
+        }
+        match self.open(event_loop) {
+            Ok(state) => self.state = Some(state),
+            Err(e) => {
+                self.error = Some(e);
+                event_loop.exit();
+            }
+        }
+    }
+
+    fn device_event(&mut self, event_loop: &ActiveEventLoop, _id: DeviceId, event: DeviceEvent) {
+        let Some(state) = &mut self.state else { return };
+        self.hooks.device_event(state, &event);
+        if state.exit {
+            event_loop.exit();
+        }
+    }
+
+    fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
+        let Some(state) = &mut self.state else { return };
+        self.hooks.window_event(state, &event);
+        let result = match event {
+            WindowEvent::CloseRequested => {
+                state.exit();
+                Ok(())
+            }
+            WindowEvent::Resized(size) => {
+                state.resize(size);
+                Ok(())
+            }
+            WindowEvent::RedrawRequested => self.redraw(),
+            _ => Ok(()),
+        };
+        if let Err(e) = result {
+            self.error = Some(e);
+            event_loop.exit();
+            return;
+        }
+        let Some(state) = &self.state else { return };
+        if state.exit {
+            event_loop.exit();
+        } else if matches!(event, WindowEvent::RedrawRequested) {
+            state.window.request_redraw();
+        }
+    }
 }
 
-/// Builds a [`WindowedApp`] for `window` on the clock `time` (real time for play, a fixed step
-/// for scripted runs that must match headless ones). Keeps the timings of the last 600 frames.
-pub fn windowed_app(window: &Arc<Window>, time: Time) -> Result<WindowedApp, WindowError> {
+/// An app presenting to `window` on the clock `time`: the GPU (an adapter that can present to the
+/// window), the window's surface configured for the tonemapped image, the engine with the camera
+/// path, the timings of the last 600 frames kept. Returns the app, the GPU and the surface's format.
+fn windowed_app(window: &Arc<Window>, time: Time) -> Result<(App, GpuContext, wgpu::TextureFormat), WindowError> {
     let instance = GpuContext::create_instance();
     let surface = instance.create_surface(window.clone()).map_err(|e| WindowError::Surface(e.to_string()))?;
     let gpu = GpuContext::new(GpuOptions { compatible_surface: Some(&surface), instance: Some(instance.clone()), ..Default::default() })?;
@@ -122,13 +334,13 @@ pub fn windowed_app(window: &Arc<Window>, time: Time) -> Result<WindowedApp, Win
     app.add_plugins((EnginePlugin, RenderPlugin { gpu: gpu.clone(), size: RenderSize { width: config.width, height: config.height } }));
     app.insert_resource(SurfaceTarget { surface, config, blit: Arc::new(blit), lost: Default::default() });
     app.world_mut().resource_mut::<crate::render::FrameTimings>().keep = 600;
-    Ok(WindowedApp { app, gpu, format })
+    Ok((app, gpu, format))
 }
 
 /// Follows a window's new size: reconfigures the surface and the render size. A zero-sized
 /// (minimized) window keeps its last configuration; its frames are skipped by the runner. A window
 /// larger than the GPU's largest texture renders at that largest size (the surface stretches it).
-pub fn resize_surface(world: &mut World, size: PhysicalSize<u32>) {
+fn resize_surface(world: &mut World, size: PhysicalSize<u32>) {
     if size.width == 0 || size.height == 0 || world.contains_resource::<GpuLost>() {
         return;
     }
@@ -150,11 +362,11 @@ pub fn resize_surface(world: &mut World, size: PhysicalSize<u32>) {
 }
 
 /// Creates a new surface for `window` when the last one was lost ([`SurfaceTarget::lost`]),
-/// configured as the old one was. Returns whether it replaced one.
-pub fn replace_lost_surface(world: &mut World, window: &Arc<Window>) -> Result<bool, WindowError> {
-    let Some(target) = world.get_resource::<SurfaceTarget>() else { return Ok(false) };
+/// configured as the old one was.
+fn replace_lost_surface(world: &mut World, window: &Arc<Window>) -> Result<(), WindowError> {
+    let Some(target) = world.get_resource::<SurfaceTarget>() else { return Ok(()) };
     if !target.lost.load(std::sync::atomic::Ordering::Relaxed) || world.contains_resource::<GpuLost>() {
-        return Ok(false);
+        return Ok(());
     }
     let gpu = world.resource::<GpuContext>().clone();
     let surface = gpu.instance.create_surface(window.clone()).map_err(|e| WindowError::Surface(e.to_string()))?;
@@ -163,69 +375,5 @@ pub fn replace_lost_surface(world: &mut World, window: &Arc<Window>) -> Result<b
     target.surface = surface;
     target.lost.store(false, std::sync::atomic::Ordering::Relaxed);
     log::warn!("the lost surface was replaced by a new one");
-    Ok(true)
-}
-
-/// How many times in a row a runner reopens the GPU after losing it before it gives up.
-pub const MAX_DEVICE_RECOVERIES: u32 = 3;
-
-/// What a windowed runner checks after each frame: a lost surface is replaced
-/// ([`replace_lost_surface`]); a lost device is returned for the runner to rebuild its app on a new
-/// one, counted in `recoveries` (reset by a frame that rendered), and an error once it has been
-/// lost more than [`MAX_DEVICE_RECOVERIES`] times in a row.
-pub fn check_surface_and_device(world: &mut World, window: &Arc<Window>, recoveries: &mut u32) -> Result<Option<GpuLost>, WindowError> {
-    replace_lost_surface(world, window)?;
-    let Some(lost) = world.get_resource::<GpuLost>().cloned() else {
-        *recoveries = 0;
-        return Ok(None);
-    };
-    *recoveries += 1;
-    if *recoveries > MAX_DEVICE_RECOVERIES {
-        return Err(WindowError::DeviceLost { count: *recoveries, reason: lost.reason });
-    }
-    Ok(Some(lost))
-}
-
-impl ApplicationHandler for WindowedRunner {
-    fn resumed(&mut self, event_loop: &ActiveEventLoop) {
-        if self.state.is_some() {
-            return;
-        }
-        match self.open(event_loop) {
-            Ok(state) => self.state = Some(state),
-            Err(e) => {
-                self.error = Some(e);
-                event_loop.exit();
-            }
-        }
-    }
-
-    fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
-        let Some(state) = &mut self.state else { return };
-        match event {
-            WindowEvent::CloseRequested
-            | WindowEvent::KeyboardInput {
-                event: KeyEvent { logical_key: Key::Named(NamedKey::Escape), state: ElementState::Pressed, .. },
-                ..
-            } => event_loop.exit(),
-            WindowEvent::Resized(size) => {
-                resize_surface(state.app.world_mut(), size);
-                state.window.request_redraw();
-            }
-            WindowEvent::RedrawRequested => {
-                let size = state.window.inner_size();
-                if size.width > 0 && size.height > 0 {
-                    state.app.update();
-                }
-                let window = state.window.clone();
-                if let Err(e) = self.recover() {
-                    self.error = Some(e);
-                    event_loop.exit();
-                    return;
-                }
-                window.request_redraw();
-            }
-            _ => {}
-        }
-    }
+    Ok(())
 }

@@ -141,8 +141,8 @@ pub struct SurfaceTarget {
     pub surface: wgpu::Surface<'static>,
     pub config: wgpu::SurfaceConfiguration,
     pub blit: Arc<Program<wgpu::RenderPipeline>>,
-    /// Set when the surface reported itself lost: the runner must create a new one from its window
-    /// ([`crate::window::replace_lost_surface`]); frames are not presented until then.
+    /// Set when the surface reported itself lost: the windowed runner ([`crate::window`]) creates
+    /// a new one from its window after the frame; frames are not presented until then.
     pub lost: std::sync::atomic::AtomicBool,
 }
 

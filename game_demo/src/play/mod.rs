@@ -4,7 +4,7 @@
 //! - [`level`]: the level (kit-bashed Kenney models and procedural rooms) and its animations;
 //! - [`navmesh`]: where one can walk (spade's constrained Delaunay triangulation);
 //! - [`controller`]: the first-person controller and the scripted tour;
-//! - [`overlay`]: the egui overlay; [`window`]: the windowed runner; [`headless`]: the scripted
+//! - [`overlay`]: the egui overlay; [`window`]: its hooks into the engine's windowed runner; [`headless`]: the scripted
 //!   walk without a window; [`soak`]: thousands of frames checked for NaN, memory growth and
 //!   timing drift.
 

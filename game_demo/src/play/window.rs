@@ -4,7 +4,8 @@
 //! opens or closes the door (back to its automatic cycle with R); Esc releases the mouse, a second
 //! Esc quits. With the overlay open the mouse is free: click a probe sphere to inspect it.
 //!
-//! With `--script` the window runs the level's scripted tour on the fixed clock, frame for frame
+//! The window, its surface and lost devices are the engine's runner's ([`engine::window`]); this
+//! module is the demo's [`WindowHooks`]. With `--script` the window runs the level's scripted tour on the fixed clock, frame for frame
 //! what the headless mode renders, saves a screenshot at a chosen frame and exits: the test under
 //! Xvfb compares the two.
 
@@ -13,18 +14,15 @@ use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
-use bevy_app::App;
 use engine::app::Time;
 use engine::gpu::GpuContext;
 use engine::render::{SurfaceOverlay, SurfaceOverlayHook};
-use engine::window::{WindowError, WindowedApp, check_surface_and_device, resize_surface, windowed_app};
+use engine::window::{WindowContext, WindowHooks};
 use glam::Vec2;
-use winit::application::ApplicationHandler;
 use winit::dpi::PhysicalSize;
-use winit::event::{DeviceEvent, DeviceId, ElementState, MouseButton, WindowEvent};
-use winit::event_loop::{ActiveEventLoop, EventLoop};
+use winit::event::{DeviceEvent, ElementState, MouseButton, WindowEvent};
 use winit::keyboard::{KeyCode, PhysicalKey};
-use winit::window::{CursorGrabMode, Window, WindowId};
+use winit::window::{CursorGrabMode, Window, WindowAttributes};
 
 use super::controller::{Player, PlayerInput, ScriptedTour};
 use super::level::DoorControl;
@@ -66,53 +64,70 @@ const FAULTS: [(u32, Fault); 5] =
 
 /// Opens the demo's window and runs it until it is closed.
 pub fn run_window(options: PlayOptions, script: Option<WindowScript>) -> Result<(), String> {
-    let event_loop = EventLoop::new().map_err(|e| WindowError::EventLoop(e.to_string()).to_string())?;
-    let mut runner = Runner { options, script, state: None, error: None, recoveries: 0, faults: Vec::new() };
-    event_loop.run_app(&mut runner).map_err(|e| e.to_string())?;
-    runner.error.map_or(Ok(()), Err)
+    let faults = if script.as_ref().is_some_and(|s| s.faults) { FAULTS.to_vec() } else { Vec::new() };
+    let hooks = DemoWindow {
+        options,
+        script,
+        faults,
+        minimized: None,
+        resume: None,
+        overlay: OverlayState::default(),
+        egui: None,
+        keys: HashSet::new(),
+        look: Vec2::ZERO,
+        jump: false,
+        grabbed: false,
+        cursor: Vec2::ZERO,
+        last_frame: None,
+        screenshot_requested: false,
+    };
+    engine::window::run_window(hooks).map_err(|e| e.to_string())
 }
 
-struct Runner {
+/// The demo's hooks into the engine's windowed runner.
+struct DemoWindow {
     options: PlayOptions,
     script: Option<WindowScript>,
-    state: Option<State>,
-    error: Option<String>,
-    /// Devices reopened since the last frame that rendered.
-    recoveries: u32,
     /// The scripted faults still to inject.
     faults: Vec<(u32, Fault)>,
-}
-
-/// What outlives the app when it is rebuilt on a new device: where the player stands, the tour,
-/// the door's override, the overlay's settings and the frame count.
-struct Resume {
-    player: Option<Player>,
-    tour: Option<ScriptedTour>,
-    door: Option<DoorControl>,
+    /// A scripted minimize under way.
+    minimized: Option<Minimized>,
+    /// What the app that lost its device leaves to the next one.
+    resume: Option<Resume>,
     overlay: OverlayState,
-    frames: u32,
-}
-
-struct State {
-    window: Arc<Window>,
-    /// The window's size as last reported (zero while minimized: frames are skipped).
-    size: PhysicalSize<u32>,
-    /// Redraws skipped while the window had no pixels.
-    skipped: u32,
-    app: App,
-    gpu: GpuContext,
-    egui: egui::Context,
-    egui_winit: egui_winit::State,
-    painter: Arc<EguiPainter>,
-    overlay: OverlayState,
+    /// The overlay's egui, made anew with each app (it draws with the app's device).
+    egui: Option<Egui>,
     keys: HashSet<KeyCode>,
     look: Vec2,
     jump: bool,
     grabbed: bool,
     cursor: Vec2,
     last_frame: Option<Instant>,
-    frames: u32,
     screenshot_requested: bool,
+}
+
+/// A minimized window ([`Fault::Minimize`]): the size to restore, the frames it had rendered (it
+/// must render none while minimized), the skipped redraws before, and the redraws still to skip.
+struct Minimized {
+    size: PhysicalSize<u32>,
+    frames: u32,
+    skipped: u32,
+    redraws: u32,
+}
+
+/// What outlives the app when it is rebuilt on a new device: where the player stands, the tour and
+/// the door's override.
+struct Resume {
+    player: Option<Player>,
+    tour: Option<ScriptedTour>,
+    door: Option<DoorControl>,
+}
+
+/// The overlay's egui context, its window-system state and its painter.
+struct Egui {
+    context: egui::Context,
+    winit: egui_winit::State,
+    painter: Arc<EguiPainter>,
 }
 
 /// egui's draws, recorded as the overlay pass after the frame's blit.
@@ -171,180 +186,191 @@ impl SurfaceOverlay for EguiPainter {
     }
 }
 
-impl Runner {
-    fn open(&mut self, event_loop: &ActiveEventLoop) -> Result<State, String> {
-        let (width, height) = (self.options.width, self.options.height);
+impl WindowHooks for DemoWindow {
+    fn attributes(&self) -> WindowAttributes {
         let faults = self.script.as_ref().is_some_and(|s| s.faults);
-        if faults {
-            self.faults = FAULTS.to_vec();
-        }
-        let attributes = Window::default_attributes()
+        Window::default_attributes()
             .with_title("game_demo — DDGI (F1: overlay)")
-            .with_inner_size(winit::dpi::PhysicalSize::new(width, height))
-            .with_resizable(self.script.is_none() || faults);
-        let window = Arc::new(event_loop.create_window(attributes).map_err(|e| format!("cannot create the window: {e}"))?);
-        // A scripted run renders frame for frame what the headless mode does.
-        let time = if self.script.is_some() { Time::fixed(super::STEP_SECONDS) } else { Time::real() };
-        self.build(window, time, None)
+            .with_inner_size(PhysicalSize::new(self.options.width, self.options.height))
+            .with_resizable(self.script.is_none() || faults)
     }
 
-    /// The app, the overlay and the level on `window`; `resume` carries the state of an app that
-    /// lost its device.
-    fn build(&self, window: Arc<Window>, time: Time, resume: Option<Resume>) -> Result<State, String> {
-        let WindowedApp { mut app, gpu, format } = windowed_app(&window, time).map_err(|e| e.to_string())?;
+    /// A scripted run renders frame for frame what the headless mode does.
+    fn time(&self) -> Time {
+        if self.script.is_some() { Time::fixed(super::STEP_SECONDS) } else { Time::real() }
+    }
+
+    /// The level and the overlay; after a lost device, the level as the last app left it.
+    fn build(&mut self, window: &mut WindowContext) -> Result<(), String> {
+        let app = &mut window.app;
         if self.script.is_some() {
             app.insert_resource(engine::rt::WaitForBlasBuilds(true));
             app.world_mut().resource_mut::<engine::render::FrameTimings>().wait_each_frame = true;
         }
-        setup_play(&mut app, &self.options, self.script.is_some())?;
+        setup_play(app, &self.options, self.script.is_some())?;
 
-        let renderer = egui_wgpu::Renderer::new(&gpu.device, format, egui_wgpu::RendererOptions::default());
+        let renderer = egui_wgpu::Renderer::new(&window.gpu.device, window.format, egui_wgpu::RendererOptions::default());
         let painter = Arc::new(EguiPainter { renderer: Mutex::new(renderer), frame: Mutex::new(None) });
         app.insert_resource(SurfaceOverlayHook(painter.clone()));
-        let egui = egui::Context::default();
-        let max_texture = gpu.device.limits().max_texture_dimension_2d as usize;
-        let egui_winit = egui_winit::State::new(
-            egui.clone(),
+        let context = egui::Context::default();
+        let max_texture = window.gpu.device.limits().max_texture_dimension_2d as usize;
+        let winit = egui_winit::State::new(
+            context.clone(),
             egui::ViewportId::ROOT,
-            &window,
-            Some(window.scale_factor() as f32),
+            &window.window,
+            Some(window.window.scale_factor() as f32),
             None,
             Some(max_texture),
         );
-        let (overlay, frames) = match resume {
-            Some(resume) => {
-                let world = app.world_mut();
-                if let Some(player) = resume.player {
-                    let mut players = world.query::<&mut Player>();
-                    for mut p in players.iter_mut(world) {
-                        *p = player.clone();
-                    }
+        self.egui = Some(Egui { context, winit, painter });
+        if let Some(resume) = self.resume.take() {
+            let world = app.world_mut();
+            if let Some(player) = resume.player {
+                let mut players = world.query::<&mut Player>();
+                for mut p in players.iter_mut(world) {
+                    *p = player.clone();
                 }
-                if let Some(tour) = resume.tour {
-                    world.insert_resource(tour);
-                }
-                if let Some(door) = resume.door {
-                    world.insert_resource(door);
-                }
-                (resume.overlay, resume.frames)
             }
-            None => (OverlayState::default(), 0),
-        };
-        window.request_redraw();
-        Ok(State {
-            size: window.inner_size(),
-            skipped: 0,
-            window,
-            app,
-            gpu,
-            egui,
-            egui_winit,
-            painter,
-            overlay,
-            keys: HashSet::new(),
-            look: Vec2::ZERO,
-            jump: false,
-            grabbed: false,
-            cursor: Vec2::ZERO,
-            last_frame: None,
-            frames,
-            screenshot_requested: false,
-        })
+            if let Some(tour) = resume.tour {
+                world.insert_resource(tour);
+            }
+            if let Some(door) = resume.door {
+                world.insert_resource(door);
+            }
+            log::warn!("the level runs on a new GPU device");
+        }
+        Ok(())
     }
 
-    /// After a frame: a lost surface is replaced; a lost device is reopened and the level rebuilt
-    /// on it where the player stood, its clock going on (at most [`engine::window::MAX_DEVICE_RECOVERIES`] times
-    /// in a row).
-    fn recover(&mut self) -> Result<(), String> {
-        let Some(state) = &mut self.state else { return Ok(()) };
-        let lost = check_surface_and_device(state.app.world_mut(), &state.window, &mut self.recoveries).map_err(|e| e.to_string())?;
-        let Some(lost) = lost else { return Ok(()) };
-        log::warn!("the GPU device was lost ({}): opening a new one and rebuilding the level where the player stood", lost.reason);
-        let mut old = self.state.take().expect("state checked above");
-        let world = old.app.world_mut();
-        let time = world.resource::<Time>().continuing();
+    /// Keeps where the player stood, the tour and the door's override for the next app.
+    fn device_lost(&mut self, window: &mut WindowContext) {
+        let world = window.app.world_mut();
         let player = world.query::<&Player>().iter(world).next().cloned();
-        let resume = Resume {
-            player,
-            tour: world.remove_resource::<ScriptedTour>(),
-            door: world.remove_resource::<DoorControl>(),
-            overlay: std::mem::take(&mut old.overlay),
-            frames: old.frames,
-        };
-        let window = old.window.clone();
-        drop(old);
-        self.state = Some(self.build(window, time, Some(resume))?);
-        log::warn!("the level runs on a new GPU device");
-        Ok(())
+        self.resume = Some(Resume { player, tour: world.remove_resource::<ScriptedTour>(), door: world.remove_resource::<DoorControl>() });
+        self.egui = None;
     }
 
-    /// Injects the scripted faults due after the frame just drawn.
-    fn inject_faults(&mut self) -> Result<(), String> {
-        let Some(frames) = self.state.as_ref().map(|s| s.frames) else { return Ok(()) };
-        let due: Vec<Fault> = self.faults.iter().filter(|(f, _)| *f <= frames).map(|(_, fault)| *fault).collect();
-        self.faults.retain(|(f, _)| *f > frames);
-        for fault in due {
-            log::warn!("fault injected after frame {frames}: {fault:?}");
-            let Some(state) = &mut self.state else { return Ok(()) };
-            match fault {
-                Fault::Minimize { redraws } => {
-                    let size = state.size;
-                    self.handle_resize(PhysicalSize::new(0, 0));
-                    for _ in 0..redraws {
-                        self.draw_if_visible();
+    fn device_event(&mut self, _window: &mut WindowContext, event: &DeviceEvent) {
+        if let DeviceEvent::MouseMotion { delta } = event
+            && self.grabbed
+        {
+            self.look += Vec2::new(delta.0 as f32, delta.1 as f32);
+        }
+    }
+
+    fn window_event(&mut self, window: &mut WindowContext, event: &WindowEvent) {
+        let Some(egui) = &mut self.egui else { return };
+        let scripted = self.script.is_some();
+        let egui_consumed = self.overlay.visible && egui.winit.on_window_event(&window.window, event).consumed;
+        match event {
+            WindowEvent::KeyboardInput { event, .. } => {
+                let PhysicalKey::Code(code) = event.physical_key else { return };
+                let pressed = event.state == ElementState::Pressed;
+                if pressed && !event.repeat {
+                    match code {
+                        KeyCode::Escape if self.grabbed => self.set_grab(&window.window, false),
+                        KeyCode::Escape => window.exit(),
+                        KeyCode::F1 => {
+                            self.overlay.visible = !self.overlay.visible;
+                            if self.overlay.visible {
+                                self.set_grab(&window.window, false);
+                            }
+                        }
+                        KeyCode::F12 => self.screenshot_requested = true,
+                        KeyCode::KeyE if !egui_consumed => {
+                            let open = super::level::door_is_open(window.app.world_mut());
+                            window.app.world_mut().insert_resource(DoorControl { manual: Some(!open) });
+                        }
+                        KeyCode::KeyR if !egui_consumed => {
+                            window.app.world_mut().insert_resource(DoorControl { manual: None });
+                        }
+                        KeyCode::Space if !egui_consumed => self.jump = true,
+                        _ => {}
                     }
-                    let state = self.state.as_ref().expect("a state");
-                    if state.frames != frames {
-                        return Err(format!("the minimized window rendered {} frames", state.frames - frames));
+                }
+                if pressed && !egui_consumed {
+                    self.keys.insert(code);
+                } else if !pressed {
+                    self.keys.remove(&code);
+                }
+            }
+            WindowEvent::CursorMoved { position, .. } => self.cursor = Vec2::new(position.x as f32, position.y as f32),
+            WindowEvent::MouseInput { state: ElementState::Pressed, button: MouseButton::Left, .. } if !egui_consumed => {
+                if self.overlay.visible {
+                    if !egui.context.egui_wants_pointer_input() {
+                        pick_probe_in_world(window.app.world_mut(), self.cursor);
                     }
-                    log::warn!("{} redraws skipped while minimized", state.skipped);
-                    self.handle_resize(size);
+                } else if !self.grabbed && !scripted {
+                    self.set_grab(&window.window, true);
                 }
-                Fault::Shrink => {
-                    let _ = state.window.request_inner_size(PhysicalSize::new(2, 2));
+            }
+            WindowEvent::Focused(false) => {
+                self.keys.clear();
+                if self.grabbed {
+                    self.set_grab(&window.window, false);
                 }
-                Fault::Restore => {
-                    let _ = state.window.request_inner_size(PhysicalSize::new(self.options.width, self.options.height));
+            }
+            _ => {}
+        }
+    }
+
+    /// Input, and the overlay's UI (an empty frame when hidden, so egui's textures stay in step).
+    fn before_frame(&mut self, window: &mut WindowContext) {
+        let now = Instant::now();
+        let dt = self.last_frame.map_or(0.0, |l| (now - l).as_secs_f64());
+        self.last_frame = Some(now);
+        self.overlay.frame(dt);
+        if self.script.is_none() {
+            let input = self.player_input();
+            window.app.world_mut().insert_resource(input);
+        }
+        let Some(egui) = &mut self.egui else { return };
+        let raw = egui.winit.take_egui_input(&window.window);
+        let world = window.app.world_mut();
+        let overlay = &mut self.overlay;
+        let output = egui.context.run_pass(raw, |ctx| overlay_ui(ctx, overlay, world));
+        egui.winit.handle_platform_output(&window.window, output.platform_output);
+        let jobs = egui.context.tessellate(output.shapes, output.pixels_per_point);
+        // A frame that was never presented (surface unavailable) keeps its texture updates: they go
+        // first.
+        let mut pending = egui.painter.frame.lock().unwrap_or_else(|e| e.into_inner());
+        let mut textures = pending.take().map(|mut f| std::mem::take(&mut f.textures)).unwrap_or_default();
+        textures.append(output.textures_delta);
+        *pending = Some(EguiFrame { jobs, textures, pixels_per_point: output.pixels_per_point });
+    }
+
+    /// Screenshots (F12, the overlay's button, the script's last frame) and the scripted faults.
+    fn after_redraw(&mut self, window: &mut WindowContext, rendered: bool) -> Result<(), String> {
+        if rendered {
+            if std::mem::take(&mut self.overlay.screenshot_requested) || std::mem::take(&mut self.screenshot_requested) {
+                let path = PathBuf::from("screenshots").join(format!("screenshot_{:05}.png", window.frames()));
+                match save_screenshot(&window.gpu, window.app.world(), &path) {
+                    Ok(()) => log::warn!("screenshot: {}", path.display()),
+                    Err(e) => log::error!("screenshot failed: {e}"),
                 }
-                Fault::SurfaceLost => {
-                    state.app.world().resource::<engine::render::SurfaceTarget>().lost.store(true, std::sync::atomic::Ordering::Relaxed);
-                }
-                Fault::DeviceLost => state.gpu.simulate_device_loss(),
+            }
+            if let Some(script) = &self.script
+                && window.frames() >= script.frames
+            {
+                window.exit();
+                return save_screenshot(&window.gpu, window.app.world(), &script.screenshot);
             }
         }
-        Ok(())
-    }
-
-    fn handle_resize(&mut self, size: PhysicalSize<u32>) {
-        let Some(state) = &mut self.state else { return };
-        state.size = size;
-        resize_surface(state.app.world_mut(), size);
-        state.window.request_redraw();
-    }
-
-    /// One redraw: a frame when the window has pixels, nothing (counted) when it has none.
-    fn draw_if_visible(&mut self) -> Option<Result<(), String>> {
-        let scripted = self.script.is_some();
-        let state = self.state.as_mut()?;
-        if state.size.width == 0 || state.size.height == 0 {
-            state.skipped += 1;
-            return None;
-        }
-        Some(state.redraw(scripted))
+        self.inject_faults(window, rendered)
     }
 }
 
-impl State {
-    fn set_grab(&mut self, grab: bool) {
+impl DemoWindow {
+    fn set_grab(&mut self, window: &Window, grab: bool) {
         if grab {
-            let ok = self.window.set_cursor_grab(CursorGrabMode::Locked).or_else(|_| self.window.set_cursor_grab(CursorGrabMode::Confined));
+            let ok = window.set_cursor_grab(CursorGrabMode::Locked).or_else(|_| window.set_cursor_grab(CursorGrabMode::Confined));
             if let Err(e) = ok {
                 log::warn!("cannot grab the mouse: {e}");
             }
         } else {
-            let _ = self.window.set_cursor_grab(CursorGrabMode::None);
+            let _ = window.set_cursor_grab(CursorGrabMode::None);
         }
-        self.window.set_cursor_visible(!grab);
+        window.set_cursor_visible(!grab);
         self.grabbed = grab;
     }
 
@@ -360,152 +386,45 @@ impl State {
         }
     }
 
-    /// One frame: input, the overlay's UI, the app's update (render and present).
-    fn redraw(&mut self, scripted: bool) -> Result<(), String> {
-        let now = Instant::now();
-        let dt = self.last_frame.map_or(0.0, |l| (now - l).as_secs_f64());
-        self.last_frame = Some(now);
-        self.overlay.frame(dt);
-        if !scripted {
-            let input = self.player_input();
-            self.app.world_mut().insert_resource(input);
+    /// Injects the scripted faults due after the redraw just done. A minimize lasts its redraws
+    /// (the runner skips them: the window has no pixels); the faults after it wait until it ends.
+    fn inject_faults(&mut self, window: &mut WindowContext, rendered: bool) -> Result<(), String> {
+        if let Some(minimized) = &mut self.minimized {
+            if rendered {
+                return Err(format!("the minimized window rendered {} frames", window.frames() - minimized.frames));
+            }
+            minimized.redraws -= 1;
+            if minimized.redraws > 0 {
+                return Ok(());
+            }
+            log::warn!("{} redraws skipped while minimized", window.skipped_redraws() - minimized.skipped);
+            window.resize(minimized.size);
+            self.minimized = None;
         }
-        // The overlay's UI (an empty frame when hidden, so egui's textures stay in step).
-        let raw = self.egui_winit.take_egui_input(&self.window);
-        let world = self.app.world_mut();
-        let overlay = &mut self.overlay;
-        let output = self.egui.run_pass(raw, |ctx| overlay_ui(ctx, overlay, world));
-        self.egui_winit.handle_platform_output(&self.window, output.platform_output);
-        let jobs = self.egui.tessellate(output.shapes, output.pixels_per_point);
+        let frames = window.frames();
+        while let Some(&(due, fault)) = self.faults.first()
+            && due <= frames
         {
-            // A frame that was never presented (surface unavailable) keeps its texture updates:
-            // they go first.
-            let mut pending = self.painter.frame.lock().unwrap_or_else(|e| e.into_inner());
-            let mut textures = pending.take().map(|mut f| std::mem::take(&mut f.textures)).unwrap_or_default();
-            textures.append(output.textures_delta);
-            *pending = Some(EguiFrame { jobs, textures, pixels_per_point: output.pixels_per_point });
-        }
-        self.app.update();
-        self.frames += 1;
-        if std::mem::take(&mut self.overlay.screenshot_requested) || std::mem::take(&mut self.screenshot_requested) {
-            let path = PathBuf::from("screenshots").join(format!("screenshot_{:05}.png", self.frames));
-            match save_screenshot(&self.gpu, self.app.world(), &path) {
-                Ok(()) => log::warn!("screenshot: {}", path.display()),
-                Err(e) => log::error!("screenshot failed: {e}"),
+            self.faults.remove(0);
+            log::warn!("fault injected after frame {frames}: {fault:?}");
+            match fault {
+                Fault::Minimize { redraws } => {
+                    self.minimized = Some(Minimized { size: window.size(), frames, skipped: window.skipped_redraws(), redraws });
+                    window.resize(PhysicalSize::new(0, 0));
+                    return Ok(());
+                }
+                Fault::Shrink => {
+                    let _ = window.window.request_inner_size(PhysicalSize::new(2, 2));
+                }
+                Fault::Restore => {
+                    let _ = window.window.request_inner_size(PhysicalSize::new(self.options.width, self.options.height));
+                }
+                Fault::SurfaceLost => {
+                    window.app.world().resource::<engine::render::SurfaceTarget>().lost.store(true, std::sync::atomic::Ordering::Relaxed);
+                }
+                Fault::DeviceLost => window.gpu.simulate_device_loss(),
             }
         }
         Ok(())
-    }
-}
-
-impl ApplicationHandler for Runner {
-    fn resumed(&mut self, event_loop: &ActiveEventLoop) {
-        if self.state.is_some() {
-            return;
-        }
-        match self.open(event_loop) {
-            Ok(state) => self.state = Some(state),
-            Err(e) => {
-                self.error = Some(e);
-                event_loop.exit();
-            }
-        }
-    }
-
-    fn device_event(&mut self, _event_loop: &ActiveEventLoop, _id: DeviceId, event: DeviceEvent) {
-        let Some(state) = &mut self.state else { return };
-        if let DeviceEvent::MouseMotion { delta } = event
-            && state.grabbed
-        {
-            state.look += Vec2::new(delta.0 as f32, delta.1 as f32);
-        }
-    }
-
-    fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
-        let Some(state) = &mut self.state else { return };
-        let scripted = self.script.is_some();
-        let egui_consumed = state.overlay.visible && state.egui_winit.on_window_event(&state.window, &event).consumed;
-        match event {
-            WindowEvent::CloseRequested => event_loop.exit(),
-            WindowEvent::KeyboardInput { event, .. } => {
-                let PhysicalKey::Code(code) = event.physical_key else { return };
-                let pressed = event.state == ElementState::Pressed;
-                if pressed && !event.repeat {
-                    match code {
-                        KeyCode::Escape if state.grabbed => state.set_grab(false),
-                        KeyCode::Escape => event_loop.exit(),
-                        KeyCode::F1 => {
-                            state.overlay.visible = !state.overlay.visible;
-                            if state.overlay.visible {
-                                state.set_grab(false);
-                            }
-                        }
-                        KeyCode::F12 => state.screenshot_requested = true,
-                        KeyCode::KeyE if !egui_consumed => {
-                            let open = super::level::door_is_open(state.app.world_mut());
-                            state.app.world_mut().insert_resource(DoorControl { manual: Some(!open) });
-                        }
-                        KeyCode::KeyR if !egui_consumed => {
-                            state.app.world_mut().insert_resource(DoorControl { manual: None });
-                        }
-                        KeyCode::Space if !egui_consumed => state.jump = true,
-                        _ => {}
-                    }
-                }
-                if pressed && !egui_consumed {
-                    state.keys.insert(code);
-                } else if !pressed {
-                    state.keys.remove(&code);
-                }
-            }
-            WindowEvent::CursorMoved { position, .. } => state.cursor = Vec2::new(position.x as f32, position.y as f32),
-            WindowEvent::MouseInput { state: ElementState::Pressed, button: MouseButton::Left, .. } if !egui_consumed => {
-                if state.overlay.visible {
-                    if !state.egui.egui_wants_pointer_input() {
-                        pick_probe_in_world(state.app.world_mut(), state.cursor);
-                    }
-                } else if !state.grabbed && !scripted {
-                    state.set_grab(true);
-                }
-            }
-            WindowEvent::Focused(false) => {
-                state.keys.clear();
-                if state.grabbed {
-                    state.set_grab(false);
-                }
-            }
-            WindowEvent::Resized(size) => self.handle_resize(size),
-            WindowEvent::RedrawRequested => {
-                match self.draw_if_visible() {
-                    Some(Err(e)) => {
-                        self.error = Some(e);
-                        event_loop.exit();
-                        return;
-                    }
-                    Some(Ok(())) => {
-                        let state = self.state.as_ref().expect("a state");
-                        if let Some(script) = &self.script
-                            && state.frames >= script.frames
-                        {
-                            if let Err(e) = save_screenshot(&state.gpu, state.app.world(), &script.screenshot) {
-                                self.error = Some(e);
-                            }
-                            event_loop.exit();
-                            return;
-                        }
-                    }
-                    None => {}
-                }
-                if let Err(e) = self.inject_faults().and_then(|()| self.recover()) {
-                    self.error = Some(e);
-                    event_loop.exit();
-                    return;
-                }
-                if let Some(state) = &self.state {
-                    state.window.request_redraw();
-                }
-            }
-            _ => {}
-        }
     }
 }

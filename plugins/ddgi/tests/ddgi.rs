@@ -10,10 +10,7 @@ use engine::headless::{HeadlessSettings, RenderedFrame, add_default_camera, head
 use engine::render::RenderSize;
 use engine::scene::{Assets, Material, NodeContent, SceneDescription, Transform};
 use glam::{UVec3, Vec3};
-
-fn gpu(test: &str) -> Option<GpuContext> {
-    GpuContext::for_tests(test)
-}
+use testkit::{closed_room, gpu, mean_flip, path_traced_reference};
 
 // ---------------------------------------------------------------------------------------------
 // Without a GPU
@@ -187,16 +184,6 @@ fn workspace_free_fibonacci(n: usize) -> Vec<Vec3> {
 // ---------------------------------------------------------------------------------------------
 // Running DDGI
 
-/// A closed room of solid slabs around the interior `lo..hi`, all of one material.
-fn closed_room(lo: Vec3, hi: Vec3, material: Material) -> SceneDescription {
-    let mut s = SceneDescription { name: "closed_room".into(), ..Default::default() };
-    let m = s.add_material(material);
-    s.add_mesh_node("room", Transform::IDENTITY, engine::builtin::closed_shell("room", lo, hi, 0.2), m);
-    let camera = Transform::from_translation((lo + hi) * 0.5).looking_at(lo, Vec3::Y);
-    s.add_node("camera", camera, None, vec![NodeContent::Camera(engine::scene::Camera { yfov: 1.2, ..Default::default() })]);
-    s
-}
-
 /// Runs `scene` with one DDGI volume for `frames` frames and returns the image and the world.
 fn run_ddgi(gpu: &GpuContext, scene: SceneDescription, volume: DdgiVolume, size: u32, frames: u32) -> (RenderedFrame, bevy_app::App) {
     let mut scene = scene;
@@ -284,7 +271,7 @@ fn furnace_probes_converge_to_the_analytic_irradiance() {
     let material = Material { base_color: Vec3::splat(albedo).extend(1.0), emissive: Vec3::splat(emission), ..Default::default() };
     let volume =
         DdgiVolume { bounds: Some((lo, hi)), probe_counts: UVec3::new(3, 2, 3), rays_per_probe: 96, hysteresis: 0.8, ..Default::default() };
-    let (frame, app) = run_ddgi(&gpu, closed_room(lo, hi, material), volume, 24, 90);
+    let (frame, app) = run_ddgi(&gpu, closed_room(lo, hi, 0.2, material), volume, 24, 90);
     let expected = std::f32::consts::PI * emission / (1.0 - albedo);
     let v = first_volume(&app);
     let atlas = read_irradiance(&gpu, v);
@@ -306,7 +293,7 @@ const EMITTING_ROOM_LE: f32 = 0.5;
 /// zero.
 fn emitting_room() -> SceneDescription {
     let black = Material { base_color: Vec3::ZERO.extend(1.0), emissive: Vec3::splat(EMITTING_ROOM_LE), ..Default::default() };
-    closed_room(Vec3::splat(-1.0), Vec3::splat(1.0), black)
+    closed_room(Vec3::splat(-1.0), Vec3::splat(1.0), 0.2, black)
 }
 
 /// 2³ probes of 64 rays over [`emitting_room`], with hysteresis `h` and no firefly clamp.
@@ -460,12 +447,11 @@ fn against_reference(gpu: &GpuContext, scene: &str, probes: UVec3, frames: u32) 
         .expect("render");
     assert!(frame.hdr.iter().all(|v| v.is_finite()));
     let direct = engine::headless::render_scene(gpu, description, &HeadlessSettings { frames: 1, ..settings }).expect("render");
-    let path = workspace_golden(&format!("{scene}_pathtrace_reference.png"));
-    let reference = image::open(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display())).to_rgba8();
-    let flip = flip_rgba(reference.as_raw(), &frame.ldr, REFERENCE_SIZE);
-    let direct_flip = flip_rgba(reference.as_raw(), &direct.ldr, REFERENCE_SIZE);
+    let reference = path_traced_reference(gpu, scene, REFERENCE_SIZE);
+    let flip = mean_flip(reference.as_raw(), &frame.ldr, REFERENCE_SIZE, REFERENCE_SIZE);
+    let direct_flip = mean_flip(reference.as_raw(), &direct.ldr, REFERENCE_SIZE, REFERENCE_SIZE);
     if std::env::var("DDGI_WRITE_ACTUAL").is_ok() {
-        let actual = path.with_file_name(format!("{scene}_ddgi_actual.png"));
+        let actual = testkit::golden_dir().join(format!("{scene}_ddgi_actual.png"));
         image::save_buffer(&actual, &frame.ldr, REFERENCE_SIZE, REFERENCE_SIZE, image::ExtendedColorType::Rgba8).expect("write");
     }
     eprintln!("{scene}: mean FLIP against the path-traced reference: DDGI {flip:.4}, direct light alone {direct_flip:.4}");
@@ -473,15 +459,6 @@ fn against_reference(gpu: &GpuContext, scene: &str, probes: UVec3, frames: u32) 
 }
 
 const REFERENCE_SIZE: u32 = 96;
-
-fn workspace_golden(name: &str) -> std::path::PathBuf {
-    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/golden").join(name)
-}
-
-fn flip_rgba(a: &[u8], b: &[u8], size: u32) -> f32 {
-    let rgb = |rgba: &[u8]| -> Vec<u8> { rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect() };
-    engine::metrics::flip_rgb8(&rgb(a), &rgb(b), size, size).0
-}
 
 #[test]
 fn cornell_box_matches_the_path_traced_reference() {
@@ -554,7 +531,7 @@ fn two_volumes_light_the_scene_like_one() {
         |world| assert_eq!(world.resource::<DdgiGpuVolumes>().volumes.len(), 2),
     )
     .expect("render");
-    let flip = flip_rgba(&one.ldr, &two.ldr, 48);
+    let flip = mean_flip(&one.ldr, &two.ldr, 48, 48);
     assert!(two.timings.last().expect("timings").passes.iter().any(|p| p.label == "ddgi_trace_1" && p.ran));
     assert!(flip < 0.12, "two half volumes differ from one whole volume by FLIP {flip}");
 }
@@ -650,7 +627,7 @@ fn mean(v: &[f64]) -> f64 {
 #[test]
 fn adaptive_budgets_trace_fewer_rays_in_a_static_scene_at_the_same_error() {
     let Some(gpu) = gpu("adaptive_budgets_trace_fewer_rays") else { return };
-    let reference = image::open(workspace_golden("cornell_pathtrace_reference.png")).expect("reference").to_rgba8();
+    let reference = path_traced_reference(&gpu, "cornell", REFERENCE_SIZE);
     let run = |adaptive: bool, rest_smoothing: Option<f32>| {
         let volume = DdgiVolume {
             bounds: engine::builtin::builtin_gi_bounds("cornell"),
@@ -672,7 +649,7 @@ fn adaptive_budgets_trace_fewer_rays_in_a_static_scene_at_the_same_error() {
             .take(20)
             .collect();
         assert!(!rays.is_empty(), "rays per frame were read back");
-        (flip_rgba(reference.as_raw(), &frame.ldr, REFERENCE_SIZE), mean(&rays))
+        (mean_flip(reference.as_raw(), &frame.ldr, REFERENCE_SIZE, REFERENCE_SIZE), mean(&rays))
     };
     let (fixed_flip, fixed_rays) = run(false, None);
     let (adaptive_flip, adaptive_rays) = run(true, None);

@@ -20,7 +20,7 @@ fn cornell_app(gpu: &GpuContext) -> engine::bevy_app::App {
 #[test]
 fn a_lost_device_stops_rendering_cleanly_and_a_new_device_renders_the_same_image() {
     // Validation errors panic on these contexts: any error not caused by the loss fails the test.
-    let Some(gpu) = GpuContext::for_tests("device_loss") else { return };
+    let Some(gpu) = testkit::gpu("device_loss") else { return };
     let mut app = cornell_app(&gpu);
     run_frames(&mut app, FRAMES, |_, _| {});
     let before = read_frame(&gpu, app.world());
@@ -36,12 +36,11 @@ fn a_lost_device_stops_rendering_cleanly_and_a_new_device_renders_the_same_image
     assert_eq!(lost.reason, reason);
 
     // What a runner does: a new device, the same scene, the same frames.
-    let gpu = GpuContext::for_tests("device_loss").expect("a second device");
+    let gpu = testkit::gpu("device_loss").expect("a second device");
     let mut app = cornell_app(&gpu);
     run_frames(&mut app, FRAMES, |_, _| {});
     let after = read_frame(&gpu, app.world());
-    let rgb = |rgba: &[u8]| -> Vec<u8> { rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect() };
-    let (mean, _) = engine::metrics::flip_rgb8(&rgb(&before.ldr), &rgb(&after.ldr), before.width, before.height);
+    let mean = testkit::mean_flip(&before.ldr, &after.ldr, before.width, before.height);
     assert!(mean < 1e-3, "the new device renders another image: mean FLIP {mean}");
     assert!(after.ldr.chunks_exact(4).any(|p| p[..3] != after.ldr[..3]), "the image is one flat colour");
 }

@@ -21,14 +21,11 @@ use engine::render::gpu_scene::GpuScene;
 use engine::render::readback::read_texture;
 use engine::scene::{Camera, Material, Mesh, NodeContent, PointLight, SceneDescription, SpotLight, Transform};
 use glam::{UVec3, Vec3};
+use testkit::{closed_room, gpu};
 
 use std::f32::consts::PI;
 
 const SIZE: u32 = 32;
-
-fn gpu(test: &str) -> Option<GpuContext> {
-    GpuContext::for_tests(test)
-}
 
 fn material(albedo: f32, emission: f32) -> Material {
     Material {
@@ -37,19 +34,6 @@ fn material(albedo: f32, emission: f32) -> Material {
         emissive: Vec3::splat(emission),
         ..Default::default()
     }
-}
-
-/// A closed room of solid slabs `thickness` thick around the interior `lo..hi`, all of one material,
-/// with a camera at the centre looking at a corner.
-fn closed_room(lo: Vec3, hi: Vec3, thickness: f32, material: Material) -> SceneDescription {
-    let mut s = SceneDescription { name: "closed_room".into(), ..Default::default() };
-    let m = s.add_material(material);
-    s.add_mesh_node("room", Transform::IDENTITY, engine::builtin::closed_shell("room", lo, hi, thickness), m);
-    let extent = (hi - lo).max_element();
-    let camera = Transform::from_translation((lo + hi) * 0.5).looking_at(lo, Vec3::Y);
-    let camera_node = Camera { yfov: 1.2, znear: extent * 1e-3, ..Default::default() };
-    s.add_node("camera", camera, None, vec![NodeContent::Camera(camera_node)]);
-    s
 }
 
 /// A square floor slab of side `4·scale` (top at y = 0, albedo ρ) seen from above by the camera.
