@@ -1,15 +1,17 @@
-//! The built-in scenes: every listed scene exists and is valid, each has the layout its
-//! documentation promises, and the closed rooms are closed: rays cast from inside in every
-//! direction hit something unless they leave through one of the scene's designed openings.
+//! The built-in scenes of the `scenes` crate and the mesh primitives of `engine::shapes` they are
+//! built from: every scene is valid, each has the layout its documentation promises, and the
+//! closed rooms are closed: rays cast from inside in every direction hit something unless they
+//! leave through one of the scene's designed openings.
 
 use std::collections::{HashMap, HashSet};
 use std::f32::consts::PI;
 
 use bevy_ecs::component::Component;
 use bevy_ecs::world::World;
-use engine::builtin::{BUILTIN_SCENES, Opening, box_with_hole, builtin_openings, builtin_scene, cuboid, merge, quad};
 use engine::scene::{Camera, DirectionalLight, MeshInstance, Name, NodeContent, Orbit, PointLight, SceneDescription, SceneRoot, SpotLight};
+use engine::shapes::{box_with_hole, cuboid, merge, quad};
 use glam::{Affine3A, Quat, Vec2, Vec3};
+use scenes::{Opening, SceneEntry};
 use workspace_tests::assert_valid_mesh;
 use workspace_tests::cpu_rays::{fibonacci_directions, intersect};
 
@@ -36,8 +38,12 @@ fn count<C: Component>(world: &mut World) -> usize {
     world.query::<&C>().iter(world).count()
 }
 
+fn entry(name: &str) -> &'static SceneEntry {
+    scenes::find(name).unwrap_or_else(|| panic!("built-in scene {name} is missing"))
+}
+
 fn scene(name: &str) -> SceneDescription {
-    builtin_scene(name).unwrap_or_else(|| panic!("built-in scene {name} is missing"))
+    (entry(name).build)()
 }
 
 fn node_index(desc: &SceneDescription, name: &str) -> usize {
@@ -237,7 +243,7 @@ fn nodes_with_albedo(desc: &SceneDescription, pick: impl Fn(Vec3) -> bool) -> Ve
 }
 
 // ---------------------------------------------------------------------------------------------
-// Primitives
+// Primitives (engine::shapes)
 // ---------------------------------------------------------------------------------------------
 
 #[test]
@@ -348,18 +354,6 @@ fn box_with_hole_is_closed_except_through_the_hole() {
 // ---------------------------------------------------------------------------------------------
 
 #[test]
-fn every_listed_scene_exists_and_only_those() {
-    assert_eq!(BUILTIN_SCENES, ["cornell", "ceiling_opening", "door_room", "color_bleed", "cathedral", "forest"]);
-    for &name in BUILTIN_SCENES {
-        let desc = scene(name);
-        assert_eq!(desc.name, name);
-        assert_eq!(builtin_scene(name), Some(desc), "{name}: building twice gives the same scene");
-    }
-    assert_eq!(builtin_scene("no_such_scene"), None);
-    assert!(builtin_openings("no_such_scene").is_empty());
-}
-
-#[test]
 fn every_scene_is_valid() {
     for name in SMALL_SCENES {
         let desc = scene(name);
@@ -427,7 +421,7 @@ fn every_scene_is_valid() {
 
 #[test]
 fn every_scene_spawns_one_entity_per_node_and_mesh_instance() {
-    for &name in BUILTIN_SCENES {
+    for name in scenes::names() {
         let desc = scene(name);
         let instances: usize = desc
             .nodes
@@ -469,7 +463,7 @@ fn closed_rooms_are_closed_except_through_their_openings() {
     // all hit something or leave through a designed opening.
     for name in SMALL_SCENES {
         let desc = scene(name);
-        let openings = builtin_openings(name);
+        let openings = (entry(name).openings)();
         // The ground is outside the room: rays through the door would hit it.
         let tris = world_triangles(&desc, |n| n != "ground");
         let mut origins = vec![camera(&desc).0.translation.into()];
@@ -532,7 +526,7 @@ fn cornell_has_red_left_and_green_right_walls() {
 #[test]
 fn cornell_light_is_inside_and_lights_the_floor_moderately() {
     let desc = scene("cornell");
-    let opening = builtin_openings("cornell")[0];
+    let opening = (entry("cornell").openings)()[0];
     let light_node = node_index(&desc, "lamp_light");
     let light = node_position(&desc, "lamp_light");
     let (lo, _) = desc.bounds().unwrap();
@@ -638,7 +632,7 @@ fn ceiling_opening_camera_sees_both_halves() {
         let p = node_position(&desc, marker) + Vec3::Y * ABOVE_FLOOR;
         assert!(camera_sees(&desc, p, &tris), "the camera sees {marker}");
     }
-    let opening = builtin_openings("ceiling_opening")[0];
+    let opening = (entry("ceiling_opening").openings)()[0];
     assert!(in_frustum(&desc, (opening.min + opening.max) * 0.5, DEFAULT_ASPECT), "skylight in view");
 }
 
@@ -649,7 +643,7 @@ fn ceiling_opening_camera_sees_both_halves() {
 #[test]
 fn door_room_leaks_only_through_the_door() {
     let desc = scene("door_room");
-    let door = builtin_openings("door_room")[0];
+    let door = (entry("door_room").openings)()[0];
     assert_eq!(door.name, "door");
     let door_node = node_position(&desc, "door");
     assert!(door_node.abs_diff_eq((door.min + door.max) * 0.5, 1e-5), "door node at the opening's centre");

@@ -69,7 +69,7 @@ fn point_light_follows_the_inverse_square_law() {
 #[test]
 fn cornell_box_direct_light_matches_its_golden_image() {
     let Some(gpu) = testkit::gpu("cornell_box_direct_light_matches_its_golden_image") else { return };
-    let scene = engine::builtin::builtin_scene("cornell").expect("built-in cornell");
+    let scene = (scenes::find("cornell").expect("built-in cornell").build)();
     let settings = HeadlessSettings { width: 256, height: 256, ..Default::default() };
     let frame = render_scene(&gpu, scene, &settings).expect("render");
     assert!(frame.hdr.iter().all(|v| v.is_finite()), "non-finite radiance");
@@ -107,7 +107,7 @@ fn an_adapter_is_found_in_ci() {
 #[test]
 fn absurd_sizes_are_refused_with_a_clear_error() {
     let Some(gpu) = testkit::gpu("absurd_sizes_are_refused_with_a_clear_error") else { return };
-    let scene = engine::builtin::builtin_scene("cornell").expect("cornell");
+    let scene = (scenes::find("cornell").expect("cornell").build)();
     for (w, h) in [(0, 10), (10, 0), (1 << 20, 4)] {
         let settings = HeadlessSettings { width: w, height: h, ..Default::default() };
         let err = render_scene(&gpu, scene.clone(), &settings).err().expect("must fail");

@@ -1,5 +1,5 @@
-//! The large benchmark scenes of `engine::builtin_large`: `cathedral` (≈73k static triangles, a closed
-//! stone interior lit through its windows) and `forest` (≈21.6M instanced triangles).
+//! The large benchmark scenes of `scenes::large`: `cathedral` (≈73k static triangles, a closed stone
+//! interior lit through its windows) and `forest` (≈21.6M instanced triangles).
 //!
 //! Checks their budgets, the validity of every mesh (and that the cathedral's and the trees' meshes
 //! are unions of closed solids), their cameras and lights, that every forest instance stands on the
@@ -10,10 +10,10 @@ use std::collections::HashMap;
 use std::sync::LazyLock;
 use std::time::Instant;
 
-use engine::builtin::{BUILTIN_SCENES, Opening, builtin_openings, builtin_scene};
-use engine::builtin_large::{CATHEDRAL_NAVE_MAX, CATHEDRAL_NAVE_MIN, FOREST_SIZE, cathedral_openings, forest_terrain_height};
 use engine::scene::{Mesh, NodeContent, SceneDescription};
 use glam::{Affine3A, Vec3};
+use scenes::Opening;
+use scenes::large::{CATHEDRAL_NAVE_MAX, CATHEDRAL_NAVE_MIN, FOREST_SIZE, cathedral_openings, forest_terrain_height};
 use workspace_tests::assert_valid_mesh;
 use workspace_tests::cpu_rays::{fibonacci_directions, intersect};
 
@@ -47,7 +47,7 @@ static FOREST: LazyLock<SceneDescription> = LazyLock::new(|| timed_build("forest
 
 fn timed_build(name: &str) -> SceneDescription {
     let start = Instant::now();
-    let desc = builtin_scene(name).unwrap_or_else(|| panic!("built-in scene {name} is missing"));
+    let desc = (scenes::find(name).unwrap_or_else(|| panic!("built-in scene {name} is missing")).build)();
     eprintln!("{name}: built in {:.3} s", start.elapsed().as_secs_f64());
     desc
 }
@@ -233,15 +233,14 @@ fn bay_centers() -> Vec<f32> {
 
 #[test]
 fn large_scenes_are_registered_and_deterministic() {
-    for name in ["cathedral", "forest"] {
-        assert!(BUILTIN_SCENES.contains(&name), "{name} is not listed in BUILTIN_SCENES");
-    }
+    let [cathedral, forest] =
+        ["cathedral", "forest"].map(|name| scenes::find(name).unwrap_or_else(|| panic!("{name} is not listed in scenes::ALL")));
     assert_eq!(CATHEDRAL.name, "cathedral");
     assert_eq!(FOREST.name, "forest");
-    assert_eq!(builtin_scene("cathedral").as_ref(), Some(&*CATHEDRAL), "cathedral: building twice gives the same scene");
-    assert_eq!(builtin_scene("forest").as_ref(), Some(&*FOREST), "forest: building twice gives the same scene");
-    assert_eq!(builtin_openings("cathedral"), cathedral_openings());
-    assert!(builtin_openings("forest").is_empty());
+    assert_eq!((cathedral.build)(), *CATHEDRAL, "cathedral: building twice gives the same scene");
+    assert_eq!((forest.build)(), *FOREST, "forest: building twice gives the same scene");
+    assert_eq!((cathedral.openings)(), cathedral_openings());
+    assert!((forest.openings)().is_empty());
 }
 
 #[test]

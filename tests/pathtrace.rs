@@ -25,7 +25,7 @@ fn white_furnace_converges_to_emission_over_one_minus_albedo() {
     for albedo in [0.5f32, 0.8] {
         let emission = 0.25;
         let mut s = SceneDescription { name: "furnace".into(), ..Default::default() };
-        let boxed = s.add_mesh(engine::builtin::cuboid("box", Vec3::splat(2.0)));
+        let boxed = s.add_mesh(engine::shapes::cuboid("box", Vec3::splat(2.0)));
         let m =
             s.add_material(Material { base_color: Vec3::splat(albedo).extend(1.0), emissive: Vec3::splat(emission), ..Default::default() });
         s.add_node("box", Transform::IDENTITY, None, vec![NodeContent::Meshes(vec![(boxed, m)])]);
@@ -44,7 +44,7 @@ fn path_traced_point_light_follows_the_inverse_square_law() {
     let Some(gpu) = testkit::gpu("path_traced_point_light_follows_the_inverse_square_law") else { return };
     for height in [1.0f32, 2.0] {
         let mut s = SceneDescription { name: "floor".into(), ..Default::default() };
-        let floor = s.add_mesh(engine::builtin::quad("floor", Vec2::splat(20.0)));
+        let floor = s.add_mesh(engine::shapes::quad("floor", Vec2::splat(20.0)));
         let m = s.add_material(Material::diffuse("grey", Vec3::splat(0.5)));
         s.add_node("floor", Transform::IDENTITY, None, vec![NodeContent::Meshes(vec![(floor, m)])]);
         let camera = Transform::from_xyz(0.0, 5.0, 0.0).looking_at(Vec3::ZERO, Vec3::NEG_Z);
@@ -65,7 +65,7 @@ fn path_traced_point_light_follows_the_inverse_square_law() {
 }
 
 fn cornell(gpu: &engine::gpu::GpuContext, seed: u32) -> RenderedFrame {
-    let scene = engine::builtin::builtin_scene("cornell").expect("cornell");
+    let scene = (scenes::find("cornell").expect("cornell").build)();
     let settings = HeadlessSettings { width: 128, height: 128, frames: CORNELL_SPP / 16, ..Default::default() };
     render_scene_with(gpu, scene, &settings, |app| {
         use_path_tracer(app, PathTraceSettings { samples_per_frame: 16, seed, ..Default::default() })

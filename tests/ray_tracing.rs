@@ -95,8 +95,8 @@ fn compare(name: &str, app: &App, gpu: &engine::gpu::GpuContext, rays: &[GpuRay]
 
 fn cuboid_scene() -> SceneDescription {
     let mut s = SceneDescription { name: "transformed".into(), ..Default::default() };
-    let cube = s.add_mesh(engine::builtin::cuboid("cube", Vec3::splat(0.5)));
-    let plate = s.add_mesh(engine::builtin::quad("plate", Vec2::new(4.0, 4.0)));
+    let cube = s.add_mesh(engine::shapes::cuboid("cube", Vec3::splat(0.5)));
+    let plate = s.add_mesh(engine::shapes::quad("plate", Vec2::new(4.0, 4.0)));
     let m = s.add_material(Material::diffuse("grey", Vec3::splat(0.5)));
     let parent = s.add_node(
         "parent",
@@ -147,9 +147,9 @@ fn sheet(n: usize) -> Mesh {
 fn crowd_scene() -> SceneDescription {
     let mut s = SceneDescription { name: "crowd".into(), ..Default::default() };
     let meshes = [
-        s.add_mesh(engine::builtin::cuboid("cube", Vec3::splat(0.5))),
+        s.add_mesh(engine::shapes::cuboid("cube", Vec3::splat(0.5))),
         s.add_mesh(sheet(12)),
-        s.add_mesh(engine::builtin::quad("plate", Vec2::new(1.0, 1.0))),
+        s.add_mesh(engine::shapes::quad("plate", Vec2::new(1.0, 1.0))),
     ];
     let m = s.add_material(Material::diffuse("grey", Vec3::splat(0.5)));
     let mut rng = SplitMix64::new(0xC0_0D);
@@ -165,11 +165,11 @@ fn crowd_scene() -> SceneDescription {
 #[test]
 fn gpu_closest_hits_match_the_cpu_reference() {
     let Some(gpu) = testkit::gpu("gpu_closest_hits_match_the_cpu_reference") else { return };
-    let mut scenes = vec![cuboid_scene(), crowd_scene()];
+    let mut tested = vec![cuboid_scene(), crowd_scene()];
     for name in ["cornell", "color_bleed", "door_room"] {
-        scenes.push(engine::builtin::builtin_scene(name).expect("built-in"));
+        tested.push((scenes::find(name).expect("built-in").build)());
     }
-    for (k, scene) in scenes.into_iter().enumerate() {
+    for (k, scene) in tested.into_iter().enumerate() {
         let name = scene.name.clone();
         let bounds = scene.bounds().expect("bounds");
         let app = app_for(&gpu, scene);
@@ -184,7 +184,7 @@ fn gpu_closest_hits_match_the_cpu_reference() {
 fn a_moved_entity_is_seen_at_its_new_place_in_the_same_frame() {
     let Some(gpu) = testkit::gpu("a_moved_entity_is_seen_at_its_new_place_in_the_same_frame") else { return };
     let mut s = SceneDescription { name: "move_test".into(), ..Default::default() };
-    let cube = s.add_mesh(engine::builtin::cuboid("cube", Vec3::splat(0.5)));
+    let cube = s.add_mesh(engine::shapes::cuboid("cube", Vec3::splat(0.5)));
     let m = s.add_material(Material::diffuse("grey", Vec3::splat(0.5)));
     s.add_node("static", Transform::from_xyz(0.0, 0.0, -10.0), None, vec![NodeContent::Meshes(vec![(cube, m)])]);
     s.add_node("mover", Transform::IDENTITY, None, vec![NodeContent::Meshes(vec![(cube, m)])]);
@@ -221,7 +221,7 @@ fn a_moved_entity_is_seen_at_its_new_place_in_the_same_frame() {
 fn rays_parallel_to_axes_from_surfaces_and_past_degenerate_triangles_are_robust() {
     let Some(gpu) = testkit::gpu("rays_parallel_to_axes_from_surfaces_and_past_degenerate_triangles_are_robust") else { return };
     let mut s = SceneDescription { name: "robust".into(), ..Default::default() };
-    let mut cube = engine::builtin::cuboid("cube", Vec3::splat(1.0));
+    let mut cube = engine::shapes::cuboid("cube", Vec3::splat(1.0));
     // Degenerate triangles: a zero-area sliver and a collapsed one, in the middle of the box.
     let base = cube.positions.len() as u32;
     cube.positions.extend([Vec3::ZERO, Vec3::new(0.5, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::splat(0.2)]);
@@ -255,8 +255,8 @@ fn rays_parallel_to_axes_from_surfaces_and_past_degenerate_triangles_are_robust(
 /// between the floor's centre and the light.
 fn lit_floor(occluder: bool) -> SceneDescription {
     let mut s = SceneDescription { name: "lit_floor".into(), ..Default::default() };
-    let floor = s.add_mesh(engine::builtin::quad("floor", Vec2::splat(20.0)));
-    let cube = s.add_mesh(engine::builtin::cuboid("blocker", Vec3::splat(0.1)));
+    let floor = s.add_mesh(engine::shapes::quad("floor", Vec2::splat(20.0)));
+    let cube = s.add_mesh(engine::shapes::cuboid("blocker", Vec3::splat(0.1)));
     let m = s.add_material(Material::diffuse("grey", Vec3::splat(0.5)));
     s.add_node("floor", Transform::IDENTITY, None, vec![NodeContent::Meshes(vec![(floor, m)])]);
     if occluder {

@@ -7,10 +7,14 @@
 //! - [`gpu`]: adapter choice and the device; [`shader`]: the WGSL library, validated by naga, with
 //!   bindings looked up by name; [`graph`]: the render graph; [`render`]: the camera path;
 //!   [`headless`]: rendering to files without a window; [`memory`]: the heap the Rust code holds.
+//! - [`import`]: glTF and OBJ files into a scene; [`shapes`]: mesh primitives for building
+//!   geometry in code.
+//!
+//! Cargo features, all on by default: `window` (the windowed runner, module `window`, on winit), `gltf`
+//! and `obj` (the importers and their parsers). Without them the engine still renders headless and
+//! imports nothing: loading a file of a left-out format is an error that names the feature.
 
 pub mod app;
-pub mod builtin;
-pub mod builtin_large;
 pub mod gpu;
 pub mod graph;
 pub mod headless;
@@ -22,6 +26,8 @@ pub mod rng;
 pub mod rt;
 pub mod scene;
 pub mod shader;
+pub mod shapes;
+#[cfg(feature = "window")]
 pub mod window;
 
 pub use bevy_app;

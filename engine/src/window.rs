@@ -12,7 +12,7 @@
 //!         Ok(())
 //!     }
 //! }
-//! run_window(Viewer(engine::builtin::builtin_scene("cornell").unwrap())).unwrap();
+//! run_window(Viewer(engine::import::load_scene(std::path::Path::new("scene.glb")).unwrap())).unwrap();
 //! ```
 
 use std::sync::Arc;

@@ -76,7 +76,7 @@ fn gi_bounds(scene: &str) -> Option<(Vec3, Vec3)> {
     if scene == crate::LEVEL_SCENE {
         return Some(crate::play::level::level_gi_bounds());
     }
-    engine::builtin::builtin_gi_bounds(scene)
+    scenes::find(scene).and_then(|entry| (entry.gi_bounds)())
 }
 
 impl Config {
@@ -469,7 +469,7 @@ mod tests {
     #[test]
     fn reference_cache_key_changes_with_the_camera_and_only_with_what_the_reference_sees() {
         let cache = Path::new("cache");
-        let scene = engine::builtin::builtin_scene("cornell").expect("cornell");
+        let scene = (scenes::find("cornell").expect("cornell").build)();
         let key = |s: &SceneDescription| reference_path(cache, "cornell", s, 64, 48, 256);
         assert_eq!(key(&scene), key(&scene.clone()), "same scene and camera, same key");
         let camera = scene.nodes.iter().position(|n| n.content.iter().any(|c| matches!(c, NodeContent::Camera(_)))).expect("camera");

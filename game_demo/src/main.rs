@@ -361,27 +361,27 @@ fn parse_vec3(text: &str) -> Result<glam::Vec3, String> {
 /// `render` and `eval`'s name for the demo level (`play`'s scene, still: nothing animates).
 pub const LEVEL_SCENE: &str = "level";
 
-/// A built-in scene or the demo level by name, or a scene file by path.
+/// A built-in scene (of [`scenes::ALL`]) or the demo level by name, or a scene file by path.
 fn load(scene: &str) -> Result<SceneDescription, String> {
-    if let Some(builtin) = engine::builtin::builtin_scene(scene) {
-        return Ok(builtin);
+    if let Some(entry) = scenes::find(scene) {
+        return Ok((entry.build)());
     }
     if scene == LEVEL_SCENE {
         return Ok(play::level::demo_level(play::level::kenney_assets_or_note().as_deref()).scene);
     }
     let path = std::path::Path::new(scene);
     if path.extension().is_none() {
-        return Err(format!(
-            "'{scene}' is neither a built-in scene ({}, {LEVEL_SCENE}) nor a scene file",
-            engine::builtin::BUILTIN_SCENES.join(", ")
-        ));
+        let names = scenes::names().collect::<Vec<_>>().join(", ");
+        return Err(format!("'{scene}' is neither a built-in scene ({names}, {LEVEL_SCENE}) nor a scene file"));
     }
     engine::import::load_scene(path).map_err(|e| e.to_string())
 }
 
 fn render(args: RenderArgs) -> Result<(), String> {
     if args.list_scenes {
-        println!("{}\n{LEVEL_SCENE}", engine::builtin::BUILTIN_SCENES.join("\n"));
+        for name in scenes::names().chain([LEVEL_SCENE]) {
+            println!("{name}");
+        }
         return Ok(());
     }
     let mut scene = load(&args.scene)?;

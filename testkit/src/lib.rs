@@ -98,7 +98,7 @@ pub fn path_traced_reference(gpu: &GpuContext, scene: &str, size: u32) -> image:
     static BLESSED: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
     let mut blessed = BLESSED.lock().unwrap_or_else(|e| e.into_inner());
     if blessing() && !blessed.contains(&path) {
-        let description = engine::builtin::builtin_scene(scene).unwrap_or_else(|| panic!("no built-in scene '{scene}'"));
+        let description = scenes::find(scene).map(|s| (s.build)()).unwrap_or_else(|| panic!("no built-in scene '{scene}'"));
         let frames = REFERENCE_SPP.div_ceil(REFERENCE_SPP_PER_FRAME);
         let settings = HeadlessSettings { width: size, height: size, frames, ..Default::default() };
         let tracer = pathtrace::PathTraceSettings { samples_per_frame: REFERENCE_SPP_PER_FRAME, ..Default::default() };
@@ -118,7 +118,7 @@ pub fn path_traced_reference(gpu: &GpuContext, scene: &str, size: u32) -> image:
 pub fn closed_room(lo: Vec3, hi: Vec3, thickness: f32, material: Material) -> SceneDescription {
     let mut s = SceneDescription { name: "closed_room".into(), ..Default::default() };
     let m = s.add_material(material);
-    s.add_mesh_node("room", Transform::IDENTITY, engine::builtin::closed_shell("room", lo, hi, thickness), m);
+    s.add_mesh_node("room", Transform::IDENTITY, engine::shapes::closed_shell("room", lo, hi, thickness), m);
     let extent = (hi - lo).max_element();
     let camera = Transform::from_translation((lo + hi) * 0.5).looking_at(lo, Vec3::Y);
     let camera_node = Camera { yfov: 1.2, znear: extent * 1e-3, ..Default::default() };

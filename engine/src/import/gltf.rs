@@ -24,7 +24,7 @@ use ::gltf::mesh::{Mode, Semantic};
 use base64::Engine as _;
 use glam::{Mat4, Quat, Vec2, Vec3, Vec4};
 
-use super::{Budget, ImportError, fmt_vec2, fmt_vec3, short};
+use super::{Budget, ImportError, fmt_vec2, fmt_vec3};
 use crate::scene::{
     Camera, DirectionalLight, Handle, Material, Mesh, NodeContent, PointLight, SceneDescription, SceneNode, SpotLight, TextureRef,
     Transform, UvTransform,
@@ -201,7 +201,7 @@ fn decode_data_uri(uri: &str) -> Result<Vec<u8>, String> {
         );
         engine.decode(data.trim()).map_err(|e| format!("invalid base64 data: {e}"))
     } else {
-        Ok(super::percent_decode(data).into_bytes())
+        Ok(percent_decode(data).into_bytes())
     }
 }
 
@@ -209,6 +209,36 @@ fn decode_data_uri(uri: &str) -> Result<Vec<u8>, String> {
 fn has_scheme(uri: &str) -> bool {
     uri.split_once("://")
         .is_some_and(|(scheme, _)| !scheme.is_empty() && scheme.chars().all(|c| c.is_ascii_alphanumeric() || "+-.".contains(c)))
+}
+
+/// A reference as it may appear in a message: long ones (data URIs) are cut short.
+fn short(reference: &str) -> Cow<'_, str> {
+    const MAX: usize = 48;
+    match reference.char_indices().nth(MAX) {
+        Some((cut, _)) => Cow::Owned(format!("{}…", &reference[..cut])),
+        None => Cow::Borrowed(reference),
+    }
+}
+
+/// Decodes `%XX` escapes of a relative URI into a path string (invalid escapes are kept as they are).
+fn percent_decode(uri: &str) -> String {
+    let bytes = uri.as_bytes();
+    let mut out = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while let Some(&b) = bytes.get(i) {
+        let hex = |at: usize| bytes.get(at).and_then(|c| (*c as char).to_digit(16));
+        match (b, hex(i + 1), hex(i + 2)) {
+            (b'%', Some(hi), Some(lo)) => {
+                out.push((hi * 16 + lo) as u8);
+                i += 3;
+            }
+            _ => {
+                out.push(b);
+                i += 1;
+            }
+        }
+    }
+    String::from_utf8_lossy(&out).into_owned()
 }
 
 impl<'a> Importer<'a> {
@@ -224,7 +254,7 @@ impl<'a> Importer<'a> {
         if has_scheme(uri) {
             return Err(self.invalid(what, format!("unsupported URI '{}' (only relative paths and data: URIs)", short(uri))));
         }
-        let path = self.base_dir.join(super::percent_decode(uri));
+        let path = self.base_dir.join(percent_decode(uri));
         super::read_referenced(self.file, what, uri, &path)
     }
 
@@ -861,6 +891,17 @@ impl<'a> Importer<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn percent_decoding() {
+        assert_eq!(percent_decode("a%20b%2Fc%zz%4"), "a b/c%zz%4");
+    }
+
+    #[test]
+    fn short_references() {
+        assert_eq!(short("abc"), "abc");
+        assert_eq!(short(&"x".repeat(100)).chars().count(), 49);
+    }
 
     #[test]
     fn data_uris() {

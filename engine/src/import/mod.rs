@@ -1,7 +1,9 @@
 //! Scene importers: glTF 2.0 (`.gltf`, `.glb`) and Wavefront OBJ/MTL (`.obj`) into a
-//! [`SceneDescription`].
+//! [`SceneDescription`], each behind the engine's cargo feature of the same name (`gltf`, `obj`;
+//! both on by default).
 //!
-//! [`load_scene`] picks the importer from the file extension. Importers never panic on bad input:
+//! [`load_scene`] picks the importer from the file extension; a file whose importer was left out
+//! of the build is an [`ImportError::FormatDisabled`]. Importers never panic on bad input:
 //! every problem is an [`ImportError`] whose message starts with the file and says which field or
 //! value is wrong, e.g.
 //! `scene.gltf: accessor 3 (mesh 'Box' primitive 0 POSITION): vertex 17 has non-finite position (NaN, 0, 1)`.
@@ -15,17 +17,20 @@
 //! - light intensities and emissive values are taken as they are (radiometric convention, see
 //!   [`crate::scene`]).
 
+#[cfg(feature = "gltf")]
 mod gltf;
+#[cfg(feature = "obj")]
 mod obj;
+#[cfg(any(feature = "gltf", feature = "obj"))]
+mod shared;
 
-use std::borrow::Cow;
-use std::io::Cursor;
-use std::panic::AssertUnwindSafe;
 use std::path::{Path, PathBuf};
 
 use glam::{Vec2, Vec3};
 
-use crate::scene::{Image, Mesh, SceneDescription};
+use crate::scene::{Mesh, SceneDescription};
+#[cfg(any(feature = "gltf", feature = "obj"))]
+use shared::{Budget, decode_image, no_panic, read_referenced};
 
 /// The most vertices, and separately the most indices, one import may produce (2^28, across all
 /// meshes of the file). Larger counts are reported as [`ImportError::TooLarge`] before any memory is
@@ -53,6 +58,17 @@ pub enum ImportError {
     /// The extension is none of `.gltf`, `.glb` and `.obj`.
     #[error("{}: unsupported file extension {extension:?} (expected .gltf, .glb or .obj)", file.display())]
     UnsupportedExtension { file: PathBuf, extension: String },
+
+    /// The file's format is known, but the engine was built without the cargo feature of its
+    /// importer.
+    #[error("{}: cannot import {format} files: the engine was built without its `{feature}` feature", file.display())]
+    FormatDisabled {
+        file: PathBuf,
+        /// The format, e.g. `glTF`.
+        format: &'static str,
+        /// The engine's cargo feature that brings the importer, e.g. `gltf`.
+        feature: &'static str,
+    },
 
     /// The file has no content at all.
     #[error("{}: file is empty", file.display())]
@@ -126,6 +142,7 @@ impl ImportError {
         match self {
             Self::Io { file, .. }
             | Self::UnsupportedExtension { file, .. }
+            | Self::FormatDisabled { file, .. }
             | Self::EmptyFile { file }
             | Self::Parse { file, .. }
             | Self::MissingFile { file, .. }
@@ -146,14 +163,10 @@ impl ImportError {
 /// The format follows the extension (case-insensitive): `.gltf` and `.glb` (glTF 2.0, see the
 /// module docs of the importer for what is supported) or `.obj` (with its `.mtl` libraries). Files
 /// the scene refers to (buffers, images, material libraries) are resolved relative to the scene
-/// file's folder. Any other extension, an empty file or any broken content gives an
-/// [`ImportError`]; this function does not panic.
+/// file's folder. Any other extension, a format whose importer was left out of the build, an empty
+/// file or any broken content gives an [`ImportError`]; this function does not panic.
 pub fn load_scene(path: &Path) -> Result<SceneDescription, ImportError> {
-    let extension = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
-    if !matches!(extension.as_str(), "gltf" | "glb" | "obj") {
-        let extension = if extension.is_empty() { String::new() } else { format!(".{extension}") };
-        return Err(ImportError::UnsupportedExtension { file: path.to_path_buf(), extension });
-    }
+    importer(path)?;
     let bytes = std::fs::read(path).map_err(|source| ImportError::Io { file: path.to_path_buf(), path: path.to_path_buf(), source })?;
     load_scene_from_bytes(path, &bytes)
 }
@@ -163,24 +176,48 @@ pub fn load_scene(path: &Path) -> Result<SceneDescription, ImportError> {
 /// (buffers, images, material libraries) are resolved from; a missing one is an
 /// [`ImportError::MissingFile`]. Never panics.
 pub fn load_scene_from_bytes(path: &Path, bytes: &[u8]) -> Result<SceneDescription, ImportError> {
-    let extension = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
-    if !matches!(extension.as_str(), "gltf" | "glb" | "obj") {
-        let extension = if extension.is_empty() { String::new() } else { format!(".{extension}") };
-        return Err(ImportError::UnsupportedExtension { file: path.to_path_buf(), extension });
-    }
+    let load = importer(path)?;
     if bytes.iter().all(u8::is_ascii_whitespace) {
         return Err(ImportError::EmptyFile { file: path.to_path_buf() });
     }
     let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-    let mut scene = match extension.as_str() {
-        "obj" => obj::load(path, bytes)?,
-        _ => gltf::load(path, bytes)?,
-    };
+    let mut scene = load(path, bytes)?;
     // The importers check what they read; this catches anything that slipped through (a non-finite
     // material value, a transform that overflows when composed with its parents).
     scene.validate().map_err(|e| ImportError::InvalidValue { file: path.to_path_buf(), what: "scene".into(), message: e.to_string() })?;
     scene.name = name;
     Ok(scene)
+}
+
+/// An importer: the file's path (for messages and the files it refers to) and its content.
+type Importer = fn(&Path, &[u8]) -> Result<SceneDescription, ImportError>;
+
+/// The glTF importer, when the `gltf` feature builds it.
+#[cfg(feature = "gltf")]
+const GLTF: Option<Importer> = Some(gltf::load);
+#[cfg(not(feature = "gltf"))]
+const GLTF: Option<Importer> = None;
+
+/// The OBJ importer, when the `obj` feature builds it.
+#[cfg(feature = "obj")]
+const OBJ: Option<Importer> = Some(obj::load);
+#[cfg(not(feature = "obj"))]
+const OBJ: Option<Importer> = None;
+
+/// The importer for `path`, picked by its extension (case-insensitive): an
+/// [`ImportError::UnsupportedExtension`] for an unknown one, an [`ImportError::FormatDisabled`] when
+/// the format's feature is off.
+fn importer(path: &Path) -> Result<Importer, ImportError> {
+    let extension = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
+    let (importer, format, feature) = match extension.as_str() {
+        "gltf" | "glb" => (GLTF, "glTF", "gltf"),
+        "obj" => (OBJ, "OBJ", "obj"),
+        _ => {
+            let extension = if extension.is_empty() { String::new() } else { format!(".{extension}") };
+            return Err(ImportError::UnsupportedExtension { file: path.to_path_buf(), extension });
+        }
+    };
+    importer.ok_or(ImportError::FormatDisabled { file: path.to_path_buf(), format, feature })
 }
 
 /// Why [`load_scene_into`] left the world as it was.
@@ -256,78 +293,6 @@ fn check_count(file: &Path, what: impl FnOnce() -> String, count: usize) -> Resu
     Ok(())
 }
 
-/// Running totals of the vertices and indices an import has produced, capped at [`MAX_ELEMENTS`]
-/// each so that a file cannot make the importer allocate without bound.
-#[derive(Default)]
-struct Budget {
-    vertices: usize,
-    indices: usize,
-}
-
-impl Budget {
-    /// Adds a mesh's counts to the totals, or fails when either total would exceed the limit.
-    fn charge(&mut self, file: &Path, what: &str, vertices: usize, indices: usize) -> Result<(), ImportError> {
-        let total_vertices = self.vertices.saturating_add(vertices);
-        let total_indices = self.indices.saturating_add(indices);
-        check_count(file, || format!("{what}: total vertex count of the file"), total_vertices)?;
-        check_count(file, || format!("{what}: total index count of the file"), total_indices)?;
-        self.vertices = total_vertices;
-        self.indices = total_indices;
-        Ok(())
-    }
-}
-
-/// Reads a file the scene refers to; a missing file becomes [`ImportError::MissingFile`] naming the
-/// reference as written (`uri`) and where it was looked for.
-fn read_referenced(file: &Path, what: &str, uri: &str, path: &Path) -> Result<Vec<u8>, ImportError> {
-    std::fs::read(path).map_err(|source| {
-        if source.kind() == std::io::ErrorKind::NotFound {
-            ImportError::MissingFile {
-                file: file.to_path_buf(),
-                what: what.to_string(),
-                uri: uri.to_string(),
-                resolved: std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf()),
-            }
-        } else {
-            ImportError::Io { file: file.to_path_buf(), path: path.to_path_buf(), source }
-        }
-    })
-}
-
-/// Decodes a PNG/JPEG (or any format the `image` features enable) into sRGB RGBA8. `label` names the
-/// image in errors.
-fn decode_image(file: &Path, label: &str, name: String, bytes: &[u8]) -> Result<Image, ImportError> {
-    let error = |message: String| ImportError::Image { file: file.to_path_buf(), image: label.to_string(), message };
-    let mut reader = image::ImageReader::new(Cursor::new(bytes)).with_guessed_format().map_err(|e| error(e.to_string()))?;
-    if reader.format().is_none() {
-        return Err(error("unknown image format (expected PNG or JPEG)".into()));
-    }
-    let mut limits = image::Limits::default();
-    limits.max_image_width = Some(MAX_IMAGE_SIZE);
-    limits.max_image_height = Some(MAX_IMAGE_SIZE);
-    reader.limits(limits);
-    let decoded = reader.decode().map_err(|e| error(e.to_string()))?;
-    let rgba = decoded.into_rgba8();
-    let (width, height) = rgba.dimensions();
-    if width == 0 || height == 0 {
-        return Err(error(format!("image has no pixels ({width}×{height})")));
-    }
-    Ok(Image { name, width, height, rgba8: rgba.into_raw() })
-}
-
-/// Runs third-party parsing code, turning a panic into [`ImportError::Internal`] so that a bug in a
-/// dependency cannot unwind into the caller. Only wraps code that does not touch our own state.
-fn no_panic<T>(file: &Path, parser: &str, f: impl FnOnce() -> T) -> Result<T, ImportError> {
-    std::panic::catch_unwind(AssertUnwindSafe(f)).map_err(|payload| {
-        let message = payload
-            .downcast_ref::<&str>()
-            .map(|s| s.to_string())
-            .or_else(|| payload.downcast_ref::<String>().cloned())
-            .unwrap_or_else(|| "panic".to_string());
-        ImportError::Internal { file: file.to_path_buf(), parser: parser.to_string(), message }
-    })
-}
-
 /// Formats a vector for error messages as `(x, y, z)` (NaN and infinities spelled out).
 fn fmt_vec3(v: Vec3) -> String {
     format!("({}, {}, {})", v.x, v.y, v.z)
@@ -338,49 +303,25 @@ fn fmt_vec2(v: Vec2) -> String {
     format!("({}, {})", v.x, v.y)
 }
 
-/// A reference as it may appear in a message: long ones (data URIs) are cut short.
-fn short(reference: &str) -> Cow<'_, str> {
-    const MAX: usize = 48;
-    match reference.char_indices().nth(MAX) {
-        Some((cut, _)) => Cow::Owned(format!("{}…", &reference[..cut])),
-        None => Cow::Borrowed(reference),
-    }
-}
-
-/// Decodes `%XX` escapes of a relative URI into a path string (invalid escapes are kept as they are).
-fn percent_decode(uri: &str) -> String {
-    let bytes = uri.as_bytes();
-    let mut out = Vec::with_capacity(bytes.len());
-    let mut i = 0;
-    while let Some(&b) = bytes.get(i) {
-        let hex = |at: usize| bytes.get(at).and_then(|c| (*c as char).to_digit(16));
-        match (b, hex(i + 1), hex(i + 2)) {
-            (b'%', Some(hi), Some(lo)) => {
-                out.push((hi * 16 + lo) as u8);
-                i += 3;
-            }
-            _ => {
-                out.push(b);
-                i += 1;
-            }
-        }
-    }
-    String::from_utf8_lossy(&out).into_owned()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
-    fn percent_decoding() {
-        assert_eq!(percent_decode("a%20b%2Fc%zz%4"), "a b/c%zz%4");
-    }
-
-    #[test]
-    fn short_references() {
-        assert_eq!(short("abc"), "abc");
-        assert_eq!(short(&"x".repeat(100)).chars().count(), 49);
+    fn a_format_left_out_of_the_build_is_an_error_naming_the_file_and_the_feature() {
+        for (file, feature, built) in [
+            ("scene.gltf", "gltf", cfg!(feature = "gltf")),
+            ("scene.GLB", "gltf", cfg!(feature = "gltf")),
+            ("scene.obj", "obj", cfg!(feature = "obj")),
+        ] {
+            let result = load_scene_from_bytes(Path::new(file), b"not a scene");
+            if built {
+                assert!(!matches!(result, Err(ImportError::FormatDisabled { .. })), "{file}: its importer is built");
+            } else {
+                let message = result.expect_err("no importer").to_string();
+                assert!(message.starts_with(file) && message.contains(&format!("`{feature}` feature")), "{message}");
+            }
+        }
     }
 
     #[test]

@@ -13,13 +13,13 @@ use std::path::Path;
 use engine::app::finish_plugins;
 use engine::bevy_app::App;
 use engine::bevy_ecs::prelude::{Entity, Without};
-use engine::builtin::{builtin_openings, cuboid, merge};
 use engine::glam::{Affine3A, Quat, Vec3};
 use engine::gpu::GpuContext;
 use engine::headless::{HeadlessSettings, read_hdr, scene_app};
 use engine::metrics::compare;
 use engine::render::FrameTimings;
 use engine::scene::{Material, Name, NodeContent, SceneDescription, SceneRoot, Transform};
+use engine::shapes::{cuboid, merge};
 
 use super::{Config, EXPOSURE, EvalOptions, frame_gpu_ms, median, plot, reference, still, write};
 
@@ -101,7 +101,10 @@ pub fn scene_change(name: &str, scene: &mut SceneDescription) -> Result<SceneCha
 /// A door panel hinged on the -X side of door_room's doorway, closed; the change opens it
 /// outwards by a quarter turn.
 fn add_door(scene: &mut SceneDescription) -> Result<SceneChange, String> {
-    let door = builtin_openings("door_room").iter().find(|o| o.name == "door").ok_or("door_room has no door opening")?;
+    let door = (scenes::find("door_room").ok_or("door_room is not a built-in scene")?.openings)()
+        .iter()
+        .find(|o| o.name == "door")
+        .ok_or("door_room has no door opening")?;
     let size = Vec3::new(door.max.x - door.min.x + 2.0 * DOOR_OVERLAP, door.max.y - door.min.y + 2.0 * DOOR_OVERLAP, DOOR_THICKNESS);
     // Local origin at the hinge, the panel's outer bottom corner: it extends along +X, +Y and -Z.
     let offset = Affine3A::from_translation(Vec3::new(size.x, size.y, -size.z) * 0.5);
@@ -602,8 +605,8 @@ mod tests {
     #[test]
     fn every_built_in_scene_and_the_level_have_a_change_that_moves_a_uniquely_named_node() {
         let level = (crate::LEVEL_SCENE, crate::play::level::demo_level(None).scene);
-        let scenes = engine::builtin::BUILTIN_SCENES.iter().map(|&name| (name, engine::builtin::builtin_scene(name).expect(name)));
-        for (name, mut scene) in scenes.chain([level]) {
+        let built_in = scenes::ALL.iter().map(|entry| (entry.name, (entry.build)()));
+        for (name, mut scene) in built_in.chain([level]) {
             let change = scene_change(name, &mut scene).unwrap_or_else(|e| panic!("{name}: {e}"));
             assert_ne!(scene.nodes[change.node].transform, change.after, "{name}: {}", change.description);
             let changed = &scene.nodes[change.node].name;

@@ -24,9 +24,9 @@ use std::path::{Path, PathBuf};
 use bevy_app::{App, Plugin, Update};
 use bevy_ecs::prelude::*;
 use engine::app::Time;
-use engine::builtin::{box_part, box_with_hole, merge};
 use engine::render::SkyRadiance;
 use engine::scene::{Camera, DirectionalLight, Material, Name, NodeContent, Orbit, PointLight, SceneDescription, Transform};
+use engine::shapes::{box_part, box_with_hole, merge};
 use glam::{Affine3A, Quat, UVec3, Vec2, Vec3};
 
 /// An axis-aligned rectangle of the floor plan: `min`/`max` are (x, z).

@@ -55,8 +55,8 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<(), Box<dyn std::error::Error>> {
-    let scene = engine::builtin::builtin_scene(&args.scene).ok_or(format!("no built-in scene '{}'", args.scene))?;
-    let bounds = engine::builtin::builtin_gi_bounds(&args.scene);
+    let entry = scenes::find(&args.scene).ok_or(format!("no built-in scene '{}'", args.scene))?;
+    let (scene, bounds) = ((entry.build)(), (entry.gi_bounds)());
     let gpu = engine::gpu::GpuContext::new(Default::default())?;
     let settings = HeadlessSettings { width: args.size, height: args.size, frames: args.frames, ..Default::default() };
     let frame = render_scene_with(&gpu, scene, &settings, |app| add_probe_fog(app, bounds))?;

@@ -41,6 +41,10 @@ pub struct Args {
 
 /// The scene: the built-in Cornell box, its interior and its probe volume's bounds.
 const SCENE: &str = "cornell";
+
+fn scene_entry() -> &'static scenes::SceneEntry {
+    scenes::find(SCENE).expect("a built-in scene")
+}
 /// How fast the light moves, in metres per second.
 const LIGHT_SPEED: f32 = 1.0;
 /// Where the light starts, and how far it may go (the box's interior, 0.1 m in from the walls).
@@ -89,7 +93,7 @@ fn drop_game_boxes(world: &mut World) {
 
 /// Box number `index`, standing on the floor at `at`.
 fn spawn_box(world: &mut World, index: usize, at: Vec3) {
-    let mesh = world.get_resource_or_insert_with(Assets::<Mesh>::default).add(engine::builtin::cuboid("box", Vec3::splat(BOX_HALF)));
+    let mesh = world.get_resource_or_insert_with(Assets::<Mesh>::default).add(engine::shapes::cuboid("box", Vec3::splat(BOX_HALF)));
     let colour = BOX_COLOURS[index % BOX_COLOURS.len()];
     let material = world.get_resource_or_insert_with(Assets::<Material>::default).add(Material::diffuse("box", colour));
     world.spawn((MeshInstance { mesh, material }, Transform::from_translation(at)));
@@ -98,7 +102,7 @@ fn spawn_box(world: &mut World, index: usize, at: Vec3) {
 /// The game in `app` (which has the engine and the camera path): DDGI over the scene, the
 /// player's light at `light`, the boxes already dropped, and the game's systems.
 fn setup_game(app: &mut App, light: Vec3, boxes: Boxes) {
-    let volume = DdgiVolume { bounds: engine::builtin::builtin_gi_bounds(SCENE), ..Default::default() };
+    let volume = DdgiVolume { bounds: (scene_entry().gi_bounds)(), ..Default::default() };
     use_ddgi(app, volume, DdgiOutput::Full);
     let light =
         (PlayerLight, PointLight { color: Vec3::new(0.3, 0.5, 1.0), intensity: 5.0, range: None }, Transform::from_translation(light));
@@ -119,7 +123,7 @@ fn script_game_input(time: Res<Time>, mut input: ResMut<GameInput>) {
 /// The game without a window: `frames` frames on a fixed clock with scripted input.
 fn run_headless(args: &Args) -> Result<(), Box<dyn std::error::Error>> {
     let gpu = GpuContext::new(GpuOptions::default())?;
-    let scene = engine::builtin::builtin_scene(SCENE).expect("a built-in scene");
+    let scene = (scene_entry().build)();
     let settings = HeadlessSettings { width: args.size, height: args.size, ..Default::default() };
     let mut app = scene_app(&gpu, scene, &settings, |app| setup_game(app, LIGHT_START, Boxes::default()))?;
     app.add_systems(Update, script_game_input.before(move_player_light));
@@ -145,7 +149,7 @@ impl WindowHooks for GameWindow {
     }
 
     fn build(&mut self, window: &mut WindowContext) -> Result<(), String> {
-        engine::builtin::builtin_scene(SCENE).expect("a built-in scene").spawn(window.app.world_mut());
+        (scene_entry().build)().spawn(window.app.world_mut());
         setup_game(&mut window.app, self.state.0, self.state.1.clone());
         Ok(())
     }

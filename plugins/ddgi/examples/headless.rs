@@ -23,12 +23,13 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<(), Box<dyn std::error::Error>> {
-    let scene = match engine::builtin::builtin_scene(&args.scene) {
-        Some(scene) => scene,
+    let built_in = scenes::find(&args.scene);
+    let scene = match built_in {
+        Some(entry) => (entry.build)(),
         None => engine::import::load_scene(Path::new(&args.scene))?,
     };
     // One volume of DdgiVolume's default probes over the scene (a built-in scene's own GI bounds).
-    let volume = DdgiVolume { bounds: engine::builtin::builtin_gi_bounds(&args.scene), ..Default::default() };
+    let volume = DdgiVolume { bounds: built_in.and_then(|entry| (entry.gi_bounds)()), ..Default::default() };
     let gpu = GpuContext::new(GpuOptions::default())?;
     let settings = HeadlessSettings { width: args.size, height: args.size, frames: args.frames, ..Default::default() };
     let frame = render_scene_with(&gpu, scene, &settings, |app| use_ddgi(app, volume, DdgiOutput::Full))?;

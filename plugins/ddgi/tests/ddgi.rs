@@ -243,9 +243,9 @@ fn assert_borders_mirror<T: Copy + PartialEq + std::fmt::Debug>(atlas: &Atlas<T>
 #[test]
 fn border_texels_equal_their_mirrored_interior_texels() {
     let Some(gpu) = gpu("border_texels_equal_their_mirrored_interior_texels") else { return };
-    let scene = engine::builtin::builtin_scene("cornell").expect("cornell");
+    let scene = (scenes::find("cornell").expect("cornell").build)();
     let volume = DdgiVolume {
-        bounds: engine::builtin::builtin_gi_bounds("cornell"),
+        bounds: (scenes::find("cornell").expect("built-in scene").gi_bounds)(),
         probe_counts: UVec3::new(3, 2, 2),
         rays_per_probe: 64,
         irradiance_texels: 6,
@@ -387,9 +387,9 @@ fn switch_emission_off(app: &mut bevy_app::App) {
 #[test]
 fn atlases_stay_finite_over_hundreds_of_frames_with_a_moving_light() {
     let Some(gpu) = gpu("atlases_stay_finite_over_hundreds_of_frames") else { return };
-    let scene = engine::builtin::builtin_scene("color_bleed").expect("color_bleed");
+    let scene = (scenes::find("color_bleed").expect("color_bleed").build)();
     let volume = DdgiVolume {
-        bounds: engine::builtin::builtin_gi_bounds("color_bleed"),
+        bounds: (scenes::find("color_bleed").expect("built-in scene").gi_bounds)(),
         probe_counts: UVec3::new(4, 3, 4),
         rays_per_probe: 32,
         ..Default::default()
@@ -404,7 +404,7 @@ fn probes_are_entities_that_mirror_relocation_and_classification() {
     let Some(gpu) = gpu("probes_are_entities") else { return };
     // The scene's own bounds include the 0.2 m walls; at 0.37 m spacing the outer probes of this
     // grid sit inside them.
-    let scene = engine::builtin::builtin_scene("color_bleed").expect("color_bleed");
+    let scene = (scenes::find("color_bleed").expect("color_bleed").build)();
     let volume = DdgiVolume { probe_counts: UVec3::new(12, 8, 12), rays_per_probe: 32, ..Default::default() };
     let (_, mut app) = run_ddgi(&gpu, scene, volume, 16, 12);
     let world = app.world_mut();
@@ -439,9 +439,13 @@ fn centre_luminance(hdr: &[f32], size: u32, half: u32) -> f32 {
 /// FLIP, the mean FLIP of direct light alone (the error DDGI is there to remove), the DDGI image
 /// and the reference.
 fn against_reference(gpu: &GpuContext, scene: &str, probes: UVec3, frames: u32) -> (f32, f32, RenderedFrame, image::RgbaImage) {
-    let description = engine::builtin::builtin_scene(scene).expect("scene");
-    let volume =
-        DdgiVolume { bounds: engine::builtin::builtin_gi_bounds(scene), probe_counts: probes, rays_per_probe: 128, ..Default::default() };
+    let description = (scenes::find(scene).expect("scene").build)();
+    let volume = DdgiVolume {
+        bounds: (scenes::find(scene).expect("built-in scene").gi_bounds)(),
+        probe_counts: probes,
+        rays_per_probe: 128,
+        ..Default::default()
+    };
     let settings = HeadlessSettings { width: REFERENCE_SIZE, height: REFERENCE_SIZE, frames, ..Default::default() };
     let frame = render_scene_and_inspect(gpu, description.clone(), &settings, |app| use_ddgi(app, volume, DdgiOutput::Full), |_| {})
         .expect("render");
@@ -503,8 +507,8 @@ fn door_room_matches_the_reference_and_its_dark_corner_does_not_leak() {
 #[test]
 fn two_volumes_light_the_scene_like_one() {
     let Some(gpu) = gpu("two_volumes_light_the_scene_like_one") else { return };
-    let scene = || engine::builtin::builtin_scene("cornell").expect("cornell");
-    let (lo, hi) = engine::builtin::builtin_gi_bounds("cornell").expect("bounds");
+    let scene = || (scenes::find("cornell").expect("cornell").build)();
+    let (lo, hi) = (scenes::find("cornell").expect("built-in scene").gi_bounds)().expect("bounds");
     let base = DdgiVolume { probe_counts: UVec3::new(4, 4, 4), rays_per_probe: 64, ..Default::default() };
     let one = render_scene_and_inspect(
         &gpu,
@@ -630,14 +634,14 @@ fn adaptive_budgets_trace_fewer_rays_in_a_static_scene_at_the_same_error() {
     let reference = path_traced_reference(&gpu, "cornell", REFERENCE_SIZE);
     let run = |adaptive: bool, rest_smoothing: Option<f32>| {
         let volume = DdgiVolume {
-            bounds: engine::builtin::builtin_gi_bounds("cornell"),
+            bounds: (scenes::find("cornell").expect("built-in scene").gi_bounds)(),
             probe_counts: UVec3::new(6, 6, 6),
             rays_per_probe: 128,
             adaptive: ddgi::DdgiAdaptive { enabled: adaptive, rest_smoothing, ..Default::default() },
             ..Default::default()
         };
         let settings = HeadlessSettings { width: REFERENCE_SIZE, height: REFERENCE_SIZE, frames: 200, ..Default::default() };
-        let scene = engine::builtin::builtin_scene("cornell").expect("cornell");
+        let scene = (scenes::find("cornell").expect("cornell").build)();
         let frame =
             render_scene_and_inspect(&gpu, scene, &settings, |app| use_ddgi(app, volume, DdgiOutput::Full), |_| {}).expect("render");
         assert!(frame.hdr.iter().all(|v| v.is_finite()));
@@ -680,7 +684,7 @@ fn switching_a_light_on_raises_the_rays_within_a_few_frames() {
     let Some(gpu) = gpu("switching_a_light_on_raises_the_rays") else { return };
     // The Cornell box in the dark: its lamp's light off and its panel not glowing. Every probe
     // sees black, its error is zero and it drops to the fewest rays.
-    let mut scene = engine::builtin::builtin_scene("cornell").expect("cornell");
+    let mut scene = (scenes::find("cornell").expect("cornell").build)();
     let mut intensity = 0.0;
     for node in &mut scene.nodes {
         for c in &mut node.content {
@@ -694,7 +698,7 @@ fn switching_a_light_on_raises_the_rays_within_a_few_frames() {
         m.emissive = Vec3::ZERO;
     }
     let volume = DdgiVolume {
-        bounds: engine::builtin::builtin_gi_bounds("cornell"),
+        bounds: (scenes::find("cornell").expect("built-in scene").gi_bounds)(),
         probe_counts: UVec3::new(6, 6, 6),
         adaptive: ddgi::DdgiAdaptive::on(),
         ..Default::default()
@@ -732,19 +736,19 @@ fn room_with_door() -> SceneDescription {
                 b[axis] = lo[axis];
             }
             if axis == 2 && positive {
-                parts.extend(engine::builtin::box_with_hole(a, b, door_lo, door_hi));
+                parts.extend(engine::shapes::box_with_hole(a, b, door_lo, door_hi));
             } else {
-                parts.push(engine::builtin::box_part(a, b));
+                parts.push(engine::shapes::box_part(a, b));
             }
         }
     }
     let white = s.add_material(Material::diffuse("white", Vec3::splat(0.7)));
-    let room = s.add_mesh(engine::builtin::merge("room", &parts));
+    let room = s.add_mesh(engine::shapes::merge("room", &parts));
     s.add_node("room", Transform::IDENTITY, None, vec![NodeContent::Meshes(vec![(room, white)])]);
     // The door overlaps the doorway's edges, so that no ray slips through a crack.
-    let door = s.add_mesh(engine::builtin::cuboid("door", (door_hi - door_lo) * 0.5 + Vec3::new(0.1, 0.1, 0.0)));
+    let door = s.add_mesh(engine::shapes::cuboid("door", (door_hi - door_lo) * 0.5 + Vec3::new(0.1, 0.1, 0.0)));
     s.add_node("door", Transform::from_translation((door_lo + door_hi) * 0.5), None, vec![NodeContent::Meshes(vec![(door, white)])]);
-    let ground = s.add_mesh(engine::builtin::quad("ground", glam::Vec2::splat(12.0)));
+    let ground = s.add_mesh(engine::shapes::quad("ground", glam::Vec2::splat(12.0)));
     s.add_node("ground", Transform::from_xyz(0.0, -0.2, 0.0), None, vec![NodeContent::Meshes(vec![(ground, white)])]);
     let sun = engine::scene::DirectionalLight { color: Vec3::ONE, intensity: 5.0 };
     let sun_transform = Transform::IDENTITY.looking_at(Vec3::new(0.0, -0.5, -1.0), Vec3::Y);
@@ -806,13 +810,13 @@ fn a_frame_budget_caps_the_rays_of_every_frame() {
     let Some(gpu) = gpu("a_frame_budget_caps_the_rays_of_every_frame") else { return };
     let budget = 6000u32;
     let volume = DdgiVolume {
-        bounds: engine::builtin::builtin_gi_bounds("cornell"),
+        bounds: (scenes::find("cornell").expect("built-in scene").gi_bounds)(),
         probe_counts: UVec3::new(6, 6, 6),
         rays_per_probe: 128,
         adaptive: ddgi::DdgiAdaptive { frame_budget: Some(budget), ..ddgi::DdgiAdaptive::on() },
         ..Default::default()
     };
-    let (frame, app) = run_ddgi(&gpu, engine::builtin::builtin_scene("cornell").expect("cornell"), volume, 16, 30);
+    let (frame, app) = run_ddgi(&gpu, (scenes::find("cornell").expect("cornell").build)(), volume, 16, 30);
     assert!(frame.hdr.iter().all(|v| v.is_finite()));
     // The scale applies from the frame after the one that went over; each probe keeps a ray.
     let rays = last_ray_counts(&app, 20);
@@ -826,12 +830,12 @@ fn a_frame_budget_caps_the_rays_of_every_frame() {
 fn quiet_probes_rest_and_the_per_probe_passes_skip_them() {
     let Some(gpu) = gpu("quiet_probes_rest") else { return };
     let volume = |max_rest_frames: u32| DdgiVolume {
-        bounds: engine::builtin::builtin_gi_bounds("cornell"),
+        bounds: (scenes::find("cornell").expect("built-in scene").gi_bounds)(),
         probe_counts: UVec3::new(6, 6, 6),
         adaptive: ddgi::DdgiAdaptive { max_rest_frames, ..ddgi::DdgiAdaptive::on() },
         ..Default::default()
     };
-    let scene = || engine::builtin::builtin_scene("cornell").expect("cornell");
+    let scene = || (scenes::find("cornell").expect("cornell").build)();
     // The same static scene, its probes resting or not.
     let (_, awake) = run_ddgi(&gpu, scene(), volume(1), 16, 240);
     let (_, mut resting) = run_ddgi(&gpu, scene(), volume(8), 16, 240);

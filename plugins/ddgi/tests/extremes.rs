@@ -40,9 +40,9 @@ fn material(albedo: f32, emission: f32) -> Material {
 fn floor(scale: f32, albedo: f32) -> SceneDescription {
     let mut s = SceneDescription { name: "floor".into(), ..Default::default() };
     let half = 2.0 * scale;
-    let mesh = s.add_mesh(engine::builtin::merge(
+    let mesh = s.add_mesh(engine::shapes::merge(
         "floor",
-        &[engine::builtin::box_part(Vec3::new(-half, -0.1 * scale, -half), Vec3::new(half, 0.0, half))],
+        &[engine::shapes::box_part(Vec3::new(-half, -0.1 * scale, -half), Vec3::new(half, 0.0, half))],
     ));
     let m = s.add_material(material(albedo, 0.0));
     s.add_node("floor", Transform::IDENTITY, None, vec![NodeContent::Meshes(vec![(mesh, m)])]);
@@ -551,7 +551,7 @@ fn non_finite_scene_data_is_rejected_at_upload_by_name_field_and_value() {
     let bad_mesh = scene.add_mesh(bad_mesh);
     let bad_material =
         scene.add_material(Material { name: "inf_glow".into(), emissive: Vec3::new(f32::INFINITY, 0.0, 0.0), ..Default::default() });
-    let slab = scene.add_mesh(engine::builtin::merge("slab", &[engine::builtin::box_part(Vec3::splat(-0.1), Vec3::splat(0.1))]));
+    let slab = scene.add_mesh(engine::shapes::merge("slab", &[engine::shapes::box_part(Vec3::splat(-0.1), Vec3::splat(0.1))]));
     scene.add_node("nan_node", Transform::IDENTITY, None, vec![NodeContent::Meshes(vec![(bad_mesh, 0)])]);
     scene.add_node("glow_node", Transform::from_xyz(0.0, 0.5, 0.0), None, vec![NodeContent::Meshes(vec![(slab, bad_material)])]);
     let light = PointLight { color: Vec3::ONE, intensity: f32::NAN, range: None };

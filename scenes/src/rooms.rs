@@ -1,215 +1,21 @@
-//! Built-in scenes that need no files, and the mesh primitives they are built from.
-//!
-//! Each scene isolates one phenomenon that dynamic diffuse global illumination (DDGI) has to get
-//! right:
-//!
-//! | scene               | what it tests                                                         |
-//! |---------------------|-----------------------------------------------------------------------|
-//! | [`cornell`]         | colour bleeding and soft indirect light in the classic reference box  |
-//! | [`ceiling_opening`] | a half lit only indirectly, behind a thick divider lit on one face    |
-//! | [`door_room`]       | light leaking into a closed room whose only way in is a door          |
-//! | [`color_bleed`]     | indirect light that follows a moving spot light (probe update speed)  |
-//!
-//! Get them by name with [`builtin_scene`]; [`BUILTIN_SCENES`] lists the names. The list also holds
-//! the large benchmark scenes `cathedral` and `forest` of [`crate::builtin_large`].
+//! The small built-in scenes: closed rooms, each isolating one phenomenon that dynamic diffuse
+//! global illumination (DDGI) has to get right (see the table in the crate's documentation).
 //!
 //! Conventions: Y is up, one unit is a metre, cameras and lights look along their local -Z.
 //! Closed rooms are made of thick boxes that overlap at every edge and corner, so that no ray and
-//! no probe can see between two walls: the only ways out of a room are the holes that
-//! [`builtin_openings`] lists, and light found anywhere else inside is a leak.
+//! no probe can see between two walls: the only ways out of a room are the holes its
+//! [`crate::SceneEntry::openings`] lists, and light found anywhere else inside is a leak.
 
 use std::f32::consts::PI;
 
+use engine::scene::{DirectionalLight, Material, NodeContent, Orbit, PointLight, SceneDescription, SpotLight, Transform};
+use engine::shapes::{Shell, X, Y, Z, box_part, closed_shell, cuboid, merge, quad};
 use glam::{Affine3A, Quat, Vec2, Vec3};
 
-use crate::scene::{Camera, DirectionalLight, Material, Mesh, NodeContent, Orbit, PointLight, SceneDescription, SpotLight, Transform};
-
-/// Names of the built-in scenes, in the order they are documented; each one is accepted by
-/// [`builtin_scene`].
-pub const BUILTIN_SCENES: &[&str] = &["cornell", "ceiling_opening", "door_room", "color_bleed", "cathedral", "forest"];
-
-/// Builds the built-in scene called `name` (one of [`BUILTIN_SCENES`]); `None` for any other name.
-pub fn builtin_scene(name: &str) -> Option<SceneDescription> {
-    match name {
-        "cornell" => Some(cornell()),
-        "ceiling_opening" => Some(ceiling_opening()),
-        "door_room" => Some(door_room()),
-        "color_bleed" => Some(color_bleed()),
-        "cathedral" => Some(crate::builtin_large::cathedral()),
-        "forest" => Some(crate::builtin_large::forest()),
-        _ => None,
-    }
-}
-
-/// A hole designed into the closed geometry of a built-in scene: the world-space box that the hole
-/// sweeps through its wall (flat along the wall's normal when the wall is simply left out).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Opening {
-    pub name: &'static str,
-    pub min: Vec3,
-    pub max: Vec3,
-}
-
-/// The openings of the built-in scene `name`: a ray from inside that leaves the scene's rooms must
-/// pass through one of them. Empty for a fully closed scene and for unknown names.
-/// Bounds for a global-illumination probe volume in a built-in scene: the region its camera and
-/// light care about (a room's interior, the surroundings of a door), or `None` for the scene's
-/// bounds.
-pub fn builtin_gi_bounds(name: &str) -> Option<(Vec3, Vec3)> {
-    match name {
-        // The box and the space in front of its open side, so that the walls' front edges, which
-        // face away from the light, have probes that see their dark side.
-        "cornell" => Some((CORNELL_MIN - Vec3::splat(0.2), CORNELL_MAX + Vec3::new(0.2, 0.2, 0.6))),
-        "ceiling_opening" => Some((SKY_ROOM_MIN, SKY_ROOM_MAX)),
-        // The room and the ground in front of its door, where the camera stands.
-        "door_room" => Some((Vec3::new(-3.5, 0.0, -3.0), Vec3::new(4.5, 4.0, 6.0))),
-        "color_bleed" => Some((BLEED_ROOM_MIN, BLEED_ROOM_MAX)),
-        _ => None,
-    }
-}
-
-pub fn builtin_openings(name: &str) -> &'static [Opening] {
-    match name {
-        "cornell" => &[CORNELL_FRONT],
-        "ceiling_opening" => &[SKYLIGHT],
-        "door_room" => &[DOOR],
-        "cathedral" => crate::builtin_large::cathedral_openings(),
-        _ => &[],
-    }
-}
+use crate::{Opening, SUN_COLOR, add_camera};
 
 // ---------------------------------------------------------------------------------------------
-// Mesh primitives
-// ---------------------------------------------------------------------------------------------
-
-/// A `size.x` × `size.y` rectangle in the XZ plane, centred on the origin and facing +Y (counter-
-/// clockwise seen from above), with texture coordinates from 0 to 1 (u along +X, v along +Z).
-pub fn quad(name: &str, size: Vec2) -> Mesh {
-    let h = size * 0.5;
-    Mesh {
-        name: name.into(),
-        positions: vec![Vec3::new(-h.x, 0.0, -h.y), Vec3::new(h.x, 0.0, -h.y), Vec3::new(h.x, 0.0, h.y), Vec3::new(-h.x, 0.0, h.y)],
-        normals: vec![Vec3::Y; 4],
-        uvs: vec![Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0), Vec2::new(0.0, 1.0)],
-        indices: vec![0, 3, 2, 0, 2, 1],
-    }
-}
-
-/// The six faces of a box as (outward normal, tangent u, tangent v), with `u × v = normal` so that
-/// corners listed counter-clockwise in (u, v) are counter-clockwise seen from outside.
-const CUBOID_FACES: [(Vec3, Vec3, Vec3); 6] = [
-    (Vec3::X, Vec3::NEG_Z, Vec3::Y),
-    (Vec3::NEG_X, Vec3::Z, Vec3::Y),
-    (Vec3::Y, Vec3::X, Vec3::NEG_Z),
-    (Vec3::NEG_Y, Vec3::X, Vec3::Z),
-    (Vec3::Z, Vec3::X, Vec3::Y),
-    (Vec3::NEG_Z, Vec3::NEG_X, Vec3::Y),
-];
-
-/// A face's corners as signs along (u, v), counter-clockwise, with their texture coordinates (v
-/// grows downwards, as image rows do, so textures stand upright on the side faces).
-const FACE_CORNERS: [(f32, f32, Vec2); 4] = [
-    (-1.0, -1.0, Vec2::new(0.0, 1.0)),
-    (1.0, -1.0, Vec2::new(1.0, 1.0)),
-    (1.0, 1.0, Vec2::new(1.0, 0.0)),
-    (-1.0, 1.0, Vec2::new(0.0, 0.0)),
-];
-
-/// An axis-aligned box centred on the origin: 24 vertices (4 per face, so that every face has its
-/// own flat outward normal and 0–1 texture coordinates) and 12 counter-clockwise triangles.
-pub fn cuboid(name: &str, half_extents: Vec3) -> Mesh {
-    let mut mesh = Mesh { name: name.into(), ..Default::default() };
-    for (normal, u, v) in CUBOID_FACES {
-        let base = mesh.positions.len() as u32;
-        for (su, sv, uv) in FACE_CORNERS {
-            mesh.positions.push((normal + u * su + v * sv) * half_extents);
-            mesh.normals.push(normal);
-            mesh.uvs.push(uv);
-        }
-        mesh.indices.extend([0, 1, 2, 0, 2, 3].map(|i| base + i));
-    }
-    mesh
-}
-
-/// One mesh made of several, each placed by its transform: positions are transformed as points,
-/// normals by the inverse transpose (then renormalised), and mirroring transforms get their winding
-/// reversed so that triangles stay counter-clockwise seen from the side their normals face. The
-/// transforms must be invertible. Texture coordinates are kept when any part has them (parts
-/// without get zeros); parts without normals get area-weighted ones.
-pub fn merge(name: &str, parts: &[(Mesh, Affine3A)]) -> Mesh {
-    let any_uvs = parts.iter().any(|(mesh, _)| !mesh.uvs.is_empty());
-    let mut out = Mesh { name: name.into(), ..Default::default() };
-    for (mesh, transform) in parts {
-        let base = out.positions.len() as u32;
-        let normal_matrix = transform.matrix3.inverse().transpose();
-        let mirrored = transform.matrix3.determinant() < 0.0;
-        let normals = if mesh.normals.len() == mesh.positions.len() {
-            mesh.normals.clone()
-        } else {
-            let mut with_normals = mesh.clone();
-            with_normals.compute_normals();
-            with_normals.normals
-        };
-        out.positions.extend(mesh.positions.iter().map(|&p| transform.transform_point3(p)));
-        out.normals.extend(normals.iter().map(|&n| (normal_matrix * n).normalize_or(n)));
-        if any_uvs {
-            if mesh.uvs.len() == mesh.positions.len() {
-                out.uvs.extend_from_slice(&mesh.uvs);
-            } else {
-                out.uvs.extend(std::iter::repeat_n(Vec2::ZERO, mesh.positions.len()));
-            }
-        }
-        for tri in mesh.indices.chunks_exact(3) {
-            let [a, b, c] = [tri[0], tri[1], tri[2]].map(|i| base + i);
-            out.indices.extend(if mirrored { [a, c, b] } else { [a, b, c] });
-        }
-    }
-    out
-}
-
-/// The box spanning `min`..`max` as a [`merge`] part: a [`cuboid`] and the translation to its centre.
-pub fn box_part(min: Vec3, max: Vec3) -> (Mesh, Affine3A) {
-    (cuboid("", (max - min) * 0.5), Affine3A::from_translation((min + max) * 0.5))
-}
-
-/// The slab `min`..`max` with a rectangular hole `hole_min`..`hole_max` cut right through its
-/// thinnest axis, as up to four [`merge`] parts. The pieces beside the hole and those above and
-/// below it overlap, so the slab stays watertight around the hole. A hole that misses the slab
-/// leaves it whole.
-pub fn box_with_hole(min: Vec3, max: Vec3, hole_min: Vec3, hole_max: Vec3) -> Vec<(Mesh, Affine3A)> {
-    let size = max - min;
-    let normal_axis = if size.x <= size.y && size.x <= size.z {
-        0
-    } else if size.y <= size.z {
-        1
-    } else {
-        2
-    };
-    let (hole_min, hole_max) = (hole_min.max(min), hole_max.min(max));
-    let in_plane = [(normal_axis + 1) % 3, (normal_axis + 2) % 3];
-    if in_plane.iter().any(|&axis| hole_min[axis] >= hole_max[axis]) {
-        return vec![box_part(min, max)];
-    }
-    let mut parts = Vec::new();
-    // For each in-plane axis, the strips before and after the hole span the slab's whole extent
-    // along the other axis, so the strips of the two axes overlap at the hole's corners.
-    for axis in in_plane {
-        if hole_min[axis] > min[axis] {
-            let mut upper = max;
-            upper[axis] = hole_min[axis];
-            parts.push(box_part(min, upper));
-        }
-        if hole_max[axis] < max[axis] {
-            let mut lower = min;
-            lower[axis] = hole_max[axis];
-            parts.push(box_part(lower, max));
-        }
-    }
-    parts
-}
-
-// ---------------------------------------------------------------------------------------------
-// Room building
+// Shared by the rooms
 // ---------------------------------------------------------------------------------------------
 
 /// Thickness of every wall, floor and ceiling slab of the closed rooms (metres): thick enough that
@@ -219,62 +25,8 @@ const WALL_THICKNESS: f32 = 0.2;
 /// Thickness of the Cornell box's walls, thinner to keep the classic proportions.
 const CORNELL_WALL_THICKNESS: f32 = 0.1;
 
-/// The slabs around an interior box. Every slab spans the whole outer box along the two axes it does
-/// not close, so neighbouring slabs overlap along the room's edges and corners.
-struct Shell {
-    inner_min: Vec3,
-    inner_max: Vec3,
-    outer_min: Vec3,
-    outer_max: Vec3,
-}
-
-impl Shell {
-    fn around(inner_min: Vec3, inner_max: Vec3, thickness: f32) -> Self {
-        Self { inner_min, inner_max, outer_min: inner_min - thickness, outer_max: inner_max + thickness }
-    }
-
-    /// The slab closing the interior on the `positive` or negative side of `axis`, as (min, max).
-    fn slab(&self, axis: usize, positive: bool) -> (Vec3, Vec3) {
-        let (mut min, mut max) = (self.outer_min, self.outer_max);
-        if positive {
-            min[axis] = self.inner_max[axis];
-        } else {
-            max[axis] = self.inner_min[axis];
-        }
-        (min, max)
-    }
-
-    /// The slab as a single [`merge`] part.
-    fn slab_part(&self, axis: usize, positive: bool) -> (Mesh, Affine3A) {
-        let (min, max) = self.slab(axis, positive);
-        box_part(min, max)
-    }
-
-    /// The slab with `opening` cut through it.
-    fn slab_with_opening(&self, axis: usize, positive: bool, opening: &Opening) -> Vec<(Mesh, Affine3A)> {
-        let (min, max) = self.slab(axis, positive);
-        box_with_hole(min, max, opening.min, opening.max)
-    }
-}
-
-/// A closed box of solid slabs `thickness` thick around the interior `inner_min..inner_max` (every
-/// slab spans the whole outer box along the two axes it does not close).
-pub fn closed_shell(name: &str, inner_min: Vec3, inner_max: Vec3, thickness: f32) -> Mesh {
-    let shell = Shell::around(inner_min, inner_max, thickness);
-    let parts: Vec<_> = [X, Y, Z].into_iter().flat_map(|axis| [shell.slab_part(axis, false), shell.slab_part(axis, true)]).collect();
-    merge(name, &parts)
-}
-
-/// Axis indices for [`Shell::slab`].
-const X: usize = 0;
-const Y: usize = 1;
-const Z: usize = 2;
-
 /// Albedo of white walls (the Cornell box's measured white).
 const WHITE: Vec3 = Vec3::new(0.73, 0.73, 0.73);
-
-/// Near plane of every built-in camera (metres).
-const ZNEAR: f32 = 0.05;
 
 /// Direction sunlight travels: descending `elevation` radians below the horizon, heading `heading`
 /// radians from -Z towards +X.
@@ -292,24 +44,17 @@ fn sun_transform(target: Vec3, direction: Vec3) -> Transform {
     Transform::from_translation(target - direction * SUN_GIZMO_DISTANCE).looking_at(target, Vec3::Y)
 }
 
-/// Adds a camera at `eye` looking at `target`.
-fn add_camera(desc: &mut SceneDescription, eye: Vec3, target: Vec3, yfov_degrees: f32, exposure: f32) {
-    let camera = Camera { yfov: yfov_degrees.to_radians(), znear: ZNEAR, exposure };
-    let transform = Transform::from_translation(eye).looking_at(target, Vec3::Y);
-    desc.add_node("camera", transform, None, vec![NodeContent::Camera(camera)]);
-}
-
 // ---------------------------------------------------------------------------------------------
 // cornell
 // ---------------------------------------------------------------------------------------------
 
 /// Interior of the Cornell box: 2 m wide, high and deep, centred on x = 0, floor at y = 0, open
 /// towards the camera at +Z. The classic box is 555 units across, so 1 unit = 2/555 m below.
-const CORNELL_MIN: Vec3 = Vec3::new(-1.0, 0.0, -1.0);
-const CORNELL_MAX: Vec3 = Vec3::new(1.0, 2.0, 1.0);
+pub(crate) const CORNELL_MIN: Vec3 = Vec3::new(-1.0, 0.0, -1.0);
+pub(crate) const CORNELL_MAX: Vec3 = Vec3::new(1.0, 2.0, 1.0);
 
 /// The open front face of the Cornell box.
-const CORNELL_FRONT: Opening = Opening {
+pub(crate) const CORNELL_FRONT: Opening = Opening {
     name: "front",
     min: Vec3::new(CORNELL_MIN.x, CORNELL_MIN.y, CORNELL_MAX.z),
     max: Vec3::new(CORNELL_MAX.x, CORNELL_MAX.y, CORNELL_MAX.z),
@@ -405,8 +150,8 @@ pub fn cornell() -> SceneDescription {
 
 /// Interior of the `ceiling_opening` room: 6 m along X (split in two halves at x = 0), 2.5 m high,
 /// 4 m deep.
-const SKY_ROOM_MIN: Vec3 = Vec3::new(-3.0, 0.0, -2.0);
-const SKY_ROOM_MAX: Vec3 = Vec3::new(3.0, 2.5, 2.0);
+pub(crate) const SKY_ROOM_MIN: Vec3 = Vec3::new(-3.0, 0.0, -2.0);
+pub(crate) const SKY_ROOM_MAX: Vec3 = Vec3::new(3.0, 2.5, 2.0);
 
 /// The divider's half thickness (centred on x = 0) and where it stops short of the +Z wall, leaving
 /// a full-height gap 1.2 m wide at the +Z end through which the dark half gets its indirect light
@@ -415,7 +160,7 @@ const DIVIDER_HALF_THICKNESS: f32 = WALL_THICKNESS * 0.5;
 const DIVIDER_END_Z: f32 = 0.8;
 
 /// The 1.2 m square skylight through the ceiling above the lit half (x < 0).
-const SKYLIGHT: Opening =
+pub(crate) const SKYLIGHT: Opening =
     Opening { name: "skylight", min: Vec3::new(-2.5, SKY_ROOM_MAX.y, -1.6), max: Vec3::new(-1.3, SKY_ROOM_MAX.y + WALL_THICKNESS, -0.4) };
 
 /// The sun shines 60° above the horizon towards +X, so the beam through the skylight lands on the
@@ -426,8 +171,6 @@ const SKY_SUN_ELEVATION_DEGREES: f32 = 60.0;
 const SKY_SUN_HEADING_DEGREES: f32 = 90.0;
 /// Irradiance (W/m²) of the sun on a surface facing it; the floor patch gets 8 · sin 60° ≈ 6.9.
 const SKY_SUN_INTENSITY: f32 = 8.0;
-/// Slightly warm sunlight (linear).
-const SUN_COLOR: Vec3 = Vec3::new(1.0, 0.95, 0.85);
 
 /// A floor point inside the sun patch (its ray towards the sun passes the skylight's middle).
 const SKY_SUN_PATCH: Vec3 = Vec3::new(-0.5, SKY_ROOM_MIN.y, -1.0);
@@ -462,7 +205,7 @@ pub fn ceiling_opening() -> SceneDescription {
         shell.slab_part(Z, false),
         shell.slab_part(Z, true),
     ];
-    parts.extend(shell.slab_with_opening(Y, true, &SKYLIGHT));
+    parts.extend(shell.slab_with_hole(Y, true, SKYLIGHT.min, SKYLIGHT.max));
     desc.add_mesh_node("room", Transform::IDENTITY, merge("room", &parts), white);
 
     // The divider reaches into the floor, ceiling and back wall so that it closes against them.
@@ -504,7 +247,7 @@ const DOOR_ROOM_MAX: Vec3 = Vec3::new(2.5, 2.6, 2.0);
 
 /// The door: 1 m wide and 2 m high through the +Z wall, off-centre towards +X so that the -X, -Z
 /// corner is far from it.
-const DOOR: Opening = Opening {
+pub(crate) const DOOR: Opening = Opening {
     name: "door",
     min: Vec3::new(0.5, DOOR_ROOM_MIN.y, DOOR_ROOM_MAX.z),
     max: Vec3::new(1.5, DOOR_ROOM_MIN.y + 2.0, DOOR_ROOM_MAX.z + WALL_THICKNESS),
@@ -545,7 +288,7 @@ pub fn door_room() -> SceneDescription {
 
     let shell = Shell::around(DOOR_ROOM_MIN, DOOR_ROOM_MAX, WALL_THICKNESS);
     let mut parts = vec![shell.slab_part(X, false), shell.slab_part(X, true), shell.slab_part(Y, true), shell.slab_part(Z, false)];
-    parts.extend(shell.slab_with_opening(Z, true, &DOOR));
+    parts.extend(shell.slab_with_hole(Z, true, DOOR.min, DOOR.max));
     desc.add_mesh_node("room", Transform::IDENTITY, merge("room", &parts), wall);
     let floor_mesh = merge("floor", &[shell.slab_part(Y, false)]);
     desc.add_mesh_node("floor", Transform::IDENTITY, floor_mesh, floor);
@@ -570,8 +313,8 @@ pub fn door_room() -> SceneDescription {
 // ---------------------------------------------------------------------------------------------
 
 /// Interior of the `color_bleed` box: 4 m × 4 m, 2.5 m high.
-const BLEED_ROOM_MIN: Vec3 = Vec3::new(-2.0, 0.0, -2.0);
-const BLEED_ROOM_MAX: Vec3 = Vec3::new(2.0, 2.5, 2.0);
+pub(crate) const BLEED_ROOM_MIN: Vec3 = Vec3::new(-2.0, 0.0, -2.0);
+pub(crate) const BLEED_ROOM_MAX: Vec3 = Vec3::new(2.0, 2.5, 2.0);
 
 /// Saturated red cube (0.8 m) on the left and saturated blue tall box (1.6 m) on the right, turned
 /// about Y so that their faces catch the orbiting spot at varying angles.

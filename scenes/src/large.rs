@@ -7,11 +7,10 @@
 //! |               | its windows, in the spirit of the Sibenik cathedral of the DDGI literature   |
 //! | [`forest`]    | ≈21.6 million instanced triangles: 11,400 instances of six unique meshes     |
 //!
-//! Both are registered by name in [`crate::builtin::builtin_scene`]. Everything here is
-//! deterministic: building a scene twice gives equal descriptions (the forest uses a small inline
-//! SplitMix64 generator with a fixed seed).
+//! Both are entries of [`crate::ALL`]. Everything here is deterministic: building a scene twice
+//! gives equal descriptions (the forest uses a small inline SplitMix64 generator with a fixed seed).
 //!
-//! Conventions as in [`crate::builtin`]: Y is up, one unit is a metre, cameras and lights look along
+//! Conventions as in [`crate::rooms`]: Y is up, one unit is a metre, cameras and lights look along
 //! their local -Z, a [`DirectionalLight`]'s intensity is irradiance (W/m²). Every generated mesh but
 //! the forest's terrain (an open heightfield) is a union of closed solids whose triangles are wound
 //! counter-clockwise seen from outside, with unit vertex normals pointing out of the solid; no
@@ -21,11 +20,12 @@ use std::collections::HashMap;
 use std::f32::consts::{FRAC_PI_2, PI, TAU};
 use std::sync::LazyLock;
 
+use engine::rng::SplitMix64;
+use engine::scene::{DirectionalLight, Material, Mesh, NodeContent, SceneDescription, Transform};
+use engine::shapes::{box_part, box_with_hole, merge};
 use glam::{Affine3A, Quat, Vec2, Vec3};
 
-use crate::builtin::{Opening, box_part, box_with_hole, merge};
-use crate::rng::SplitMix64;
-use crate::scene::{Camera, DirectionalLight, Material, Mesh, NodeContent, SceneDescription, Transform};
+use crate::{Opening, SUN_COLOR, add_camera};
 
 // ---------------------------------------------------------------------------------------------
 // Mesh building
@@ -269,24 +269,11 @@ fn sun_direction(elevation: f32, azimuth: f32) -> Vec3 {
 /// How far up-sun of its target the sun's node is placed (for editors; no effect on the light).
 const SUN_GIZMO_DISTANCE: f32 = 20.0;
 
-/// Slightly warm sunlight (linear), as in the small built-in scenes.
-const SUN_COLOR: Vec3 = Vec3::new(1.0, 0.95, 0.85);
-
 /// Adds a directional light travelling along `direction`, its node placed up-sun of `target`.
 fn add_sun(desc: &mut SceneDescription, target: Vec3, direction: Vec3, intensity: f32) {
     let transform = Transform::from_translation(target - direction * SUN_GIZMO_DISTANCE).looking_at(target, Vec3::Y);
     let sun = DirectionalLight { color: SUN_COLOR, intensity };
     desc.add_node("sun", transform, None, vec![NodeContent::DirectionalLight(sun)]);
-}
-
-/// Near plane of the benchmark cameras (metres).
-const ZNEAR: f32 = 0.05;
-
-/// Adds a camera at `eye` looking at `target`.
-fn add_camera(desc: &mut SceneDescription, eye: Vec3, target: Vec3, yfov_degrees: f32, exposure: f32) {
-    let camera = Camera { yfov: yfov_degrees.to_radians(), znear: ZNEAR, exposure };
-    let transform = Transform::from_translation(eye).looking_at(target, Vec3::Y);
-    desc.add_node("camera", transform, None, vec![NodeContent::Camera(camera)]);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -1,0 +1,123 @@
+//! Built-in scenes that need no files: small rooms that each isolate one phenomenon dynamic diffuse
+//! global illumination (DDGI) has to get right ([`rooms`]) and large benchmark scenes ([`large`]).
+//!
+//! | scene             | what it tests                                                          |
+//! |-------------------|------------------------------------------------------------------------|
+//! | `cornell`         | colour bleeding and soft indirect light in the classic reference box   |
+//! | `ceiling_opening` | a half lit only indirectly, behind a thick divider lit on one face     |
+//! | `door_room`       | light leaking into a closed room whose only way in is a door           |
+//! | `color_bleed`     | indirect light that follows a moving spot light (probe update speed)   |
+//! | `cathedral`       | ≈73,000 static triangles, a closed interior lit through its windows    |
+//! | `forest`          | ≈21.6 million instanced triangles over a hilly terrain                 |
+//!
+//! [`ALL`] is the one table of them: each [`SceneEntry`] holds a scene's name, builder, probe
+//! volume bounds and openings, so adding a scene is adding one entry. Look one up by name with
+//! [`find`]. Building a scene costs CPU time and memory only, and every build starts afresh (only
+//! the cathedral's window list is built once, on first use, and kept).
+
+pub mod large;
+pub mod rooms;
+
+use engine::scene::{Camera, NodeContent, SceneDescription, Transform};
+use glam::Vec3;
+
+/// One built-in scene: its name and everything looked up by it.
+#[derive(Clone, Copy, Debug)]
+pub struct SceneEntry {
+    /// The name the scene is found by (and the built scene's [`SceneDescription::name`]).
+    pub name: &'static str,
+    /// Builds the scene; every call gives an equal description.
+    pub build: fn() -> SceneDescription,
+    /// Bounds for a global-illumination probe volume: the region the scene's camera and light care
+    /// about (a room's interior, the surroundings of a door), or `None` for the scene's bounds.
+    pub gi_bounds: fn() -> Option<(Vec3, Vec3)>,
+    /// The holes designed into the scene's closed geometry: a ray from inside that leaves the
+    /// scene's rooms must pass through one of them. Empty for a fully closed or an open scene.
+    pub openings: fn() -> &'static [Opening],
+}
+
+/// A hole designed into the closed geometry of a built-in scene: the world-space box that the hole
+/// sweeps through its wall (flat along the wall's normal when the wall is simply left out).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Opening {
+    pub name: &'static str,
+    pub min: Vec3,
+    pub max: Vec3,
+}
+
+/// Every built-in scene, in the order they are documented.
+pub static ALL: &[SceneEntry] = &[
+    SceneEntry {
+        name: "cornell",
+        build: rooms::cornell,
+        // The box and the space in front of its open side, so that the walls' front edges, which
+        // face away from the light, have probes that see their dark side.
+        gi_bounds: || Some((rooms::CORNELL_MIN - Vec3::splat(0.2), rooms::CORNELL_MAX + Vec3::new(0.2, 0.2, 0.6))),
+        openings: || &[rooms::CORNELL_FRONT],
+    },
+    SceneEntry {
+        name: "ceiling_opening",
+        build: rooms::ceiling_opening,
+        gi_bounds: || Some((rooms::SKY_ROOM_MIN, rooms::SKY_ROOM_MAX)),
+        openings: || &[rooms::SKYLIGHT],
+    },
+    SceneEntry {
+        name: "door_room",
+        build: rooms::door_room,
+        // The room and the ground in front of its door, where the camera stands.
+        gi_bounds: || Some((Vec3::new(-3.5, 0.0, -3.0), Vec3::new(4.5, 4.0, 6.0))),
+        openings: || &[rooms::DOOR],
+    },
+    SceneEntry {
+        name: "color_bleed",
+        build: rooms::color_bleed,
+        gi_bounds: || Some((rooms::BLEED_ROOM_MIN, rooms::BLEED_ROOM_MAX)),
+        openings: || &[],
+    },
+    SceneEntry { name: "cathedral", build: large::cathedral, gi_bounds: || None, openings: large::cathedral_openings },
+    SceneEntry { name: "forest", build: large::forest, gi_bounds: || None, openings: || &[] },
+];
+
+/// The entry of the built-in scene called `name`, or `None` when no scene has that name.
+pub fn find(name: &str) -> Option<&'static SceneEntry> {
+    ALL.iter().find(|entry| entry.name == name)
+}
+
+/// The names of the built-in scenes, in the order of [`ALL`].
+pub fn names() -> impl Iterator<Item = &'static str> {
+    ALL.iter().map(|entry| entry.name)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Shared by the scenes
+// ---------------------------------------------------------------------------------------------
+
+/// Slightly warm sunlight (linear).
+const SUN_COLOR: Vec3 = Vec3::new(1.0, 0.95, 0.85);
+
+/// Near plane of every built-in camera (metres).
+const ZNEAR: f32 = 0.05;
+
+/// Adds a camera at `eye` looking at `target`.
+fn add_camera(desc: &mut SceneDescription, eye: Vec3, target: Vec3, yfov_degrees: f32, exposure: f32) {
+    let camera = Camera { yfov: yfov_degrees.to_radians(), znear: ZNEAR, exposure };
+    let transform = Transform::from_translation(eye).looking_at(target, Vec3::Y);
+    desc.add_node("camera", transform, None, vec![NodeContent::Camera(camera)]);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_listed_scene_exists_and_only_those() {
+        assert_eq!(names().collect::<Vec<_>>(), ["cornell", "ceiling_opening", "door_room", "color_bleed", "cathedral", "forest"]);
+        for entry in ALL {
+            let desc = (entry.build)();
+            assert_eq!(desc.name, entry.name);
+            assert_eq!((entry.build)(), desc, "{}: building twice gives the same scene", entry.name);
+            assert!(std::ptr::eq(find(entry.name).expect("listed"), entry));
+        }
+        assert!(find("no_such_scene").is_none());
+    }
+}
