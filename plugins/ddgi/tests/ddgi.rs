@@ -462,7 +462,7 @@ fn workspace_golden(name: &str) -> std::path::PathBuf {
 
 fn flip_rgba(a: &[u8], b: &[u8], size: u32) -> f32 {
     let rgb = |rgba: &[u8]| -> Vec<u8> { rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect() };
-    engine::metrics::flip_rgb8(&rgb(a), &rgb(b), size, size).0
+    lab::metrics::flip_rgb8(&rgb(a), &rgb(b), size, size).0
 }
 
 #[test]
@@ -492,7 +492,7 @@ fn door_room_matches_the_reference_and_its_dark_corner_does_not_leak() {
         .as_raw()
         .chunks_exact(4)
         .flat_map(|p| {
-            [engine::metrics::srgb8_to_linear(p[0]), engine::metrics::srgb8_to_linear(p[1]), engine::metrics::srgb8_to_linear(p[2]), 1.0]
+            [engine::color::srgb8_to_linear(p[0]), engine::color::srgb8_to_linear(p[1]), engine::color::srgb8_to_linear(p[2]), 1.0]
         })
         .collect();
     // The reference PNG holds exposure × radiance (the camera's exposure is 1.5).

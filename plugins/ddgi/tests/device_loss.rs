@@ -41,7 +41,7 @@ fn a_lost_device_stops_rendering_cleanly_and_a_new_device_renders_the_same_image
     run_frames(&mut app, FRAMES, |_, _| {});
     let after = read_frame(&gpu, app.world());
     let rgb = |rgba: &[u8]| -> Vec<u8> { rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect() };
-    let (mean, _) = engine::metrics::flip_rgb8(&rgb(&before.ldr), &rgb(&after.ldr), before.width, before.height);
+    let (mean, _) = lab::metrics::flip_rgb8(&rgb(&before.ldr), &rgb(&after.ldr), before.width, before.height);
     assert!(mean < 1e-3, "the new device renders another image: mean FLIP {mean}");
     assert!(after.ldr.chunks_exact(4).any(|p| p[..3] != after.ldr[..3]), "the image is one flat colour");
 }

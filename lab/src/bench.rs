@@ -190,8 +190,7 @@ pub fn trace_throughput(gpu: &GpuContext, app: &App, bounds: (Vec3, Vec3), itera
                     times.push(ms);
                 }
             }
-            times.sort_by(f64::total_cmp);
-            let median_ms = times[times.len() / 2];
+            let median_ms = median(times);
             cells.push(TraceCell { grid, rays_per_probe, rays: u64::from(grid[0] * grid[1] * grid[2] * rays_per_probe), median_ms });
         }
     }
@@ -284,8 +283,8 @@ impl DdgiCell {
     }
 }
 
-fn median(v: Vec<f64>) -> f64 {
-    crate::eval::median(v).unwrap_or(f64::NAN)
+fn median(mut v: Vec<f64>) -> f64 {
+    crate::median(&mut v).unwrap_or(f64::NAN)
 }
 
 /// Runs DDGI on `scene` at every grid × rays cell of the published table (one app, the volume's
@@ -360,6 +359,7 @@ pub fn ddgi_throughput(
 
 /// Classification against an independent test, after DDGI (adaptive budgets on) has run: which
 /// probes sit inside solid geometry, and which probes a visible surface depends on.
+#[derive(Debug)]
 pub struct ClassificationCheck {
     pub probes: usize,
     /// Probes whose position sees back faces in at least 90% of 64 directions and escapes in none.
