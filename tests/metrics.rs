@@ -1,6 +1,6 @@
 //! Error metrics: zero for identical images, the expected values for known perturbations.
 
-use engine::metrics::{RELATIVE_MSE_EPSILON, compare, flip_rgb8, magma, relative_mse, rmse, tonemap_to_srgb8};
+use lab::metrics::{RELATIVE_MSE_EPSILON, compare, flip_rgb8, magma, relative_mse, rmse, tonemap_to_srgb8};
 
 /// A smooth test image of linear radiance (RGBA), with values from dark to above 1.
 fn image(width: u32, height: u32) -> Vec<f32> {

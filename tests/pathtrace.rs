@@ -89,7 +89,7 @@ fn path_traced_cornell_box_matches_its_stored_reference() {
     let mean = testkit::assert_golden("cornell_pathtrace_256spp", 128, 128, &frame.ldr, 0.02);
     let other = cornell(&gpu, 12345);
     let (noise, _) = testkit::flip(&frame.ldr, &other.ldr, 128, 128);
-    let relative = engine::metrics::relative_mse(&frame.hdr, &other.hdr);
+    let relative = lab::metrics::relative_mse(&frame.hdr, &other.hdr);
     eprintln!("cornell path traced: FLIP {mean:.4} against the reference; between seeds FLIP {noise:.4}, relative MSE {relative:.5}");
     assert!(noise > mean && noise < 0.08, "noise between seeds: FLIP {noise}");
     assert!(relative < 0.02, "relative MSE between seeds {relative}");

@@ -348,9 +348,9 @@ fn hits_report_the_material_with_texture_and_texture_transform() {
             // The transform's offset of half the texture swaps the columns.
             let texel = texels[row * 2 + if k == 0 { col } else { 1 - col }];
             let expected = Vec3::new(
-                engine::metrics::srgb8_to_linear(texel[0]),
-                engine::metrics::srgb8_to_linear(texel[1]),
-                engine::metrics::srgb8_to_linear(texel[2]),
+                engine::color::srgb8_to_linear(texel[0]),
+                engine::color::srgb8_to_linear(texel[1]),
+                engine::color::srgb8_to_linear(texel[2]),
             ) * factor.truncate();
             let albedo = Vec3::from_slice(&hit.albedo[..3]);
             assert!(

@@ -6,7 +6,8 @@
 //!   lights, mesh instances) and the shared asset stores.
 //! - [`gpu`]: adapter choice and the device; [`shader`]: the WGSL library, validated by naga, with
 //!   bindings looked up by name; [`graph`]: the render graph; [`render`]: the camera path;
-//!   [`headless`]: rendering to files without a window; [`memory`]: the heap the Rust code holds.
+//!   [`headless`]: rendering to files without a window; [`memory`]: the heap the Rust code holds;
+//!   [`color`]: the sRGB transfer function on the CPU.
 //! - [`import`]: glTF and OBJ files into a scene; [`shapes`]: mesh primitives for building
 //!   geometry in code.
 //!
@@ -15,12 +16,12 @@
 //! imports nothing: loading a file of a left-out format is an error that names the feature.
 
 pub mod app;
+pub mod color;
 pub mod gpu;
 pub mod graph;
 pub mod headless;
 pub mod import;
 pub mod memory;
-pub mod metrics;
 pub mod render;
 pub mod rng;
 pub mod rt;

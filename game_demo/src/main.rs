@@ -5,14 +5,14 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-mod bench;
-mod eval;
+mod eval_scenes;
 mod play;
 
 use clap::{Parser, Subcommand};
 use engine::gpu::{GpuContext, GpuOptions};
 use engine::headless::{HeadlessSettings, render_scene};
 use engine::scene::{Camera, NodeContent, SceneDescription, Transform};
+use lab::{bench, eval};
 
 /// Counts the heap the program holds (the soak test bounds its growth).
 #[global_allocator]
@@ -180,7 +180,7 @@ fn play(args: PlayArgs) -> Result<(), String> {
             frames: args.frames,
             check_every: args.check_every,
             warmup: args.warmup.unwrap_or((args.frames / 10).max(args.check_every)),
-            limits: play::soak::SoakLimits::for_adapter(&gpu),
+            limits: lab::soak::SoakLimits::for_adapter(&gpu),
             out: args.out,
         };
         let report = play::soak::run_soak(&gpu, &options, &soak)?;
@@ -508,7 +508,7 @@ fn bench(command: BenchCommand) -> Result<(), String> {
         BenchCommand::Classify { scene, grid, frames } => {
             let description = load(&scene)?;
             let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
-            let grid = grid.map_or(eval::ddgi_paper_grid(&scene), |g| g.to_array());
+            let grid = grid.map_or(eval_scenes::scene_facts(&scene).paper_grid, |g| g.to_array());
             let c = bench::classification_check(&gpu, description, grid, frames)?;
             println!("# bench classify: {scene}, {}×{}×{} probes, {frames} frames, on {}", grid[0], grid[1], grid[2], gpu.adapter_name());
             let share = |a: usize, b: usize| if b == 0 { "n/a".to_string() } else { format!("{:.1}%", 100.0 * a as f64 / b as f64) };
@@ -639,9 +639,9 @@ fn main() -> ExitCode {
                 grid: probes.map(|g| g.to_array()),
             };
             if time_series {
-                eval::time_series::run(&gpu, &scene, description, &options, frames)?;
+                eval::time_series::run(&gpu, &eval_scenes::scene_facts(&scene), description, &options, frames)?;
             } else {
-                eval::run(&gpu, &scene, description, &options)?;
+                eval::run(&gpu, &eval_scenes::scene_facts(&scene), description, &options)?;
             }
             println!("report: {}", options.out.join("report.md").display());
             Ok(())

@@ -151,7 +151,7 @@ fn flip_against_headless(out: &Path, screenshot: &Path) -> f32 {
     let (reference, rw, rh) = rgba(&out.join("headless").join(format!("frame_{:05}.png", FRAMES - 1)));
     assert_eq!((w, h), (rw, rh), "the window's last frame is not at the size asked for");
     let rgb = |rgba: &[u8]| -> Vec<u8> { rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect() };
-    engine::metrics::flip_rgb8(&rgb(&reference), &rgb(&window), w, h).0
+    lab::metrics::flip_rgb8(&rgb(&reference), &rgb(&window), w, h).0
 }
 
 fn which(program: &str) -> Result<PathBuf, ()> {

@@ -34,9 +34,9 @@ pub fn blessing() -> bool {
 }
 
 /// Mean FLIP error between two RGBA8 sRGB images of the same size, and the per-pixel error map.
-pub fn flip(reference: &[u8], test: &[u8], width: u32, height: u32) -> (f32, nv_flip::FlipImageFloat) {
+pub fn flip(reference: &[u8], test: &[u8], width: u32, height: u32) -> (f32, lab::metrics::FlipImageFloat) {
     let rgb = |rgba: &[u8]| -> Vec<u8> { rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect() };
-    engine::metrics::flip_rgb8(&rgb(reference), &rgb(test), width, height)
+    lab::metrics::flip_rgb8(&rgb(reference), &rgb(test), width, height)
 }
 
 /// Mean FLIP error between two RGBA8 sRGB images of the same size.
@@ -70,7 +70,7 @@ pub fn assert_golden(name: &str, width: u32, height: u32, rgba: &[u8], max_mean_
         let actual = dir.join(format!("{name}_actual.png"));
         image::save_buffer(&actual, rgba, width, height, image::ExtendedColorType::Rgba8).expect("write actual image");
         let flip_path = dir.join(format!("{name}_flip.png"));
-        image::save_buffer(&flip_path, &engine::metrics::magma(&map), width, height, image::ExtendedColorType::Rgb8)
+        image::save_buffer(&flip_path, &lab::metrics::magma(&map), width, height, image::ExtendedColorType::Rgb8)
             .expect("write FLIP map");
         panic!(
             "{name}: mean FLIP {mean:.4} > {max_mean_flip} against {}; wrote {} and {}",

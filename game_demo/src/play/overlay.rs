@@ -370,7 +370,7 @@ fn refresh_atlases(ctx: &egui::Context, state: &mut OverlayState, world: &mut Wo
     let distance = ddgi::atlas::read_distance(gpu, volume);
     let encode = |x: f32| {
         let t = (x * exposure).max(0.0);
-        engine::metrics::srgb8(t / (1.0 + t))
+        engine::color::srgb8(t / (1.0 + t))
     };
     let irradiance_rgba: Vec<u8> = irradiance
         .texels

@@ -87,7 +87,7 @@ pub fn write_atlas_images(gpu: &GpuContext, volume: &VolumeGpu, dir: &Path) -> R
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let irradiance = read_irradiance(gpu, volume);
     let path = dir.join("irradiance.png");
-    let rgb: Vec<u8> = irradiance.texels.iter().flat_map(|e| (*e / std::f32::consts::PI).to_array().map(engine::metrics::srgb8)).collect();
+    let rgb: Vec<u8> = irradiance.texels.iter().flat_map(|e| (*e / std::f32::consts::PI).to_array().map(engine::color::srgb8)).collect();
     save_rgb(&path, irradiance.size, &rgb)?;
     let exr = dir.join("irradiance.exr");
     let linear: Vec<f32> = irradiance.texels.iter().flat_map(|e| e.to_array()).collect();

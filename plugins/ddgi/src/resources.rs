@@ -159,7 +159,7 @@ pub fn divergence_warnings(materials: &Assets<Material>, images: &Assets<Image>)
 
 /// The mean of an sRGB-encoded texture's texels, decoded to linear.
 fn mean_linear_texel(image: &Image) -> Vec3 {
-    let decode = engine::metrics::srgb8_to_linear;
+    let decode = engine::color::srgb8_to_linear;
     let texels = image.rgba8.chunks_exact(4);
     let count = texels.len().max(1) as f32;
     texels.fold(Vec3::ZERO, |sum, t| sum + Vec3::new(decode(t[0]), decode(t[1]), decode(t[2]))) / count

@@ -491,7 +491,7 @@ fn door_room_matches_the_reference_and_its_dark_corner_does_not_leak() {
         .as_raw()
         .chunks_exact(4)
         .flat_map(|p| {
-            [engine::metrics::srgb8_to_linear(p[0]), engine::metrics::srgb8_to_linear(p[1]), engine::metrics::srgb8_to_linear(p[2]), 1.0]
+            [engine::color::srgb8_to_linear(p[0]), engine::color::srgb8_to_linear(p[1]), engine::color::srgb8_to_linear(p[2]), 1.0]
         })
         .collect();
     // The reference PNG holds exposure × radiance (the camera's exposure is 1.5).

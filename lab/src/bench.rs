@@ -60,7 +60,7 @@ pub fn prepared_app(gpu: &GpuContext, scene: SceneDescription) -> App {
     app
 }
 
-/// The bench's WGSL (`game_demo/shaders/`): a kernel that traces probe-like rays and nothing else.
+/// The bench's WGSL (`lab/shaders/`): a kernel that traces probe-like rays and nothing else.
 pub const SHADERS: &[engine::shader::ShaderModule] = &[("bench_trace.wgsl", include_str!("../shaders/bench_trace.wgsl"))];
 
 /// The bench kernel with its buffers; `count_work` builds the diagnostic variant that counts
@@ -194,8 +194,7 @@ pub fn trace_throughput(gpu: &GpuContext, app: &App, bounds: (Vec3, Vec3), itera
                     times.push(ms);
                 }
             }
-            times.sort_by(f64::total_cmp);
-            let median_ms = times[times.len() / 2];
+            let median_ms = median(times);
             cells.push(TraceCell { grid, rays_per_probe, rays: u64::from(grid[0] * grid[1] * grid[2] * rays_per_probe), median_ms });
         }
     }
@@ -288,8 +287,8 @@ impl DdgiCell {
     }
 }
 
-fn median(v: Vec<f64>) -> f64 {
-    crate::eval::median(v).unwrap_or(f64::NAN)
+fn median(mut v: Vec<f64>) -> f64 {
+    crate::median(&mut v).unwrap_or(f64::NAN)
 }
 
 /// Runs DDGI on `scene` at every grid × rays cell of the published table (one app, the volume's
@@ -364,6 +363,7 @@ pub fn ddgi_throughput(
 
 /// Classification against an independent test, after DDGI (adaptive budgets on) has run: which
 /// probes sit inside solid geometry, and which probes a visible surface depends on.
+#[derive(Debug)]
 pub struct ClassificationCheck {
     pub probes: usize,
     /// Probes whose position sees back faces in at least 90% of 64 directions and escapes in none.

@@ -2,6 +2,11 @@
 //! a fixed exposure), RMSE and relative MSE on linear radiance, and FLIP error maps in the magma
 //! colour map.
 
+use engine::color::srgb8;
+
+/// A FLIP error map: one error in [0, 1] per pixel ([`flip_rgb8`], [`magma`]).
+pub use nv_flip::FlipImageFloat;
+
 /// Errors of one image against a reference.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct ErrorMetrics {
@@ -23,21 +28,8 @@ pub fn tonemap_to_srgb8(rgba: &[f32], exposure: f32) -> Vec<u8> {
     rgba.chunks_exact(4).flat_map(|p| [encode(p[0]), encode(p[1]), encode(p[2])]).collect()
 }
 
-/// A linear value clamped to [0, 1], sRGB-encoded to 8 bits.
-pub fn srgb8(linear: f32) -> u8 {
-    let c = linear.clamp(0.0, 1.0);
-    let s = if c <= 0.003_130_8 { c * 12.92 } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 };
-    (s * 255.0 + 0.5) as u8
-}
-
-/// An 8-bit sRGB value decoded to linear, in [0, 1] (the inverse of [`srgb8`]).
-pub fn srgb8_to_linear(v: u8) -> f32 {
-    let c = f32::from(v) / 255.0;
-    if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
-}
-
 /// Mean FLIP between two sRGB RGB8 images of `width × height`, and the per-pixel error map.
-pub fn flip_rgb8(reference: &[u8], test: &[u8], width: u32, height: u32) -> (f32, nv_flip::FlipImageFloat) {
+pub fn flip_rgb8(reference: &[u8], test: &[u8], width: u32, height: u32) -> (f32, FlipImageFloat) {
     let reference = nv_flip::FlipImageRgb8::with_data(width, height, reference);
     let test = nv_flip::FlipImageRgb8::with_data(width, height, test);
     let map = nv_flip::flip(reference, test, nv_flip::DEFAULT_PIXELS_PER_DEGREE);
@@ -45,7 +37,7 @@ pub fn flip_rgb8(reference: &[u8], test: &[u8], width: u32, height: u32) -> (f32
 }
 
 /// A FLIP error map as RGB8 in the magma colour map (black: no error, yellow-white: large).
-pub fn magma(map: &nv_flip::FlipImageFloat) -> Vec<u8> {
+pub fn magma(map: &FlipImageFloat) -> Vec<u8> {
     map.apply_color_lut(&nv_flip::magma_lut()).to_vec()
 }
 

@@ -1,27 +1,36 @@
-//! `game_demo eval` end to end: the report, the strips, the plot, the cached reference, errors that
+//! The evaluation end to end: the report, the strips, the plot, the cached reference, errors that
 //! fall as the path tracer gets more paths per pixel; and the time series after a change.
 
-use std::path::Path;
-use std::process::{Command, Output};
+use std::path::{Path, PathBuf};
+use std::time::SystemTime;
 
-/// The sizes of the plots (`eval::plot::ERROR_VS_TIME_SIZE`, `TIME_SERIES_SIZE`).
-const ERROR_VS_TIME_SIZE: (u32, u32) = (1200, 520);
-const TIME_SERIES_SIZE: (u32, u32) = (900, 520);
+use engine::gpu::GpuContext;
+use lab::eval::{EvalOptions, SceneFacts};
+use lab::plot::{ERROR_VS_TIME_SIZE, TIME_SERIES_SIZE};
 
-fn game_demo(args: &[&str], out: &Path, cache: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_game_demo"))
-        .args(args)
-        .arg("--out")
-        .arg(out)
-        .arg("--cache")
-        .arg(cache)
-        .output()
-        .expect("run game_demo")
+/// What `game_demo eval` does with its defaults but the size and the reference's paths per pixel.
+fn options(size: u32, reference_spp: u32, out: PathBuf, cache: PathBuf) -> EvalOptions {
+    EvalOptions {
+        width: size,
+        height: size,
+        reference_spp,
+        out,
+        cache,
+        experiments: false,
+        adaptive: ddgi::DdgiAdaptive::on(),
+        grid: None,
+        settle_frames: 240,
+    }
 }
 
-fn succeeded(output: Output) -> String {
-    assert!(output.status.success(), "eval failed: {}", String::from_utf8_lossy(&output.stderr));
-    String::from_utf8_lossy(&output.stdout).into_owned()
+fn cornell() -> engine::scene::SceneDescription {
+    (scenes::find("cornell").expect("cornell").build)()
+}
+
+/// The cached references in `cache`, with their modification times.
+fn cached(cache: &Path) -> Vec<(PathBuf, SystemTime)> {
+    let Ok(entries) = std::fs::read_dir(cache) else { return Vec::new() };
+    entries.map(|e| e.expect("cache entry").path()).map(|p| (p.clone(), p.metadata().and_then(|m| m.modified()).expect("mtime"))).collect()
 }
 
 /// Asserts that `path` is a PNG of `size` with something drawn on it (not one flat colour).
@@ -34,16 +43,16 @@ fn assert_plot(path: &Path, size: (u32, u32)) {
 
 #[test]
 fn eval_writes_a_report_whose_path_tracer_errors_fall_with_more_samples() {
-    // The binary needs a GPU: same rule as every GPU test (CI=true makes a missing adapter a failure).
-    if engine::gpu::GpuContext::for_tests("eval_writes_a_report").is_none() {
-        return;
-    }
-    let dir = std::env::temp_dir().join(format!("game_demo_eval_test_{}", std::process::id()));
+    // CI=true makes a missing adapter a failure.
+    let Some(gpu) = GpuContext::for_tests("eval_writes_a_report") else { return };
+    let dir = std::env::temp_dir().join(format!("lab_eval_test_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
     let (out, cache) = (dir.join("report"), dir.join("cache"));
-    let run =
-        || succeeded(game_demo(&["eval", "--scene", "cornell", "--width", "48", "--height", "48", "--reference-spp", "256"], &out, &cache));
-    let first = run();
-    assert!(first.contains("path tracing 256 paths per pixel"), "{first}");
+    let options = options(48, 256, out.clone(), cache.clone());
+    let run = || lab::eval::run(&gpu, &SceneFacts::named("cornell"), cornell(), &options).expect("eval");
+    run();
+    let first = cached(&cache);
+    assert_eq!(first.len(), 1, "the first run path traces the reference and caches it: {first:?}");
     let results: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).expect("results.json")).expect("json");
     let rows = results.as_array().expect("rows");
@@ -62,37 +71,21 @@ fn eval_writes_a_report_whose_path_tracer_errors_fall_with_more_samples() {
     let report = std::fs::read_to_string(out.join("report.md")).expect("report");
     assert!(report.contains("| pathtrace_16spp |"), "{report}");
     assert!(report.contains("](error_vs_time.png)"), "the report links the plot: {report}");
-    // The second run reads the reference from the cache.
-    assert!(run().contains("reference: cached"));
+    // The second run reads the reference from the cache (it does not write it again).
+    run();
+    assert_eq!(cached(&cache), first);
     let _ = std::fs::remove_dir_all(&dir);
 }
 
 #[test]
 fn time_series_measures_every_frame_and_the_path_tracer_converges_after_the_change() {
-    if engine::gpu::GpuContext::for_tests("time_series_measures_every_frame").is_none() {
-        return;
-    }
-    let dir = std::env::temp_dir().join(format!("game_demo_time_series_test_{}", std::process::id()));
+    let Some(gpu) = GpuContext::for_tests("time_series_measures_every_frame") else { return };
+    let dir = std::env::temp_dir().join(format!("lab_time_series_test_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
     let (out, cache) = (dir.join("report"), dir.join("cache"));
     let frames = 8;
-    let args = [
-        "eval",
-        "--scene",
-        "cornell",
-        "--time-series",
-        "--frames",
-        "8",
-        "--settle-frames",
-        "60",
-        "--width",
-        "32",
-        "--height",
-        "32",
-        "--reference-spp",
-        "128",
-    ];
-    let stdout = succeeded(game_demo(&args, &out, &cache));
-    assert!(stdout.contains("the lamp moves"), "{stdout}");
+    let options = EvalOptions { settle_frames: 60, ..options(32, 128, out.clone(), cache) };
+    lab::eval::time_series::run(&gpu, &SceneFacts::named("cornell"), cornell(), &options, frames as u32).expect("time series");
 
     let csv = std::fs::read_to_string(out.join("time_series.csv")).expect("time_series.csv");
     let mut lines = csv.lines();
@@ -135,6 +128,7 @@ fn time_series_measures_every_frame_and_the_path_tracer_converges_after_the_chan
 
     assert_plot(&out.join("time_series.png"), TIME_SERIES_SIZE);
     let report = std::fs::read_to_string(out.join("report.md")).expect("report");
+    assert!(report.contains("the lamp moves"), "{report}");
     assert!(report.contains("| pathtrace_4spp |") && report.contains("](time_series.png)"), "{report}");
     // The static phase's error against the scene before the change, and its passes' GPU times.
     for config in ["ddgi_8x8x8", "ddgi_8x8x8_adaptive"] {
@@ -144,18 +138,4 @@ fn time_series_measures_every_frame_and_the_path_tracer_converges_after_the_chan
     }
     assert!(report.contains("| ddgi_trace |"), "per-pass GPU times of the static phase: {report}");
     let _ = std::fs::remove_dir_all(&dir);
-}
-
-#[test]
-fn eval_rejects_bad_time_series_options_by_name() {
-    let dir = std::env::temp_dir();
-    for (args, expected) in [
-        (&["eval", "--time-series", "--frames", "0"][..], "--frames"),
-        (&["eval", "--frames", "5"][..], "--time-series"),
-        (&["eval", "--reference-spp", "0"][..], "--reference-spp"),
-    ] {
-        let output = game_demo(args, &dir, &dir);
-        let stderr = String::from_utf8_lossy(&output.stderr);
-        assert!(!output.status.success() && stderr.contains(expected), "{args:?}: {stderr}");
-    }
 }

@@ -5,7 +5,6 @@
 //!
 //! The configurations and how each one renders are all in [`Config`].
 
-pub mod plot;
 pub mod time_series;
 
 use std::path::{Path, PathBuf};
@@ -14,10 +13,13 @@ use engine::bevy_app::App;
 use engine::glam::Vec3;
 use engine::gpu::GpuContext;
 use engine::headless::{HeadlessSettings, RenderedFrame, add_default_camera, render_scene_with};
-use engine::metrics::{ErrorMetrics, compare, flip_rgb8, magma, tonemap_to_srgb8};
 use engine::render::FrameTiming;
 use engine::scene::{NodeContent, SceneDescription};
 use serde::Serialize;
+
+use crate::metrics::{ErrorMetrics, compare, flip_rgb8, magma, tonemap_to_srgb8};
+use crate::plot;
+use time_series::SceneChange;
 
 /// Paths per pixel of the path tracer configurations compared with the reference.
 pub const PATH_TRACE_LADDER: [u32; 4] = [1, 4, 16, 64];
@@ -57,45 +59,69 @@ pub const DDGI_RESOLUTIONS: [u32; 3] = [4, 8, 16];
 
 /// The probe grid of the published experiment on each built-in scene (Hvezda and Bittner): 16×8×16
 /// for the door room, 16×16×15 for the room under a skylight, 2×2×2 for the colour bleeding box,
-/// 16×8×12 for Sibenik (our cathedral); the demo level's own (1.5 m apart); 8×8×8 elsewhere.
+/// 16×8×12 for Sibenik (our cathedral); 8×8×8 elsewhere.
 pub fn ddgi_paper_grid(scene: &str) -> [u32; 3] {
     match scene {
         "door_room" => [16, 8, 16],
         "ceiling_opening" => [16, 16, 15],
         "color_bleed" => [2, 2, 2],
         "cathedral" => [16, 8, 12],
-        // The demo level: what `play` uses.
-        crate::LEVEL_SCENE => crate::play::level::level_probe_counts(crate::play::PROBE_SPACING).to_array(),
         _ => [8, 8, 8],
     }
 }
 
-/// The box DDGI's probes fill in `scene`: the built-in scenes' and the demo level's own; `None`
-/// (the bounds of the scene's instances) for any other.
-fn gi_bounds(scene: &str) -> Option<(Vec3, Vec3)> {
-    if scene == crate::LEVEL_SCENE {
-        return Some(crate::play::level::level_gi_bounds());
+/// What the evaluation knows of a scene beyond its description: its name, the probe grid and the
+/// box of its DDGI configurations, and the change of its time series. [`SceneFacts::named`] gives
+/// a built-in scene's (or a scene file's); an application describes its own scenes (the demo its
+/// level) with their own values.
+#[derive(Clone, Debug)]
+pub struct SceneFacts {
+    /// The scene's name: in reports, reference cache keys and output names.
+    pub name: String,
+    /// The probe grid of the DDGI configurations ([`ddgi_paper_grid`] for the built-in scenes).
+    pub paper_grid: [u32; 3],
+    /// The box DDGI's probes fill; `None`: the bounds of the scene's instances.
+    pub gi_bounds: Option<(Vec3, Vec3)>,
+    /// The time series' change, prepared in the scene; `None`: the built-in change for the scene's
+    /// name ([`time_series::scene_change`]).
+    pub change: Option<PrepareChange>,
+}
+
+/// Prepares a time series' change in a scene (it may add the node that changes, or move the
+/// camera to where the change shows).
+pub type PrepareChange = fn(&mut SceneDescription) -> Result<SceneChange, String>;
+
+impl SceneFacts {
+    /// The facts of the built-in scene `name` (its published grid and its own GI box), or of a
+    /// scene file (8×8×8 probes over its instances' bounds, the first light moves).
+    pub fn named(name: &str) -> SceneFacts {
+        SceneFacts {
+            name: name.into(),
+            paper_grid: ddgi_paper_grid(name),
+            gi_bounds: scenes::find(name).and_then(|entry| (entry.gi_bounds)()),
+            change: None,
+        }
     }
-    scenes::find(scene).and_then(|entry| (entry.gi_bounds)())
 }
 
 impl Config {
-    /// A DDGI configuration on `scene` (its volume bounds from [`gi_bounds`]).
-    pub fn ddgi(name: String, scene: &str, volume: ddgi::DdgiVolume) -> Config {
-        let bounds = volume.bounds.or_else(|| gi_bounds(scene));
+    /// A DDGI configuration on `scene` (its volume bounds from [`SceneFacts::gi_bounds`] unless
+    /// `volume` has its own).
+    pub fn ddgi(name: String, scene: &SceneFacts, volume: ddgi::DdgiVolume) -> Config {
+        let bounds = volume.bounds.or(scene.gi_bounds);
         Config::Ddgi { name, volume: Box::new(ddgi::DdgiVolume { bounds, ..volume }) }
     }
 
     /// DDGI with `grid` (default: the published grid for `scene`) and the default settings.
-    pub fn ddgi_default(scene: &str, grid: Option<[u32; 3]>) -> Config {
-        let probes = grid.unwrap_or_else(|| ddgi_paper_grid(scene));
+    pub fn ddgi_default(scene: &SceneFacts, grid: Option<[u32; 3]>) -> Config {
+        let probes = grid.unwrap_or(scene.paper_grid);
         let volume = ddgi::DdgiVolume { probe_counts: probes.into(), ..Default::default() };
         Config::ddgi(format!("ddgi_{}x{}x{}", probes[0], probes[1], probes[2]), scene, volume)
     }
 
     /// [`Config::ddgi_default`] with adaptive ray budgets.
-    pub fn ddgi_adaptive(scene: &str, grid: Option<[u32; 3]>, adaptive: &ddgi::DdgiAdaptive) -> Config {
-        let probes = grid.unwrap_or_else(|| ddgi_paper_grid(scene));
+    pub fn ddgi_adaptive(scene: &SceneFacts, grid: Option<[u32; 3]>, adaptive: &ddgi::DdgiAdaptive) -> Config {
+        let probes = grid.unwrap_or(scene.paper_grid);
         let adaptive = ddgi::DdgiAdaptive { enabled: true, ..adaptive.clone() };
         let volume = ddgi::DdgiVolume { probe_counts: probes.into(), adaptive, ..Default::default() };
         Config::ddgi(format!("ddgi_{}x{}x{}_adaptive", probes[0], probes[1], probes[2]), scene, volume)
@@ -103,7 +129,7 @@ impl Config {
 
     /// The quality table (every density × resolution) and the ablation of the visibility weights
     /// (none → back-face → Chebyshev → normal bias), in report order.
-    pub fn ddgi_experiments(scene: &str) -> Vec<Config> {
+    pub fn ddgi_experiments(scene: &SceneFacts) -> Vec<Config> {
         let mut list = Vec::new();
         for grid in DDGI_DENSITIES {
             for texels in DDGI_RESOLUTIONS {
@@ -124,7 +150,7 @@ impl Config {
             ("normal_bias", ddgi::DdgiWeights::ALL),
         ];
         for (step, weights) in steps {
-            let grid = ddgi_paper_grid(scene);
+            let grid = scene.paper_grid;
             let volume = ddgi::DdgiVolume { probe_counts: grid.into(), weights, ..Default::default() };
             list.push(Config::ddgi(format!("ddgi_weights_{step}"), scene, volume));
         }
@@ -135,7 +161,7 @@ impl Config {
 impl Config {
     /// The configurations of the still-image evaluation of `scene`, in report order; with
     /// `experiments`, DDGI's quality table and weight ablation too.
-    pub fn still_list(scene: &str, experiments: bool, grid: Option<[u32; 3]>, adaptive: &ddgi::DdgiAdaptive) -> Vec<Config> {
+    pub fn still_list(scene: &SceneFacts, experiments: bool, grid: Option<[u32; 3]>, adaptive: &ddgi::DdgiAdaptive) -> Vec<Config> {
         let mut list = vec![Config::Direct];
         list.extend(PATH_TRACE_LADDER.iter().map(|&spp| Config::PathTrace { spp }));
         list.push(Config::ddgi_default(scene, grid));
@@ -147,7 +173,7 @@ impl Config {
     }
 
     /// The methods of the time series: each renders frame after frame and every frame is measured.
-    pub fn time_series_list(scene: &str, grid: Option<[u32; 3]>, adaptive: &ddgi::DdgiAdaptive) -> Vec<Config> {
+    pub fn time_series_list(scene: &SceneFacts, grid: Option<[u32; 3]>, adaptive: &ddgi::DdgiAdaptive) -> Vec<Config> {
         vec![
             Config::Direct,
             Config::PathTrace { spp: TIME_SERIES_SPP },
@@ -320,12 +346,6 @@ fn save_strip(path: &Path, panels: &[Vec<u8>], width: u32, height: u32) -> Resul
     strip.save(path).map_err(|e| format!("{}: {e}", path.display()))
 }
 
-/// The median of `v` (the upper one of an even count), or `None` when it is empty.
-pub fn median(mut v: Vec<f64>) -> Option<f64> {
-    v.sort_by(f64::total_cmp);
-    v.get(v.len() / 2).copied()
-}
-
 fn write(path: &Path, text: &str) -> Result<(), String> {
     std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))
 }
@@ -351,8 +371,9 @@ pub struct EvalOptions {
     pub settle_frames: u32,
 }
 
-/// Runs the evaluation of `scene` (named `name`) and writes the report.
-pub fn run(gpu: &GpuContext, name: &str, scene: SceneDescription, options: &EvalOptions) -> Result<Vec<EvalRow>, String> {
+/// Runs the evaluation of `scene` (described by `facts`) and writes the report.
+pub fn run(gpu: &GpuContext, facts: &SceneFacts, scene: SceneDescription, options: &EvalOptions) -> Result<Vec<EvalRow>, String> {
+    let name = facts.name.as_str();
     let EvalOptions { width, height, reference_spp, ref out, ref cache, experiments, ref adaptive, grid, .. } = *options;
     std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
     let scene = still(scene);
@@ -360,7 +381,7 @@ pub fn run(gpu: &GpuContext, name: &str, scene: SceneDescription, options: &Eval
     let reference_ldr = tonemap_to_srgb8(&reference, EXPOSURE);
     let mut rows = Vec::new();
     let mut direct_ldr: Option<Vec<u8>> = None;
-    for config in Config::still_list(name, experiments, grid, adaptive) {
+    for config in Config::still_list(facts, experiments, grid, adaptive) {
         let frame = render(gpu, &scene, &config, width, height, pathtrace::PathTraceSettings::default().seed)?;
         let error = compare(&reference, &frame.hdr, width, height, EXPOSURE);
         let (per_frame, total) = gpu_ms(&frame);

@@ -16,12 +16,13 @@ use engine::bevy_ecs::prelude::{Entity, Without};
 use engine::glam::{Affine3A, Quat, Vec3};
 use engine::gpu::GpuContext;
 use engine::headless::{HeadlessSettings, read_hdr, scene_app};
-use engine::metrics::compare;
 use engine::render::FrameTimings;
 use engine::scene::{Material, Name, NodeContent, SceneDescription, SceneRoot, Transform};
 use engine::shapes::{cuboid, merge};
 
-use super::{Config, EXPOSURE, EvalOptions, frame_gpu_ms, median, plot, reference, still, write};
+use super::{Config, EXPOSURE, EvalOptions, SceneFacts, frame_gpu_ms, reference, still, write};
+use crate::metrics::compare;
+use crate::{median, plot};
 
 /// What changes: one node of the scene takes another transform (relative to its parent).
 #[derive(Clone, Debug)]
@@ -54,17 +55,18 @@ const DOOR_ALBEDO: Vec3 = Vec3::new(0.45, 0.3, 0.2);
 const FALLBACK_SHIFT: f32 = 0.2;
 const FALLBACK_TURN_DEGREES: f32 = 20.0;
 
-/// The change of the time series for the scene `name`, prepared in `scene`:
+/// The change of the time series for the scene `facts` describes, prepared in `scene`: the scene's
+/// own ([`SceneFacts::change`]) or, by its name,
 /// - `cornell`: the lamp moves [`CORNELL_LAMP_SHIFT`] towards the red wall;
 /// - `color_bleed`: the spot light jumps half a turn along its orbit, to the red cube's side;
 /// - `door_room`: a door (added to the scene, closed: the room is dark) swings open outwards;
 /// - any other scene: its first light moves (a point or spot light by [`FALLBACK_SHIFT`] of the
 ///   scene's width along X, a directional light turns by [`FALLBACK_TURN_DEGREES`] about Y).
-pub fn scene_change(name: &str, scene: &mut SceneDescription) -> Result<SceneChange, String> {
-    let find = |scene: &SceneDescription, node: &str| {
-        scene.nodes.iter().position(|n| n.name == node).ok_or_else(|| format!("scene '{name}' has no node '{node}' to change"))
-    };
+pub fn scene_change(facts: &SceneFacts, scene: &mut SceneDescription) -> Result<SceneChange, String> {
+    let name = facts.name.as_str();
+    let find = |scene: &SceneDescription, node: &str| find_node(name, scene, node);
     let change = match name {
+        _ if let Some(change) = facts.change => change(scene)?,
         "cornell" => {
             let node = find(scene, "lamp")?;
             let mut after = scene.nodes[node].transform;
@@ -80,14 +82,6 @@ pub fn scene_change(name: &str, scene: &mut SceneDescription) -> Result<SceneCha
             SceneChange { description: "the spot light jumps half a turn along its orbit, to the red cube's side".into(), node, after }
         }
         "door_room" => add_door(scene)?,
-        crate::LEVEL_SCENE => {
-            // Seen from inside the house, where the light coming through the door changes most.
-            let camera = find(scene, crate::play::level::PLAYER_CAMERA)?;
-            scene.nodes[camera].transform = crate::play::level::view_of_the_door_from_inside();
-            let node = find(scene, crate::play::level::DOOR)?;
-            let description = "the house's door slides open (seen from inside)".into();
-            SceneChange { description, node, after: crate::play::level::door_open_transform() }
-        }
         _ => move_first_light(name, scene)?,
     };
     let changed = scene.nodes[change.node].name.clone();
@@ -96,6 +90,11 @@ pub fn scene_change(name: &str, scene: &mut SceneDescription) -> Result<SceneCha
         scene.nodes[change.node].name = format!("{changed} (changed)");
     }
     Ok(change)
+}
+
+/// The index of the node named `node` in `scene` (named `name`), or an error naming both.
+pub fn find_node(name: &str, scene: &SceneDescription, node: &str) -> Result<usize, String> {
+    scene.nodes.iter().position(|n| n.name == node).ok_or_else(|| format!("scene '{name}' has no node '{node}' to change"))
 }
 
 /// A door panel hinged on the -X side of door_room's doorway, closed; the change opens it
@@ -295,18 +294,19 @@ pub fn settling(errors: &[f32]) -> (f32, Option<usize>) {
     (settled, (from < errors.len()).then_some(from))
 }
 
-/// Runs the time series of `scene` (named `name`) for `frames` frames after the change and writes
-/// `time_series.csv`, `time_series.png` and `report.md` into `options.out`.
+/// Runs the time series of `scene` (described by `facts`) for `frames` frames after the change and
+/// writes `time_series.csv`, `time_series.png` and `report.md` into `options.out`.
 pub fn run(
     gpu: &GpuContext,
-    name: &str,
+    facts: &SceneFacts,
     mut scene: SceneDescription,
     options: &EvalOptions,
     frames: u32,
 ) -> Result<Vec<SeriesRow>, String> {
+    let name = facts.name.as_str();
     let EvalOptions { width, height, reference_spp, ref out, ref cache, ref adaptive, settle_frames, grid, .. } = *options;
     std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
-    let change = scene_change(name, &mut scene)?;
+    let change = scene_change(facts, &mut scene)?;
     println!("change: {}", change.description);
     let before = still(scene);
     let reference_before = reference(gpu, &format!("{name}-before"), &before, width, height, reference_spp, cache)?;
@@ -314,7 +314,7 @@ pub fn run(
     let changed = before.nodes[change.node].name.clone();
     let seed = pathtrace::PathTraceSettings::default().seed;
     let mut runs = Vec::new();
-    for config in Config::time_series_list(name, grid, adaptive) {
+    for config in Config::time_series_list(facts, grid, adaptive) {
         let settle = settle_frames_of(&config, settle_frames);
         let settings = HeadlessSettings { width, height, frames: settle + frames, ..Default::default() };
         let mut app = scene_app(gpu, before.clone(), &settings, |app| config.configure(app, seed)).map_err(|e| e.to_string())?;
@@ -383,16 +383,16 @@ pub fn run(
     let mut rows = Vec::new();
     let mut statics = Vec::new();
     for run in runs {
-        let SeriesRun { config, app, settle, rows: mut run_rows, samples, .. } = run;
+        let SeriesRun { config, app, settle, rows: mut run_rows, mut samples, .. } = run;
         // Rays per frame come back a few frames late: match them to their rows now.
         let rays = app.world().resource::<FrameTimings>().counter("ddgi_rays");
         let first_static = u64::from(settle).saturating_sub(1 + STATIC_FRAMES as u64);
         let static_rays: Vec<f64> = rays.iter().filter(|(f, _)| (first_static..u64::from(settle)).contains(f)).map(|(_, r)| *r).collect();
-        let passes = samples.passes.into_iter().filter_map(|(label, ms)| median(ms).map(|m| (label, m))).collect();
+        let passes = samples.passes.into_iter().filter_map(|(label, mut ms)| median(&mut ms).map(|m| (label, m))).collect();
         statics.push(StaticPhase {
             config: config.name(),
             rays: mean(&static_rays),
-            update_ms: median(samples.update_ms),
+            update_ms: median(&mut samples.update_ms),
             passes,
             flip: mean(&samples.flips),
             flicker: mean(&samples.flicker),
@@ -414,7 +414,7 @@ pub fn run(
     }
     write_csv(&out.join("time_series.csv"), &rows)?;
     let plot_note = plot_series(&out.join("time_series.png"), name, &change, &rows)?;
-    write_report(out, name, &gpu.adapter_name(), options, frames, &change, &rows, &statics, &plot_note)?;
+    write_report(out, facts, &gpu.adapter_name(), options, frames, &change, &rows, &statics, &plot_note)?;
     Ok(rows)
 }
 
@@ -462,7 +462,7 @@ fn plot_series(path: &Path, name: &str, change: &SceneChange, rows: &[SeriesRow]
 #[allow(clippy::too_many_arguments)]
 fn write_report(
     out: &Path,
-    name: &str,
+    facts: &SceneFacts,
     adapter: &str,
     options: &EvalOptions,
     frames: u32,
@@ -471,7 +471,8 @@ fn write_report(
     statics: &[StaticPhase],
     plot_note: &str,
 ) -> Result<(), String> {
-    let settle: Vec<String> = Config::time_series_list(name, options.grid, &options.adaptive)
+    let name = facts.name.as_str();
+    let settle: Vec<String> = Config::time_series_list(facts, options.grid, &options.adaptive)
         .iter()
         .map(|c| format!("{} {}", c.name(), settle_frames_of(c, options.settle_frames)))
         .collect();
@@ -602,18 +603,22 @@ mod tests {
         assert_eq!(settling(&[]).1, None);
     }
 
+    fn assert_change_moves_a_uniquely_named_node(facts: &SceneFacts, scene: &mut SceneDescription) {
+        let name = &facts.name;
+        let change = scene_change(facts, scene).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_ne!(scene.nodes[change.node].transform, change.after, "{name}: {}", change.description);
+        let changed = &scene.nodes[change.node].name;
+        assert_eq!(scene.nodes.iter().filter(|n| &n.name == changed).count(), 1, "{name}: '{changed}' must be unique");
+    }
+
     #[test]
-    fn every_built_in_scene_and_the_level_have_a_change_that_moves_a_uniquely_named_node() {
-        let level = (crate::LEVEL_SCENE, crate::play::level::demo_level(None).scene);
-        let built_in = scenes::ALL.iter().map(|entry| (entry.name, (entry.build)()));
-        for (name, mut scene) in built_in.chain([level]) {
-            let change = scene_change(name, &mut scene).unwrap_or_else(|e| panic!("{name}: {e}"));
-            assert_ne!(scene.nodes[change.node].transform, change.after, "{name}: {}", change.description);
-            let changed = &scene.nodes[change.node].name;
-            assert_eq!(scene.nodes.iter().filter(|n| &n.name == changed).count(), 1, "{name}: '{changed}' must be unique");
+    fn every_built_in_scene_has_a_change_that_moves_a_uniquely_named_node() {
+        for entry in scenes::ALL {
+            let mut scene = (entry.build)();
+            assert_change_moves_a_uniquely_named_node(&SceneFacts::named(entry.name), &mut scene);
         }
         let mut dark = SceneDescription { name: "dark".into(), ..Default::default() };
-        let error = scene_change("dark", &mut dark).expect_err("a scene without lights has nothing to move");
+        let error = scene_change(&SceneFacts::named("dark"), &mut dark).expect_err("a scene without lights has nothing to move");
         assert!(error.contains("'dark' has no light"), "{error}");
     }
 }

@@ -1,0 +1,21 @@
+//! Evaluation tooling, apart from the engine and its plugins (which build without it):
+//!
+//! - [`metrics`]: error of an image against a reference (FLIP with nv-flip, RMSE, relative MSE) and
+//!   FLIP error maps;
+//! - [`eval`]: error against a path-traced reference and GPU time for a list of configurations, and
+//!   the time series after a change in the scene ([`eval::time_series`]);
+//! - [`bench`]: ray-tracing and DDGI throughput, TLAS update costs, DDGI's classification check;
+//! - [`plot`]: the evaluation's plots (plotters, with an embedded font);
+//! - [`soak`]: judging a soak run (non-finite values, memory growth, frame-time drift) and its CSV.
+
+pub mod bench;
+pub mod eval;
+pub mod metrics;
+pub mod plot;
+pub mod soak;
+
+/// The median of `values` (the upper one of an even count; sorts them), or `None` when empty.
+pub fn median(values: &mut [f64]) -> Option<f64> {
+    values.sort_by(f64::total_cmp);
+    values.get(values.len() / 2).copied()
+}
