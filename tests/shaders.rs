@@ -29,7 +29,10 @@ fn a_broken_shader_is_reported_in_its_own_file_and_line() {
     // core (hundreds of lines): the report names the module and its own line, not the expanded one.
     shader::register(&[
         ("test_broken.inc.wgsl", "// a helper\nfn ok() -> f32 {\n    return 1.0;\n}\nfn broken() -> f32 { return 1.0 + ; }\n"),
-        ("test_uses_broken.wgsl", "#include \"ray_tracing.inc.wgsl\"\n#include \"test_broken.inc.wgsl\"\n@compute @workgroup_size(1)\nfn main() {}\n"),
+        (
+            "test_uses_broken.wgsl",
+            "#include \"ray_tracing.inc.wgsl\"\n#include \"test_broken.inc.wgsl\"\n@compute @workgroup_size(1)\nfn main() {}\n",
+        ),
         ("test_invalid.wgsl", "#include \"common.inc.wgsl\"\n\nfn f() -> f32 {\n    return vec2<f32>(1.0);\n}\n"),
     ])
     .expect("register");

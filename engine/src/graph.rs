@@ -489,7 +489,14 @@ pub struct GpuTimer {
 
 impl Default for GpuTimer {
     fn default() -> Self {
-        Self { query_set: None, capacity: 0, resolved: None, ring: ReadbackRing::new("pass_timestamps_readback", 8), arrived: HashMap::new(), next_id: 0 }
+        Self {
+            query_set: None,
+            capacity: 0,
+            resolved: None,
+            ring: ReadbackRing::new("pass_timestamps_readback", 8),
+            arrived: HashMap::new(),
+            next_id: 0,
+        }
     }
 }
 

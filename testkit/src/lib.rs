@@ -70,8 +70,7 @@ pub fn assert_golden(name: &str, width: u32, height: u32, rgba: &[u8], max_mean_
         let actual = dir.join(format!("{name}_actual.png"));
         image::save_buffer(&actual, rgba, width, height, image::ExtendedColorType::Rgba8).expect("write actual image");
         let flip_path = dir.join(format!("{name}_flip.png"));
-        image::save_buffer(&flip_path, &lab::metrics::magma(&map), width, height, image::ExtendedColorType::Rgb8)
-            .expect("write FLIP map");
+        image::save_buffer(&flip_path, &lab::metrics::magma(&map), width, height, image::ExtendedColorType::Rgb8).expect("write FLIP map");
         panic!(
             "{name}: mean FLIP {mean:.4} > {max_mean_flip} against {}; wrote {} and {}",
             reference_path.display(),

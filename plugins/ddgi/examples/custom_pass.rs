@@ -11,9 +11,9 @@
 
 use std::path::PathBuf;
 
-use ddgi::{DdgiFrame, DdgiVolume};
 use bevy_app::App;
 use bevy_ecs::prelude::*;
+use ddgi::{DdgiFrame, DdgiVolume};
 use engine::graph::{Bind, Handle, RenderGraph, Texture};
 use engine::headless::{HeadlessSettings, render_scene_with};
 use engine::render::{CameraFrame, FrameScript, GBuffer, frame_script_is};
@@ -76,9 +76,10 @@ fn add_probe_fog(app: &mut App, bounds: Option<(glam::Vec3, glam::Vec3)>) {
         .and_then(|()| compute_program(&gpu.device, "probe_fog.wgsl", "main", "probe_fog"))
         .unwrap_or_else(|e| panic!("{e}"));
     let params = FogParams { density: 0.25, steps: 24, sky_distance: 10.0, _pad: 0 };
-    app.insert_resource(ProbeFog { program: program.into(), params })
-        .insert_resource(FrameScript("probe_fog"))
-        .add_systems(engine::app::Render, render_probe_fog_frame.run_if(frame_script_is("probe_fog")).after(engine::render::gpu_scene::flush_uploads));
+    app.insert_resource(ProbeFog { program: program.into(), params }).insert_resource(FrameScript("probe_fog")).add_systems(
+        engine::app::Render,
+        render_probe_fog_frame.run_if(frame_script_is("probe_fog")).after(engine::render::gpu_scene::flush_uploads),
+    );
 }
 
 /// The frame script: the DDGI passes, the composite into `lit`, then the fog into the image.
@@ -129,6 +130,12 @@ fn add_probe_fog_pass(
     let size = frame.size();
     pass.render(move |ctx| {
         let groups = [group0, ctx.bind_group(&*program, 1, &group1), ctx.bind_group(&*program, 2, &group2)];
-        engine::render::dispatch(ctx.encoder, ctx.label, &program.pipeline, &groups.each_ref(), (size.width.div_ceil(8), size.height.div_ceil(8)));
+        engine::render::dispatch(
+            ctx.encoder,
+            ctx.label,
+            &program.pipeline,
+            &groups.each_ref(),
+            (size.width.div_ceil(8), size.height.div_ceil(8)),
+        );
     });
 }

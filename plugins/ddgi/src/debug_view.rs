@@ -151,10 +151,8 @@ pub(crate) fn add_probe_spheres(
     let mut pass = graph.add_pass("ddgi_probe_spheres");
     pass.note(view.color.name());
     let group1 = handles.declare(&mut pass, &program.bindings, 1);
-    let group2 = [
-        ("ddgi_probe_view", Bind::buffer(pass.read(&uniform))),
-        ("ddgi_probe_view_probes", Bind::buffer(pass.read(&handles.probes))),
-    ];
+    let group2 =
+        [("ddgi_probe_view", Bind::buffer(pass.read(&uniform))), ("ddgi_probe_view_probes", Bind::buffer(pass.read(&handles.probes)))];
     pass.read(hdr);
     pass.read(depth);
     let color = pass.write(hdr);

@@ -59,10 +59,18 @@ enum Slot<'a> {
 impl VolumeHandles {
     fn import(graph: &mut RenderGraph, index: usize, suffix: String, volume: &VolumeGpu, sampler: &wgpu::Sampler) -> Self {
         let mut buffer = |name: &str, b: &wgpu::Buffer| graph.import_buffer(&format!("{name}{suffix}"), b);
-        let (uniform, probes, counters, blocks) =
-            (buffer("ddgi_volume", &volume.uniform), buffer("ddgi_probes", &volume.probes), buffer("ddgi_counters", &volume.counters), buffer("ddgi_blocks", &volume.blocks));
-        let (updated, lit, rays, radiance) =
-            (buffer("ddgi_updated", &volume.updated), buffer("ddgi_lit", &volume.lit), buffer("ddgi_rays", &volume.rays), buffer("ddgi_radiance", &volume.radiance));
+        let (uniform, probes, counters, blocks) = (
+            buffer("ddgi_volume", &volume.uniform),
+            buffer("ddgi_probes", &volume.probes),
+            buffer("ddgi_counters", &volume.counters),
+            buffer("ddgi_blocks", &volume.blocks),
+        );
+        let (updated, lit, rays, radiance) = (
+            buffer("ddgi_updated", &volume.updated),
+            buffer("ddgi_lit", &volume.lit),
+            buffer("ddgi_rays", &volume.rays),
+            buffer("ddgi_radiance", &volume.radiance),
+        );
         let irradiance_history = buffer("ddgi_irradiance_history", &volume.irradiance_history);
         let distance_history = buffer("ddgi_distance_history", &volume.distance_history);
         let irradiance = graph.import_texture(&format!("ddgi_irradiance{suffix}"), &volume.irradiance);
@@ -161,7 +169,11 @@ fn scene_group<P: AutoLayout>(frame: &CameraFrame, program: &Program<P>) -> wgpu
     if program.uses_group(0) {
         program.bind_group(&frame.gpu.device, 0, &frame.scene_bindings())
     } else {
-        frame.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("empty"), layout: &program.pipeline.layout(0), entries: &[] })
+        frame.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("empty"),
+            layout: &program.pipeline.layout(0),
+            entries: &[],
+        })
     }
 }
 
@@ -208,8 +220,10 @@ impl DdgiFrame<'_> {
     ) -> Handle<GraphBuffer> {
         let size = frame.size();
         let pixels = u64::from(size.width.max(1)) * u64::from(size.height.max(1));
-        let mut indirect =
-            graph.create_buffer("ddgi_indirect", BufferDesc { size: pixels * 16, usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST });
+        let mut indirect = graph.create_buffer(
+            "ddgi_indirect",
+            BufferDesc { size: pixels * 16, usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST },
+        );
         if volumes.is_empty() {
             // No volume: the indirect term is zero.
             let mut pass = graph.add_pass("ddgi_clear_indirect");

@@ -85,13 +85,14 @@ impl Plugin for PathTracePlugin {
             log::warn!("PathTracePlugin needs the engine's RenderPlugin (a GPU); path tracing is off");
             return;
         };
-        let program = match engine::shader::register(SHADERS).and_then(|()| compute_program(&gpu.device, "pathtrace.wgsl", "main", "pathtrace")) {
-            Ok(p) => Arc::new(p),
-            Err(e) => {
-                log::warn!("path tracer shader failed, path tracing is off: {e}");
-                return;
-            }
-        };
+        let program =
+            match engine::shader::register(SHADERS).and_then(|()| compute_program(&gpu.device, "pathtrace.wgsl", "main", "pathtrace")) {
+                Ok(p) => Arc::new(p),
+                Err(e) => {
+                    log::warn!("path tracer shader failed, path tracing is off: {e}");
+                    return;
+                }
+            };
         let size = *app.world().resource::<RenderSize>();
         let params = gpu.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("pathtrace_params"),
