@@ -125,15 +125,15 @@ struct PlayArgs {
     /// the surface and lose the GPU device; each must be survived (the fault-injection test).
     #[arg(long, requires = "script")]
     inject_faults: bool,
-    #[arg(long, default_value_t = 1280, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    #[arg(long, default_value_t = play::PlayOptions::default().width, value_parser = clap::value_parser!(u32).range(1..=16384))]
     width: u32,
-    #[arg(long, default_value_t = 720, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    #[arg(long, default_value_t = play::PlayOptions::default().height, value_parser = clap::value_parser!(u32).range(1..=16384))]
     height: u32,
     /// Probe spacing of the level's DDGI volume (metres).
-    #[arg(long, default_value_t = 1.5)]
+    #[arg(long, default_value_t = play::PlayOptions::default().probe_spacing)]
     probe_spacing: f32,
     /// Rays per probe per frame.
-    #[arg(long, default_value_t = 128, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    #[arg(long, default_value_t = play::PlayOptions::default().rays_per_probe, value_parser = clap::value_parser!(u32).range(1..=1024))]
     rays: u32,
     /// Fixed ray budgets instead of adaptive ones.
     #[arg(long)]
@@ -305,24 +305,25 @@ struct RenderArgs {
 #[derive(clap::Args, Clone, Debug)]
 struct DdgiArgs {
     /// Probes along x, y and z, `X,Y,Z`.
-    #[arg(long, value_parser = parse_uvec3, default_value = "8,8,8")]
+    #[arg(long, value_parser = parse_uvec3, default_value_t = ddgi::DdgiVolume::default().probe_counts)]
     probes: glam::UVec3,
     /// Rays per probe per frame.
-    #[arg(long, default_value_t = 128)]
+    #[arg(long, default_value_t = ddgi::DdgiVolume::default().rays_per_probe)]
     rays: u32,
     /// Side of each probe's irradiance map, in texels.
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = ddgi::DdgiVolume::default().irradiance_texels)]
     irradiance_texels: u32,
     /// Side of each probe's distance map, in texels.
-    #[arg(long, default_value_t = 16)]
+    #[arg(long, default_value_t = ddgi::DdgiVolume::default().distance_texels)]
     distance_texels: u32,
     /// Weight of the old probe value per frame, in [0, 1].
-    #[arg(long, default_value_t = 0.97)]
+    #[arg(long, default_value_t = ddgi::DdgiVolume::default().hysteresis)]
     hysteresis: f32,
     /// Write the irradiance and distance atlases and the ray directions as images beside the output.
     #[arg(long)]
     dump_atlases: bool,
-    /// Adaptive ray budgets: each probe's rays follow its temporal error (between 16 and --rays),
+    /// Adaptive ray budgets: each probe's rays follow its temporal error (between DdgiAdaptive's
+    /// min_rays and --rays),
     /// and dark probes are switched off. `timings.json` records the rays traced per frame.
     #[arg(long)]
     adaptive: bool,
@@ -336,14 +337,25 @@ impl DdgiArgs {
             irradiance_texels: self.irradiance_texels,
             distance_texels: self.distance_texels,
             hysteresis: self.hysteresis,
-            adaptive: ddgi::DdgiAdaptive { enabled: self.adaptive, min_rays: 16.min(self.rays.max(1)), ..Default::default() },
+            adaptive: ddgi::DdgiAdaptive {
+                enabled: self.adaptive,
+                min_rays: ddgi::DdgiAdaptive::default().min_rays.min(self.rays.max(1)),
+                ..Default::default()
+            },
             ..Default::default()
         }
     }
 }
 
+/// `x,y,z`; also glam's display form `[x, y, z]` (how clap shows a default).
 fn parse_uvec3(text: &str) -> Result<glam::UVec3, String> {
-    let v: Vec<u32> = text.split(',').map(|p| p.trim().parse::<u32>().map_err(|e| format!("'{p}': {e}"))).collect::<Result<_, _>>()?;
+    let v: Vec<u32> = text
+        .trim()
+        .trim_start_matches('[')
+        .trim_end_matches(']')
+        .split(',')
+        .map(|p| p.trim().parse::<u32>().map_err(|e| format!("'{p}': {e}")))
+        .collect::<Result<_, _>>()?;
     match v[..] {
         [x, y, z] => Ok(glam::UVec3::new(x, y, z)),
         _ => Err(format!("expected three whole numbers x,y,z, got '{text}'")),

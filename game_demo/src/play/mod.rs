@@ -48,7 +48,14 @@ pub struct PlayOptions {
 
 impl Default for PlayOptions {
     fn default() -> Self {
-        Self { width: 1280, height: 720, probe_spacing: PROBE_SPACING, rays_per_probe: 128, adaptive: true, use_assets: true }
+        Self {
+            width: 1280,
+            height: 720,
+            probe_spacing: PROBE_SPACING,
+            rays_per_probe: ddgi::DdgiVolume::default().rays_per_probe,
+            adaptive: true,
+            use_assets: true,
+        }
     }
 }
 

@@ -274,6 +274,8 @@ pub const UNBOUNDED_RAY: f32 = 1.0e30;
 
 impl DdgiVolumeGpu {
     /// The uniform of one frame: `rotation` turns the ray directions, `sky` is the miss radiance.
+    /// The settings are taken as [`DdgiVolume::validate`] passed them (no clamping here); the budget
+    /// pass bounds the ray counts by `rays_per_probe` itself.
     pub fn new(volume: &DdgiVolume, layout: &DdgiLayout, rotation: glam::Mat3, sky: glam::Vec3, recheck: bool) -> Self {
         let w = volume.weights;
         let a = &volume.adaptive;
@@ -305,7 +307,7 @@ impl DdgiVolumeGpu {
             normal_bias: volume.normal_bias * min_spacing,
             view_bias: volume.view_bias * min_spacing,
             distance_sharpness: volume.distance_sharpness,
-            max_ray_distance: volume.max_ray_distance.unwrap_or(UNBOUNDED_RAY).min(UNBOUNDED_RAY),
+            max_ray_distance: volume.max_ray_distance.unwrap_or(UNBOUNDED_RAY),
             distance_scale: layout.distance_scale(),
             irradiance_texels: layout.irradiance_texels,
             distance_texels: layout.distance_texels,
@@ -316,15 +318,15 @@ impl DdgiVolumeGpu {
             recheck: u32::from(recheck),
             irradiance_atlas_size: layout.irradiance_atlas.as_vec2().to_array(),
             distance_atlas_size: layout.distance_atlas.as_vec2().to_array(),
-            min_rays: a.min_rays.clamp(1, volume.rays_per_probe),
-            recheck_rays: volume.recheck_rays.clamp(1, volume.rays_per_probe),
+            min_rays: a.min_rays,
+            recheck_rays: volume.recheck_rays,
             error_target: a.error_target,
             error_decay: a.decay,
             error_smoothing: a.error_smoothing,
             error_floor: a.error_floor,
             dark_fraction: if a.enabled { a.dark_fraction } else { 0.0 },
             frame_budget: if a.enabled { a.frame_budget.unwrap_or(0) } else { 0 },
-            max_rest_frames: if a.enabled { a.max_rest_frames.min(0xffff) } else { 0 },
+            max_rest_frames: if a.enabled { a.max_rest_frames } else { 0 },
             rest_error: a.rest_error,
             hysteresis_exponent: a.hysteresis_exponent,
             rest_smoothing: a.rest_smoothing.unwrap_or(-1.0),

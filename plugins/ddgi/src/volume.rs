@@ -178,7 +178,7 @@ pub struct DdgiVolume {
     /// Exponent of the cosine weighting of hit distances in the distance update (50 in the
     /// literature): higher keeps visibility edges sharp.
     pub distance_sharpness: f32,
-    /// Longest probe ray in world units; `None`: unbounded. Shorter rays are cheaper in large
+    /// Longest probe ray in world units (at most 1e30); `None`: unbounded. Shorter rays are cheaper in large
     /// scenes and miss (seeing the sky) beyond it.
     pub max_ray_distance: Option<f32>,
     /// Radiance of rays that escape the scene; `None`: the engine's [`engine::render::SkyRadiance`].
@@ -339,9 +339,9 @@ impl DdgiVolume {
             return Err(invalid("backface_threshold", self.backface_threshold, "must be between 0 and 1"));
         }
         if let Some(d) = self.max_ray_distance
-            && !(d.is_finite() && d > 0.0)
+            && !(d.is_finite() && d > 0.0 && d <= crate::gpu::UNBOUNDED_RAY)
         {
-            return Err(invalid("max_ray_distance", d, "must be finite and positive"));
+            return Err(invalid("max_ray_distance", d, "must be positive and at most 1e30 (None: unbounded)"));
         }
         if let Some(sky) = self.sky_radiance
             && !(sky.is_finite() && sky.min_element() >= 0.0)
