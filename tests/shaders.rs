@@ -62,6 +62,15 @@ fn host_structs_match_naga_layout() {
 }
 
 #[test]
+fn constants_shared_with_the_host_read_back_from_the_parsed_shader() {
+    use engine::render::gpu_types::{LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
+    let parsed = shader::parse("scene.inc.wgsl").expect("parse");
+    for (name, host) in [("LIGHT_DIRECTIONAL", LIGHT_DIRECTIONAL), ("LIGHT_POINT", LIGHT_POINT), ("LIGHT_SPOT", LIGHT_SPOT)] {
+        assert_eq!(parsed.u32_constant(name), Some(host), "{name}");
+    }
+}
+
+#[test]
 fn bindings_are_reflected_by_name_per_entry_point() {
     let parsed = shader::parse("direct_lighting.wgsl").expect("parse");
     let map = parsed.used_bindings(&["main"]);

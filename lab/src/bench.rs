@@ -70,10 +70,8 @@ struct TraceKernel {
     groups: [wgpu::BindGroup; 2],
     params: wgpu::Buffer,
     work: wgpu::Buffer,
-    work_readback: wgpu::Buffer,
     queries: wgpu::QuerySet,
     resolve: wgpu::Buffer,
-    readback: wgpu::Buffer,
 }
 
 impl TraceKernel {
@@ -109,14 +107,12 @@ impl TraceKernel {
             groups,
             params,
             work,
-            work_readback: buffer("bench_work_readback", 16, U::MAP_READ | U::COPY_DST),
             queries: gpu.device.create_query_set(&wgpu::QuerySetDescriptor {
                 label: Some("bench_timestamps"),
                 ty: wgpu::QueryType::Timestamp,
                 count: 2,
             }),
             resolve: buffer("bench_resolve", 16, U::QUERY_RESOLVE | U::COPY_SRC),
-            readback: buffer("bench_readback", 16, U::MAP_READ | U::COPY_DST),
         })
     }
 
@@ -141,22 +137,14 @@ impl TraceKernel {
             pass.dispatch_workgroups(x, y, 1);
         }
         encoder.resolve_query_set(&self.queries, 0..2, &self.resolve, 0);
-        encoder.copy_buffer_to_buffer(&self.resolve, 0, &self.readback, 0, 16);
-        encoder.copy_buffer_to_buffer(&self.work, 0, &self.work_readback, 0, 16);
         gpu.queue.submit([encoder.finish()]);
-        self.readback.slice(..).map_async(wgpu::MapMode::Read, |_| {});
-        gpu.wait_idle();
-        let ticks: Vec<u64> = bytemuck::pod_collect_to_vec(&self.readback.slice(..).get_mapped_range().map_err(|e| e.to_string())?);
-        self.readback.unmap();
+        let ticks: Vec<u64> = bytemuck::pod_collect_to_vec(&engine::render::readback::read_buffer(gpu, &self.resolve));
         Ok(ticks[1].saturating_sub(ticks[0]) as f64 * f64::from(gpu.timestamp_period) * 1e-6)
     }
 
     /// Work counted by the last dispatch (diagnostic variant only).
     fn work(&self, gpu: &GpuContext) -> Result<[u32; 4], String> {
-        self.work_readback.slice(..).map_async(wgpu::MapMode::Read, |_| {});
-        gpu.wait_idle();
-        let w: Vec<u32> = bytemuck::pod_collect_to_vec(&self.work_readback.slice(..).get_mapped_range().map_err(|e| e.to_string())?);
-        self.work_readback.unmap();
+        let w: Vec<u32> = bytemuck::pod_collect_to_vec(&engine::render::readback::read_buffer(gpu, &self.work));
         Ok([w[0], w[1], w[2], w[3]])
     }
 }
@@ -480,4 +468,20 @@ pub fn classification_check(gpu: &GpuContext, scene: SceneDescription, grid: [u3
             })
             .collect(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_bench_shader_is_registered_and_its_params_match_naga_layout() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
+        engine::shader::check_shader_folder(&dir, SHADERS).unwrap_or_else(|e| panic!("{e}"));
+        engine::shader::register(SHADERS).expect("register");
+        let host = engine::gpu_struct_layout!(BenchParams in "bench_trace.wgsl" {
+            rotation, grid_origin, rays_per_probe, grid_spacing, ray_count, grid_counts, max_distance,
+        });
+        engine::shader::check_struct_layout(&host).unwrap_or_else(|e| panic!("{e}"));
+    }
 }

@@ -21,7 +21,7 @@ use engine::shader::{Program, compute_program};
 use engine::wgpu;
 
 /// The example's WGSL, registered beside DDGI's (it includes `ddgi_sampling.inc.wgsl`).
-const SHADERS: &[engine::shader::ShaderModule] = &[("probe_fog.wgsl", include_str!("probe_fog.wgsl"))];
+pub const SHADERS: &[engine::shader::ShaderModule] = &[("probe_fog.wgsl", include_str!("probe_fog.wgsl"))];
 
 /// Mirror of `FogParams` in `probe_fog.wgsl`.
 #[repr(C)]
@@ -31,6 +31,11 @@ struct FogParams {
     steps: u32,
     sky_distance: f32,
     _pad: u32,
+}
+
+/// The mirror's layout, for the test that checks it against naga's.
+pub fn fog_params_layout() -> engine::shader::HostStruct {
+    engine::gpu_struct_layout!(FogParams in "probe_fog.wgsl" { density, steps, sky_distance, _pad })
 }
 
 /// The fog pass's pipeline and settings.

@@ -72,3 +72,9 @@ fn custom_pass_example_adds_probe_lit_fog_to_the_ddgi_passes_and_writes_a_lit_im
     let labels: Vec<&str> = ["\"ddgi_trace\"", "\"ddgi_composite\"", "\"probe_fog\""].into_iter().filter(|l| timings.contains(l)).collect();
     assert_eq!(labels.len(), 3, "passes found in timings.json: {labels:?}");
 }
+
+#[test]
+fn custom_pass_fog_params_match_naga_layout() {
+    ddgi::register_shaders().and_then(|()| engine::shader::register(custom_pass::SHADERS)).expect("register");
+    engine::shader::check_struct_layout(&custom_pass::fog_params_layout()).unwrap_or_else(|e| panic!("{e}"));
+}
