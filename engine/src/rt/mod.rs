@@ -15,7 +15,7 @@
 //!   re-encoded; it is rebuilt when instances are added or removed, or when refitting has let its
 //!   quality decay. Only changed nodes are uploaded. A static scene does no BVH work per frame.
 //!
-//! Traversal lives in `shaders/ray_tracing.inc.wgsl`: closest hit and any hit in one loop over both
+//! Traversal lives in `engine/shaders/ray_tracing.inc.wgsl`: closest hit and any hit in one loop over both
 //! levels (a warp's lanes test TLAS and BLAS nodes with the same code in the same step), the ray
 //! transformed into instance space without normalizing its direction, so `t` is comparable across
 //! instances.
@@ -729,7 +729,7 @@ pub fn prepare_ray_tracing_scene(
     }
 }
 
-/// Traces arbitrary rays with `shaders/trace_rays.wgsl`: the GPU side of the CPU-reference tests and
+/// Traces arbitrary rays with `engine/shaders/trace_rays.wgsl`: the GPU side of the CPU-reference tests and
 /// of the trace benchmark.
 pub struct RayTracer {
     pub program: crate::shader::Program<wgpu::ComputePipeline>,

@@ -137,7 +137,7 @@ pub struct DdgiGatherParams {
     pub _pad2: u32,
 }
 
-/// Parameters of the probe debug view (`ddgi_probes.wgsl`).
+/// Parameters of the probe debug view (`ddgi_probe_spheres.wgsl`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct DdgiProbeViewParams {

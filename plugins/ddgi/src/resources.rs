@@ -40,7 +40,7 @@ pub struct VolumeGpu {
     pub lit: wgpu::Buffer,
     pub rays: wgpu::Buffer,
     pub radiance: wgpu::Buffer,
-    /// The maps at full precision (see `ddgi.inc.wgsl`): irradiance and its smoothed change (two
+    /// The maps at full precision (see `ddgi_common.inc.wgsl`): irradiance and its smoothed change (two
     /// vec4 per texel) and distance moments (vec2 per texel), in probe order.
     pub irradiance_history: wgpu::Buffer,
     pub distance_history: wgpu::Buffer,
