@@ -112,6 +112,21 @@ struct PassNode {
 pub struct RenderGraph {
     resources: Vec<ResourceNode>,
     passes: Vec<PassNode>,
+    /// Read-only imports that passes bind by their WGSL names ([`RenderGraph::import_named`]).
+    named: Vec<(&'static str, Named)>,
+}
+
+/// A resource that every pass of a frame may read, given by reference to [`RenderGraph::import_named`].
+pub enum NamedResource<'a> {
+    Buffer(&'a wgpu::Buffer),
+    Texture { texture: &'a wgpu::Texture, view: &'a wgpu::TextureView },
+    Sampler(&'a wgpu::Sampler),
+}
+
+enum Named {
+    Buffer(usize),
+    Texture(usize),
+    Sampler(wgpu::Sampler),
 }
 
 impl RenderGraph {
@@ -142,6 +157,20 @@ impl RenderGraph {
     /// A buffer owned outside the graph.
     pub fn import_buffer(&mut self, name: &str, buffer: &wgpu::Buffer) -> Handle<Buffer> {
         self.add_resource(name, Source::ImportedBuffer(buffer.clone()))
+    }
+
+    /// Imports resources that the frame only reads and that passes bind by their WGSL names (the
+    /// scene's bind group 0): a pass declares the ones its shader uses with
+    /// [`PassBuilder::read_named`].
+    pub fn import_named(&mut self, resources: &[(&'static str, NamedResource<'_>)]) {
+        for (name, resource) in resources {
+            let named = match resource {
+                NamedResource::Buffer(b) => Named::Buffer(self.import_buffer(name, b).id),
+                NamedResource::Texture { texture, .. } => Named::Texture(self.import_texture(name, texture).id),
+                NamedResource::Sampler(s) => Named::Sampler((*s).clone()),
+            };
+            self.named.push((name, named));
+        }
     }
 
     /// Marks a resource as an output of the frame: the passes that produce it will run.
@@ -282,6 +311,31 @@ impl PassBuilder<'_> {
     pub fn write<K>(&mut self, handle: &mut Handle<K>) -> Write<K> {
         self.node.writes.push(handle.id);
         Write { id: handle.id, _kind: PhantomData }
+    }
+
+    /// Declares a read of every named import ([`RenderGraph::import_named`]) that `bindings` uses in
+    /// `group`, and returns them as bindings for [`PassContext::bind_group`].
+    pub fn read_named(&mut self, bindings: &crate::shader::BindingMap, group: u32) -> Vec<(&'static str, Bind)> {
+        let Some(used) = bindings.groups.get(&group) else { return Vec::new() };
+        let mut out = Vec::new();
+        for (name, named) in &self.graph.named {
+            if !used.contains_key(*name) {
+                continue;
+            }
+            let bind = match named {
+                Named::Buffer(id) => {
+                    self.node.reads.push(*id);
+                    Bind::Buffer(*id)
+                }
+                Named::Texture(id) => {
+                    self.node.reads.push(*id);
+                    Bind::Texture(*id)
+                }
+                Named::Sampler(s) => Bind::Sampler(s.clone()),
+            };
+            out.push((*name, bind));
+        }
+        out
     }
 
     /// Says how this pass was specialized for the frame (shown in the report beside its time).

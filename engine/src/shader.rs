@@ -156,8 +156,12 @@ pub fn preprocess(name: &str) -> Result<Preprocessed, ShaderError> {
             return Ok(());
         }
         seen.push(name.to_string());
-        let text = source(name)?;
-        let module = REGISTRY.read().unwrap_or_else(|e| e.into_inner()).get_key_value(name).map(|(k, _)| *k).unwrap_or("?");
+        let (module, text) = REGISTRY
+            .read()
+            .unwrap_or_else(|e| e.into_inner())
+            .get_key_value(name)
+            .map(|(k, v)| (*k, *v))
+            .ok_or_else(|| ShaderError::Missing(name.into()))?;
         for (number, line) in text.lines().enumerate() {
             if let Some(rest) = line.trim().strip_prefix("#include") {
                 let include = rest.trim().trim_matches('"');

@@ -11,6 +11,7 @@ use glam::{Affine3A, Mat4, Vec3};
 
 use super::gpu_types::*;
 use crate::gpu::GpuContext;
+use crate::graph::NamedResource;
 use crate::scene::{
     Assets, Camera, DirectionalLight, GlobalTransform, Image, Material, Mesh, MeshInstance, Name, PointLight, SceneDataError, SpotLight,
     TextureRef, validate_affine, validate_light,
@@ -183,17 +184,17 @@ impl GpuScene {
         }
     }
 
-    /// Bind group 0 resources by their WGSL names.
-    pub fn bindings(&self) -> Vec<(&'static str, wgpu::BindingResource<'_>)> {
+    /// Bind group 0 resources by their WGSL names (see [`crate::graph::RenderGraph::import_named`]).
+    pub fn resources(&self) -> Vec<(&'static str, NamedResource<'_>)> {
         vec![
-            ("view", self.view.buffer.as_entire_binding()),
-            ("lights", self.lights.buffer.as_entire_binding()),
-            ("materials", self.materials.buffer.as_entire_binding()),
-            ("texture_atlas", wgpu::BindingResource::TextureView(&self.atlas_view)),
-            ("atlas_sampler", wgpu::BindingResource::Sampler(&self.sampler)),
-            ("vertices", self.vertices.buffer.as_entire_binding()),
-            ("instances", self.instances.buffer.as_entire_binding()),
-            ("indices", self.indices.buffer.as_entire_binding()),
+            ("view", NamedResource::Buffer(&self.view.buffer)),
+            ("lights", NamedResource::Buffer(&self.lights.buffer)),
+            ("materials", NamedResource::Buffer(&self.materials.buffer)),
+            ("texture_atlas", NamedResource::Texture { texture: &self.atlas, view: &self.atlas_view }),
+            ("atlas_sampler", NamedResource::Sampler(&self.sampler)),
+            ("vertices", NamedResource::Buffer(&self.vertices.buffer)),
+            ("instances", NamedResource::Buffer(&self.instances.buffer)),
+            ("indices", NamedResource::Buffer(&self.indices.buffer)),
         ]
     }
 

@@ -342,14 +342,12 @@ impl CameraFrame<'_> {
         self.outputs.size
     }
 
-    /// Bind group 0 of every scene-reading shader.
-    pub fn scene_bindings(&self) -> Vec<(&'static str, wgpu::BindingResource<'_>)> {
-        self.rt.scene_bindings(&self.scene)
-    }
-
-    /// A new graph with the frame's outputs imported.
+    /// A new graph with the frame's outputs imported, and the scene's resources (bind group 0 of
+    /// every scene-reading shader) imported by name: a pass declares the ones its shader reads with
+    /// `pass.read_named(&program.bindings, 0)` and binds them from what that returns.
     pub fn begin(&self) -> FrameGraph {
         let mut graph = RenderGraph::new();
+        graph.import_named(&self.rt.scene_resources(&self.scene));
         let hdr = graph.import_texture("hdr_radiance", &self.outputs.hdr);
         let ldr = graph.import_texture("ldr_image", &self.outputs.ldr);
         FrameGraph { graph, hdr, ldr }
@@ -358,22 +356,22 @@ impl CameraFrame<'_> {
     /// Rasterizes every instance into a new G-buffer.
     pub fn add_gbuffer(&self, graph: &mut RenderGraph) -> GBuffer {
         use wgpu::TextureUsages as U;
-        let (gpu, scene, pipelines, size) = (&self.gpu, &self.scene, &self.pipelines, self.size());
+        let (scene, pipelines, size) = (&self.scene, &self.pipelines, self.size());
         let attachment = U::RENDER_ATTACHMENT | U::TEXTURE_BINDING;
         let mut depth = graph.create_texture("gbuffer_depth", texture_desc(size, DEPTH_FORMAT, attachment));
         let mut normal = graph.create_texture("gbuffer_normal", texture_desc(size, NORMAL_FORMAT, attachment));
         let mut albedo = graph.create_texture("gbuffer_albedo", texture_desc(size, ALBEDO_FORMAT, attachment));
         let mut emissive = graph.create_texture("gbuffer_emissive", texture_desc(size, EMISSIVE_FORMAT, attachment));
-        let scene_bindings = self.scene_bindings();
         {
             let mut pass = graph.add_pass("gbuffer");
             let targets = [pass.write(&mut normal), pass.write(&mut albedo), pass.write(&mut emissive)];
             let depth_target = pass.write(&mut depth);
             let program = pipelines.gbuffer.clone();
-            let group0 = program.bind_group(&gpu.device, 0, &scene_bindings);
+            let scene_reads = pass.read_named(&program.bindings, 0);
             let index_buffer = scene.indices.buffer.clone();
             let draws = scene.draws.clone();
             pass.render(move |ctx| {
+                let group0 = ctx.bind_group(&*program, 0, &scene_reads);
                 let colors = targets.map(|t| {
                     Some(wgpu::RenderPassColorAttachment {
                         view: ctx.view(t),
@@ -408,16 +406,16 @@ impl CameraFrame<'_> {
 
     /// Direct light (emission + every light with a shadow ray) of the G-buffer into `hdr`.
     pub fn add_direct_lighting(&self, graph: &mut RenderGraph, gbuffer: &GBuffer, hdr: &mut Handle<GraphTexture>) {
-        let (gpu, pipelines, size) = (&self.gpu, &self.pipelines, self.size());
+        let (pipelines, size) = (&self.pipelines, self.size());
         let GBuffer { depth, normal, albedo, emissive } = gbuffer;
-        let scene_bindings = self.scene_bindings();
         {
             let mut pass = graph.add_pass("direct_lighting");
             let inputs = [pass.read(depth), pass.read(normal), pass.read(albedo), pass.read(emissive)];
             let out = pass.write(hdr);
             let program = pipelines.direct_lighting.clone();
-            let group0 = program.bind_group(&gpu.device, 0, &scene_bindings);
+            let scene_reads = pass.read_named(&program.bindings, 0);
             pass.render(move |ctx| {
+                let group0 = ctx.bind_group(&*program, 0, &scene_reads);
                 let [d, n, a, e] = inputs.map(|i| wgpu::BindingResource::TextureView(ctx.view(i)));
                 let group1 = program.bind_group(
                     &ctx.gpu.device,
@@ -440,14 +438,14 @@ impl CameraFrame<'_> {
     pub fn finish(&mut self, frame: FrameGraph) {
         let FrameGraph { mut graph, hdr, mut ldr } = frame;
         let (gpu, pipelines, size) = (self.gpu.clone(), &self.pipelines, self.size());
-        let scene_bindings = self.scene_bindings();
         {
             let mut pass = graph.add_pass("tonemap");
             let input = pass.read(&hdr);
             let out = pass.write(&mut ldr);
             let program = pipelines.tonemap.clone();
-            let group0 = program.bind_group(&gpu.device, 0, &scene_bindings);
+            let scene_reads = pass.read_named(&program.bindings, 0);
             pass.render(move |ctx| {
+                let group0 = ctx.bind_group(&*program, 0, &scene_reads);
                 let group1 = program.bind_group(
                     &ctx.gpu.device,
                     1,

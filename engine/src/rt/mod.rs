@@ -39,6 +39,7 @@ use obvhs::ploc::{PlocBuilder, PlocSearchDistance, SortPrecision};
 use obvhs::triangle::Triangle;
 
 use crate::gpu::GpuContext;
+use crate::graph::NamedResource;
 use crate::render::gpu_scene::{GpuScene, GrowableBuffer, Uploads};
 use crate::scene::{Assets, Mesh};
 
@@ -254,21 +255,33 @@ impl RayTracingScene {
         scene
     }
 
-    /// Bind group 0 resources of `ray_tracing.inc.wgsl`, by WGSL name.
-    pub fn bindings(&self) -> Vec<(&'static str, wgpu::BindingResource<'_>)> {
-        vec![
-            ("blas_nodes", self.blas_nodes.buffer.as_entire_binding()),
-            ("blas_triangles", self.blas_triangles.buffer.as_entire_binding()),
-            ("blas_info", self.blas_info.buffer.as_entire_binding()),
-            ("tlas_nodes", self.tlas_nodes.buffer.as_entire_binding()),
-        ]
+    /// Everything `ray_tracing.inc.wgsl` binds in group 0, by WGSL name: the GPU scene's resources
+    /// and the BVHs'. A frame's graph imports them ([`crate::graph::RenderGraph::import_named`]).
+    pub fn scene_resources<'a>(&'a self, scene: &'a GpuScene) -> Vec<(&'static str, NamedResource<'a>)> {
+        let mut all = scene.resources();
+        all.extend([
+            ("blas_nodes", NamedResource::Buffer(&self.blas_nodes.buffer)),
+            ("blas_triangles", NamedResource::Buffer(&self.blas_triangles.buffer)),
+            ("blas_info", NamedResource::Buffer(&self.blas_info.buffer)),
+            ("tlas_nodes", NamedResource::Buffer(&self.tlas_nodes.buffer)),
+        ]);
+        all
     }
 
-    /// Everything `ray_tracing.inc.wgsl` binds: the GPU scene's bindings and the BVHs'.
+    /// [`RayTracingScene::scene_resources`] as bind group entries, for dispatches outside a render
+    /// graph (the trace tests and benchmarks).
     pub fn scene_bindings<'a>(&'a self, scene: &'a GpuScene) -> Vec<(&'static str, wgpu::BindingResource<'a>)> {
-        let mut all = scene.bindings();
-        all.extend(self.bindings());
-        all
+        self.scene_resources(scene)
+            .into_iter()
+            .map(|(name, r)| {
+                let binding = match r {
+                    NamedResource::Buffer(b) => b.as_entire_binding(),
+                    NamedResource::Texture { view, .. } => wgpu::BindingResource::TextureView(view),
+                    NamedResource::Sampler(s) => wgpu::BindingResource::Sampler(s),
+                };
+                (name, binding)
+            })
+            .collect()
     }
 
     /// The TLAS as uploaded (CPU copy): its 8-wide nodes and their entries, eight per node.

@@ -131,10 +131,10 @@ fn add_probe_fog_pass(
         ("fog_lit", Bind::texture(pass.read(lit))),
         ("fog_out", Bind::texture(pass.write(hdr))),
     ];
-    let group0 = program.bind_group(&frame.gpu.device, 0, &frame.scene_bindings());
+    let group0 = pass.read_named(&program.bindings, 0);
     let size = frame.size();
     pass.render(move |ctx| {
-        let groups = [group0, ctx.bind_group(&*program, 1, &group1), ctx.bind_group(&*program, 2, &group2)];
+        let groups = [ctx.bind_group(&*program, 0, &group0), ctx.bind_group(&*program, 1, &group1), ctx.bind_group(&*program, 2, &group2)];
         engine::render::dispatch(
             ctx.encoder,
             ctx.label,

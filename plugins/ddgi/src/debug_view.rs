@@ -157,9 +157,10 @@ pub(crate) fn add_probe_spheres(
     pass.read(depth);
     let color = pass.write(hdr);
     let depth = pass.write(depth);
-    let group0 = program.bind_group(&gpu.device, 0, &frame.scene_bindings());
+    let group0 = pass.read_named(&program.bindings, 0);
     let count = volume.layout.probe_count;
     pass.render(move |ctx| {
+        let group0 = ctx.bind_group(&*program, 0, &group0);
         let group1 = ctx.bind_group(&*program, 1, &group1);
         let group2 = ctx.bind_group(&*program, 2, &group2);
         let mut rp = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {

@@ -15,7 +15,7 @@ use bevy_ecs::prelude::*;
 use bevy_ecs::system::SystemParam;
 use engine::graph::{Bind, Buffer as GraphBuffer, BufferDesc, Handle, PassBuilder, RenderGraph, Texture as GraphTexture, TextureDesc};
 use engine::render::{CameraFrame, GBuffer, HDR_FORMAT};
-use engine::shader::{AutoLayout, BindingMap, Program, ShaderError};
+use engine::shader::{BindingMap, ShaderError};
 use engine::wgpu;
 
 use crate::debug_view::{DdgiOutput, DdgiProbeColor, DdgiProbeView, add_probe_spheres};
@@ -164,19 +164,6 @@ fn merged(programs: &[&ComputeProgram]) -> BindingMap {
     map
 }
 
-/// Group 0 (the engine's scene) of a pipeline, or an empty group when it reads no scene.
-fn scene_group<P: AutoLayout>(frame: &CameraFrame, program: &Program<P>) -> wgpu::BindGroup {
-    if program.uses_group(0) {
-        program.bind_group(&frame.gpu.device, 0, &frame.scene_bindings())
-    } else {
-        frame.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("empty"),
-            layout: &program.pipeline.layout(0),
-            entries: &[],
-        })
-    }
-}
-
 /// The DDGI resources a frame script needs, as one system parameter: take it beside
 /// [`CameraFrame`] and call its `add_*` functions between `begin` and `finish`, then
 /// [`DdgiFrame::finish`].
@@ -252,10 +239,11 @@ impl DdgiFrame<'_> {
                     Bind::buffer(pass.write(&mut indirect))
                 }),
             ];
-            let group0 = scene_group(frame, &*program);
+            let group0 = pass.read_named(&program.bindings, 0);
             let workgroups = workgroups(frame);
             pass.render(move |ctx| {
-                let groups = [group0, ctx.bind_group(&*program, 1, &group1), ctx.bind_group(&*program, 2, &group2)];
+                let groups =
+                    [ctx.bind_group(&*program, 0, &group0), ctx.bind_group(&*program, 1, &group1), ctx.bind_group(&*program, 2, &group2)];
                 engine::render::dispatch(ctx.encoder, ctx.label, &program.pipeline, &groups.each_ref(), workgroups);
             });
         }
@@ -304,15 +292,11 @@ impl DdgiFrame<'_> {
             (false, true) => self.pipelines.composite.clone(),
             (false, false) => self.pipelines.composite_indirect.clone(),
         };
-        let group0 = scene_group(frame, &*program);
+        let group0 = pass.read_named(&program.bindings, 0);
         let workgroups = workgroups(frame);
         pass.render(move |ctx| {
-            let empty = ctx.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("empty"),
-                layout: &program.pipeline.get_bind_group_layout(1),
-                entries: &[],
-            });
-            let groups = [group0, empty, ctx.bind_group(&*program, 2, &group2)];
+            // Group 1 (a volume's) is unused: the composite reads only the gathered light.
+            let groups = [ctx.bind_group(&*program, 0, &group0), ctx.bind_group(&*program, 1, &[]), ctx.bind_group(&*program, 2, &group2)];
             engine::render::dispatch(ctx.encoder, ctx.label, &program.pipeline, &groups.each_ref(), workgroups);
         });
     }
@@ -379,16 +363,18 @@ fn add_volume_update(
     let label = |name: &str| format!("{name}{suffix}");
     // The trace runs as many threads as the budget pass packed rays, the probe update one workgroup
     // per probe it gave rays (indirect dispatches, from `DdgiCounters`).
-    type Steps = Vec<(ComputeProgram, wgpu::BindGroup, u32)>;
-    let steps = |programs: &[(&ComputeProgram, u32)]| -> Steps {
-        programs.iter().map(|&(p, n)| (p.clone(), scene_group(frame, &**p), n)).collect()
-    };
-    let record = |steps: Steps, group1: Vec<(&'static str, Bind)>, indirect: Option<(engine::graph::Read<GraphBuffer>, u64)>| {
+    type Steps = Vec<(ComputeProgram, u32)>;
+    let steps = |programs: &[(&ComputeProgram, u32)]| -> Steps { programs.iter().map(|&(p, n)| (p.clone(), n)).collect() };
+    // Each pass binds group 0 (the scene, as `read_named` declared it) and group 1 (the volume, as
+    // `declare` did) for each of its pipelines.
+    type Binds = Vec<(&'static str, Bind)>;
+    let record = |steps: Steps, group0: Binds, group1: Binds, indirect: Option<(engine::graph::Read<GraphBuffer>, u64)>| {
         move |ctx: &mut engine::graph::PassContext<'_>| {
-            let groups: Vec<wgpu::BindGroup> = steps.iter().map(|(p, ..)| ctx.bind_group(&**p, 1, &group1)).collect();
+            let groups: Vec<[wgpu::BindGroup; 2]> =
+                steps.iter().map(|(p, _)| [ctx.bind_group(&**p, 0, &group0), ctx.bind_group(&**p, 1, &group1)]).collect();
             let args = indirect.map(|(a, offset)| (ctx.buffer(a), offset));
             let mut cp = ctx.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(ctx.label), timestamp_writes: None });
-            for ((program, group0, n), group1) in steps.iter().zip(&groups) {
+            for ((program, n), [group0, group1]) in steps.iter().zip(&groups) {
                 cp.set_pipeline(&program.pipeline);
                 cp.set_bind_group(0, group0, &[]);
                 cp.set_bind_group(1, group1, &[]);
@@ -413,23 +399,25 @@ fn add_volume_update(
             plan.extend([(&pipelines.plan_scale, 1), (&pipelines.scale, blocks)]);
         }
         plan.extend([(&pipelines.plan_blocks, 1), (&pipelines.place, blocks)]);
-        let group1 = h.declare(&mut pass, &merged(&plan.iter().map(|(p, _)| *p).collect::<Vec<_>>()), 1);
-        pass.render(record(steps(&plan), group1, None));
+        let bindings = merged(&plan.iter().map(|(p, _)| *p).collect::<Vec<_>>());
+        let (group0, group1) = (pass.read_named(&bindings, 0), h.declare(&mut pass, &bindings, 1));
+        pass.render(record(steps(&plan), group0, group1, None));
     }
     {
         // Shading reads the previous frame's atlases, which the probe update then overwrites.
         let mut pass = graph.add_pass(&label("ddgi_trace"));
-        let group1 = h.declare(&mut pass, &trace.bindings, 1);
+        let (group0, group1) = (pass.read_named(&trace.bindings, 0), h.declare(&mut pass, &trace.bindings, 1));
         let args = pass.read(&h.counters);
         pass.note(&specialization.note());
-        pass.render(record(steps(&[(&trace, 0)]), group1, Some((args, RAY_DISPATCH_OFFSET))));
+        pass.render(record(steps(&[(&trace, 0)]), group0, group1, Some((args, RAY_DISPATCH_OFFSET))));
     }
     {
         let mut pass = graph.add_pass(&label("ddgi_probe_update"));
         // Each atlas is read (the trace's shading) and written (here) in one frame but never in one
         // dispatch, so a single copy of each suffices.
         let programs = [(&pipelines.update_irradiance, 0), (&pipelines.update, 0)];
-        let group1 = h.declare(&mut pass, &merged(&[&pipelines.update_irradiance, &pipelines.update]), 1);
+        let bindings = merged(&[&pipelines.update_irradiance, &pipelines.update]);
+        let (group0, group1) = (pass.read_named(&bindings, 0), h.declare(&mut pass, &bindings, 1));
         let args = pass.read(&h.counters);
         if !volume.settings.relocation {
             pass.note("relocation off in the volume's settings");
@@ -438,7 +426,7 @@ fn add_volume_update(
             pass.note("classification off: only clears the fresh-probe flags");
         }
         // Two dispatches: the irradiance maps (and each probe's error), then the rest.
-        pass.render(record(steps(&programs), group1, Some((args, PROBE_DISPATCH_OFFSET))));
+        pass.render(record(steps(&programs), group0, group1, Some((args, PROBE_DISPATCH_OFFSET))));
     }
     h.export(graph);
     Ok(())

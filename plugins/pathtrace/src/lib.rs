@@ -16,6 +16,7 @@ use std::sync::Arc;
 use bevy_app::{App, Plugin};
 use bevy_ecs::prelude::*;
 use engine::gpu::GpuContext;
+use engine::graph::Bind;
 use engine::render::gpu_scene::flush_uploads;
 use engine::render::gpu_types::{GpuLight, ViewUniform};
 use engine::render::{CameraFrame, RenderSize, frame_script_is};
@@ -149,21 +150,20 @@ fn render_path_traced_frame(
 
     let mut script = frame.begin();
     {
+        let params = script.graph.import_buffer("pathtrace_params", &state.params);
+        let mut accumulation = script.graph.import_buffer("pathtrace_accumulation", &state.accumulation);
         let mut pass = script.graph.add_pass("pathtrace");
-        let out = pass.write(&mut script.hdr);
         let program = state.program.clone();
-        let group0 = program.bind_group(&frame.gpu.device, 0, &frame.scene_bindings());
-        let (params, accumulation) = (state.params.clone(), state.accumulation.clone());
+        let group0 = pass.read_named(&program.bindings, 0);
+        pass.read(&accumulation);
+        let group1 = [
+            ("path_params", Bind::buffer(pass.read(&params))),
+            ("path_accumulation", Bind::buffer(pass.write(&mut accumulation))),
+            ("path_radiance_out", Bind::texture(pass.write(&mut script.hdr))),
+        ];
         pass.render(move |ctx| {
-            let group1 = program.bind_group(
-                &ctx.gpu.device,
-                1,
-                &[
-                    ("path_params", params.as_entire_binding()),
-                    ("path_accumulation", accumulation.as_entire_binding()),
-                    ("path_radiance_out", wgpu::BindingResource::TextureView(ctx.view(out))),
-                ],
-            );
+            let group0 = ctx.bind_group(&*program, 0, &group0);
+            let group1 = ctx.bind_group(&*program, 1, &group1);
             engine::render::dispatch(
                 ctx.encoder,
                 ctx.label,
@@ -172,6 +172,8 @@ fn render_path_traced_frame(
                 (size.width.div_ceil(8), size.height.div_ceil(8)),
             );
         });
+        // The accumulation lives on into the next frame.
+        script.graph.export(&accumulation);
     }
     frame.finish(script);
 }
