@@ -24,10 +24,7 @@ pub struct Args {
 
 pub fn run(args: Args) -> Result<(), Box<dyn std::error::Error>> {
     let built_in = scenes::find(&args.scene);
-    let scene = match built_in {
-        Some(entry) => (entry.build)(),
-        None => engine::import::load_scene(Path::new(&args.scene))?,
-    };
+    let scene = built_in.map_or_else(|| engine::import::load_scene(Path::new(&args.scene)), |entry| Ok((entry.build)()))?;
     // One volume of DdgiVolume's default probes over the scene (a built-in scene's own GI bounds).
     let volume = DdgiVolume { bounds: built_in.and_then(|entry| (entry.gi_bounds)()), ..Default::default() };
     let gpu = GpuContext::new(GpuOptions::default())?;
