@@ -79,13 +79,7 @@ impl CameraPipelines {
             "gbuffer",
             RenderTargets {
                 colors: &[color(NORMAL_FORMAT), color(ALBEDO_FORMAT), color(EMISSIVE_FORMAT)],
-                depth: Some(wgpu::DepthStencilState {
-                    format: DEPTH_FORMAT,
-                    depth_write_enabled: Some(true),
-                    depth_compare: Some(wgpu::CompareFunction::Greater),
-                    stencil: Default::default(),
-                    bias: Default::default(),
-                }),
+                depth: Some(depth_test()),
                 primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
             },
         )?;
@@ -560,6 +554,18 @@ pub fn dispatch(
         cp.set_bind_group(i as u32, *g, &[]);
     }
     cp.dispatch_workgroups(x.max(1), y.max(1), 1);
+}
+
+/// The depth test of everything rasterized against the G-buffer's depth: reverse Z (1 near, 0 at
+/// infinity, cleared to 0), so nearer is greater; depth written.
+pub fn depth_test() -> wgpu::DepthStencilState {
+    wgpu::DepthStencilState {
+        format: DEPTH_FORMAT,
+        depth_write_enabled: Some(true),
+        depth_compare: Some(wgpu::CompareFunction::Greater),
+        stencil: Default::default(),
+        bias: Default::default(),
+    }
 }
 
 /// The blit pipeline for presenting to a surface of `format` (must not be an sRGB format: the image

@@ -46,10 +46,7 @@ fn read_now(gpu: &GpuContext, label: &'static str, size: u64, copy: impl FnOnce(
     let mut ring = ReadbackRing::new(label, 1);
     ring.request_with(gpu, size, 0, copy);
     gpu.wait_idle();
-    ring.poll(gpu).pop().map(|(_, bytes)| bytes).unwrap_or_else(|| {
-        log::error!("{label}: the copy could not be mapped");
-        vec![0; size as usize]
-    })
+    ring.poll(gpu).pop().map(|(_, bytes)| bytes).unwrap_or_else(|| panic!("{label}: the readback copy was not mapped"))
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use bevy_ecs::prelude::*;
 use engine::gpu::GpuContext;
-use engine::render::{DEPTH_FORMAT, HDR_FORMAT};
+use engine::render::HDR_FORMAT;
 use engine::shader::{Program, RenderTargets, ShaderError, compute_program, compute_program_with_constants, render_program};
 use engine::wgpu;
 
@@ -95,13 +95,7 @@ impl DdgiPipelines {
             "ddgi_probe_spheres",
             RenderTargets {
                 colors: &[Some(wgpu::ColorTargetState { format: HDR_FORMAT, blend: None, write_mask: wgpu::ColorWrites::ALL })],
-                depth: Some(wgpu::DepthStencilState {
-                    format: DEPTH_FORMAT,
-                    depth_write_enabled: Some(true),
-                    depth_compare: Some(wgpu::CompareFunction::Greater),
-                    stencil: Default::default(),
-                    bias: Default::default(),
-                }),
+                depth: Some(engine::render::depth_test()),
                 primitive: wgpu::PrimitiveState { cull_mode: Some(wgpu::Face::Back), ..Default::default() },
             },
         )?;
