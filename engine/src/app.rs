@@ -156,6 +156,7 @@ impl Plugin for EnginePlugin {
         app.init_resource::<Assets<Mesh>>()
             .init_resource::<Assets<Material>>()
             .init_resource::<Assets<Image>>()
+            .init_resource::<scene::RenderOrigin>()
             .add_systems(First, advance_time)
             .add_systems(Update, scene::animate_orbits)
             .add_systems(PostUpdate, scene::propagate_transforms);

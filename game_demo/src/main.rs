@@ -92,6 +92,10 @@ enum Command {
         /// Folder of cached references.
         #[arg(long, default_value = "out/eval/cache")]
         cache: PathBuf,
+        /// Place the scene this far from the world's origin, `x,y,z` (double precision; e.g.
+        /// 1e5,0,0): large-world coordinates keep every method's error as at the origin.
+        #[arg(long, value_parser = parse_dvec3)]
+        offset: Option<glam::DVec3>,
     },
     /// Benchmarks (results as Markdown tables on standard output).
     #[command(subcommand)]
@@ -299,6 +303,10 @@ struct RenderArgs {
     /// Print the built-in scene names and exit.
     #[arg(long)]
     list_scenes: bool,
+    /// Place the scene (and its camera) this far from the world's origin, `x,y,z` (double
+    /// precision; e.g. 1e5,0,0): large-world coordinates render it as at the origin.
+    #[arg(long, value_parser = parse_dvec3)]
+    offset: Option<glam::DVec3>,
 }
 
 /// DDGI volume settings from the command line (the volume fills the scene's bounds).
@@ -362,6 +370,14 @@ fn parse_uvec3(text: &str) -> Result<glam::UVec3, String> {
     }
 }
 
+fn parse_dvec3(text: &str) -> Result<glam::DVec3, String> {
+    let v: Vec<f64> = text.split(',').map(|p| p.trim().parse::<f64>().map_err(|e| format!("'{p}': {e}"))).collect::<Result<_, _>>()?;
+    match v[..] {
+        [x, y, z] if v.iter().all(|c| c.is_finite() && c.abs() <= 1e15) => Ok(glam::DVec3::new(x, y, z)),
+        _ => Err(format!("expected three finite numbers x,y,z of at most 1e15, got '{text}'")),
+    }
+}
+
 fn parse_vec3(text: &str) -> Result<glam::Vec3, String> {
     let v: Vec<f32> = text.split(',').map(|p| p.trim().parse::<f32>().map_err(|e| format!("'{p}': {e}"))).collect::<Result<_, _>>()?;
     match v[..] {
@@ -397,6 +413,7 @@ fn render(args: RenderArgs) -> Result<(), String> {
         return Ok(());
     }
     let mut scene = load(&args.scene)?;
+    scene.origin = args.offset.unwrap_or_default();
     if let (Some(position), Some(target)) = (args.camera_position, args.camera_target) {
         if !(args.fov > 0.0 && args.fov < 180.0) {
             return Err(format!("--fov must be between 0 and 180 degrees, got {}", args.fov));
@@ -626,7 +643,9 @@ fn main() -> ExitCode {
             experiments,
             out,
             cache,
-        } => load(&scene).and_then(|description| {
+            offset,
+        } => load(&scene).and_then(|mut description| {
+            description.origin = offset.unwrap_or_default();
             let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
             let default_out = PathBuf::from("out/eval").join(scene.replace(['/', '\\', '.'], "_"));
             let out = out.unwrap_or_else(|| if time_series { default_out.join("time_series") } else { default_out });

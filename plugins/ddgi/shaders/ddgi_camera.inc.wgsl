@@ -7,8 +7,9 @@ struct DdgiGatherParams {
     first_volume: u32,
     // composite_debug: 1 direct light only, 2 albedo, 3 normals.
     debug_view: u32,
-    _pad1: u32,
-    _pad2: u32,
+    // Sky light at pixels no volume covers (ddgi::DdgiSkyLight): visibility rays (0: off) and reach.
+    sky_rays: u32,
+    sky_distance: f32,
 }
 
 @group(2) @binding(0) var<uniform> ddgi_gather_params: DdgiGatherParams;

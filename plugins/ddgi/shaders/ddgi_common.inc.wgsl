@@ -69,6 +69,14 @@ struct DdgiVolumeGpu {
     // Weight of the old value in the slower average of each texel's change (settled_error); < 0:
     // resting decided by the error itself.
     rest_smoothing: f32,
+    // Toroidal addressing of a volume that scrolls: the probe at grid coordinates c (from the
+    // volume's origin) lives at index ddgi_probe_index(c), its coordinates shifted by `scroll`
+    // modulo the counts. (0, 0, 0) for a volume that never scrolled.
+    scroll: vec3<u32>,
+    // A cascade's blend band, in cells: its weight falls from 1 to 0 over this many cells inside
+    // its outer probes, and it fills only what the volumes gathered before it left (nested
+    // blending). 0: a fixed volume (weight 1 inside its bounds, fading one cell outside).
+    cascade_blend: f32,
 }
 
 // Per-probe state: relocation and classification write offset and state, the irradiance update
@@ -226,14 +234,18 @@ fn ddgi_spherical_fibonacci(i: u32, n: u32) -> vec3<f32> {
 // ---------------------------------------------------------------------------------------------
 // Probes
 
+// Grid coordinates (from the volume's origin) of the probe stored at index p.
 fn ddgi_probe_coords(p: u32) -> vec3<u32> {
-    let c = ddgi_volume.counts;
-    return vec3<u32>(p % c.x, (p / c.x) % c.y, p / (c.x * c.y));
+    let c = max(ddgi_volume.counts, vec3<u32>(1u));
+    let stored = vec3<u32>(p % c.x, (p / c.x) % c.y, p / (c.x * c.y));
+    return (stored + c - ddgi_volume.scroll % c) % c;
 }
 
+// Index of the probe at grid coordinates `coords` (each below the counts).
 fn ddgi_probe_index(coords: vec3<u32>) -> u32 {
-    let c = ddgi_volume.counts;
-    return coords.x + c.x * (coords.y + c.y * coords.z);
+    let c = max(ddgi_volume.counts, vec3<u32>(1u));
+    let stored = (coords + ddgi_volume.scroll % c) % c;
+    return stored.x + c.x * (stored.y + c.y * stored.z);
 }
 
 fn ddgi_probe_position(p: u32) -> vec3<f32> {

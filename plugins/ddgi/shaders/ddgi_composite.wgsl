@@ -1,6 +1,46 @@
 // DDGI pass `ddgi_composite`: the gathered indirect light (albedo / π × irradiance) added to the
-// direct light, or one of the debug views.
+// direct light, or one of the debug views. Where no volume covers a pixel's surface (or covers it
+// only in part), the sky's irradiance times a short-range visibility fills the rest.
 #include "ddgi_camera.inc.wgsl"
+#include "ray_tracing.inc.wgsl"
+
+fn ddgi_hash(x_in: u32) -> u32 {
+    var x = x_in;
+    x ^= x >> 16u;
+    x *= 0x7feb352du;
+    x ^= x >> 15u;
+    x *= 0x846ca68bu;
+    x ^= x >> 16u;
+    return x;
+}
+
+// The sky's irradiance at surface point p (normal n) times its visibility: the cosine-weighted
+// share of `sky_rays` stratified rays (spherical Fibonacci over the hemisphere, turned by a
+// per-pixel angle) that travel sky_distance without a hit.
+fn ddgi_sky_irradiance(pixel: vec2<u32>, p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    let count = ddgi_gather_params.sky_rays;
+    let sky = sanitize_radiance(view.sky_radiance);
+    if count == 0u || !(max(sky.x, max(sky.y, sky.z)) > 0.0) {
+        return vec3<f32>(0.0);
+    }
+    let view_distance = length(p - view.camera_position);
+    let origin = offset_ray_origin(p + n * (1e-4 * view_distance), n);
+    let tangent = safe_normalize(cross(select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.9), n), vec3<f32>(1.0, 0.0, 0.0));
+    let bitangent = cross(n, tangent);
+    let turn = f32(ddgi_hash(pixel.x * 7919u + pixel.y * 104729u)) / 4294967296.0;
+    var open = 0u;
+    for (var k = 0u; k < count; k++) {
+        // Cosine-distributed: uniform over the unit disc, lifted onto the hemisphere.
+        let u = (f32(k) + 0.5) / f32(count);
+        let phi = 2.0 * PI * fract(f32(k) * 0.618033988749895 + turn);
+        let r = sqrt(u);
+        let d = tangent * (r * cos(phi)) + bitangent * (r * sin(phi)) + n * sqrt(max(1.0 - u, 0.0));
+        if !trace_any(Ray(origin, 0.0, d, ddgi_gather_params.sky_distance)) {
+            open += 1u;
+        }
+    }
+    return PI * sky * (f32(open) / f32(count));
+}
 
 // albedo / π × the irradiance of the volumes at a pixel (0 where there is no surface).
 fn ddgi_indirect_radiance(id: vec2<u32>) -> vec3<f32> {
@@ -9,8 +49,15 @@ fn ddgi_indirect_radiance(id: vec2<u32>) -> vec3<f32> {
         return vec3<f32>(0.0);
     }
     let acc = ddgi_indirect[id.y * view.size.x + id.x];
-    // Outside every volume the indirect light fades out (the weights sum to less than 1).
-    let irradiance = acc.rgb / max(acc.w, 1.0);
+    // Outside every volume the probes' light fades out (the weights sum to less than 1), and the
+    // sky light fills the share they leave.
+    var irradiance = acc.rgb / max(acc.w, 1.0);
+    let uncovered = 1.0 - clamp(acc.w, 0.0, 1.0);
+    if uncovered > 0.0 {
+        let p = view_world_position(id, depth);
+        let n = safe_normalize(textureLoad(gbuffer_normal, id, 0).xyz, vec3<f32>(0.0, 1.0, 0.0));
+        irradiance += uncovered * ddgi_sky_irradiance(id, p, n);
+    }
     let albedo = textureLoad(gbuffer_albedo, id, 0).rgb;
     return albedo * INV_PI * irradiance;
 }

@@ -3,14 +3,42 @@
 #include "ddgi_sampling.inc.wgsl"
 #include "ddgi_camera.inc.wgsl"
 
-// 1 inside the volume's bounds (half a cell beyond the outer probes), fading to 0 one cell outside.
+// A fixed volume: 1 inside its bounds (half a cell beyond the outer probes), fading to 0 one cell
+// outside. A cascade (cascade_blend > 0): 1 more than cascade_blend cells inside its outer probes,
+// falling to 0 at them, so that the next cascade out takes over while this one still has probes
+// on both sides of the point.
 fn ddgi_volume_weight(p: vec3<f32>) -> f32 {
     let v = ddgi_volume;
+    let cell = max(v.spacing, vec3<f32>(1e-30));
+    if v.cascade_blend > 0.0 {
+        let lo = v.origin;
+        let hi = v.origin + v.spacing * (vec3<f32>(v.counts) - 1.0);
+        let inside = min(p - lo, hi - p) / cell;
+        let w = clamp(inside / v.cascade_blend, vec3<f32>(0.0), vec3<f32>(1.0));
+        return w.x * w.y * w.z;
+    }
     let lo = v.origin - v.spacing * 0.5;
     let hi = v.origin + v.spacing * (vec3<f32>(v.counts) - 0.5);
-    let outside = max(max(lo - p, p - hi), vec3<f32>(0.0)) / max(v.spacing, vec3<f32>(1e-30));
+    let outside = max(max(lo - p, p - hi), vec3<f32>(0.0)) / cell;
     let w = clamp(vec3<f32>(1.0) - outside, vec3<f32>(0.0), vec3<f32>(1.0));
     return w.x * w.y * w.z;
+}
+
+// Adds this volume's irradiance `e` with weight `w` to a pixel's accumulation (Σ w·E, Σ w). Fixed
+// volumes add up (the composite divides by the total when it exceeds 1); the host gathers them
+// first, then the cascades from the finest out, each of which fills only the share the volumes
+// before it left: its weight is w · (1 − Σ w so far), so the weights of a point in a blend band sum
+// to 1 and the finest cascade that covers a point decides it.
+fn ddgi_accumulate(acc_in: vec4<f32>, e: vec3<f32>, w: f32) -> vec4<f32> {
+    if ddgi_volume.cascade_blend <= 0.0 {
+        return acc_in + vec4<f32>(w * e, w);
+    }
+    var acc = acc_in;
+    if acc.w > 1.0 {
+        acc = acc / acc.w;
+    }
+    let share = w * max(1.0 - acc.w, 0.0);
+    return acc + vec4<f32>(share * e, share);
 }
 
 // Marks (DDGI_PROBE_SEEN) the probes of the cage around surface point p, normal n, that face it and
@@ -43,10 +71,12 @@ fn gather_irradiance(@builtin(global_invocation_id) id: vec3<u32>) {
     if depth > 0.0 {
         let p = view_world_position(id.xy, depth);
         let w = ddgi_volume_weight(p);
-        if w > 0.0 {
+        // A point the volumes gathered before this cascade already cover takes nothing from it.
+        let covered = ddgi_volume.cascade_blend > 0.0 && acc.w >= 1.0;
+        if w > 0.0 && !covered {
             let n = safe_normalize(textureLoad(gbuffer_normal, id.xy, 0).xyz, vec3<f32>(0.0, 1.0, 0.0));
             let to_viewer = safe_normalize(view.camera_position - p, n);
-            acc += vec4<f32>(w * ddgi_sample_irradiance(p, n, to_viewer), w);
+            acc = ddgi_accumulate(acc, ddgi_sample_irradiance(p, n, to_viewer), w);
             ddgi_mark_seen_probes(p, n);
         }
     }

@@ -50,7 +50,14 @@ fn ddgi_hysteresis(data: DdgiProbeData) -> f32 {
     if (data.state & DDGI_PROBE_FRESH) != 0u {
         return 0.0;
     }
-    let h = clamp(ddgi_volume.hysteresis, 0.0, 1.0);
+    var h = clamp(ddgi_volume.hysteresis, 0.0, 1.0);
+    if ddgi_has(DDGI_WARM_UP) {
+        // The first updates after the probe was fresh blend as a running mean of its estimates (the
+        // k-th weighs 1/k), until that is slower than the hysteresis: a reset probe converges as
+        // fast as its noise allows instead of keeping most of its first estimate for long.
+        let k = f32(data.updates) + 1.0;
+        h = min(h, k / (k + 1.0));
+    }
     if !ddgi_has(DDGI_ADAPTIVE) {
         return h;
     }

@@ -53,6 +53,32 @@ impl DdgiOutput {
     }
 }
 
+/// Sky light beyond the volumes: a surface point that no volume or cascade covers (or covers only
+/// in part, across a volume's fading edge) gets, for the share left uncovered, the sky's
+/// irradiance (π × the sky radiance of [`engine::render::SkyRadiance`]) times its visibility: the
+/// cosine-weighted share of `rays` short rays from the point that reach `max_distance` without a
+/// hit (ambient occlusion). Such points are never black under a lit sky, and the light fades into
+/// the volumes' own with no seam. The rays are traced only at uncovered pixels, and not at all
+/// when the sky is black.
+#[derive(Resource, Clone, Copy, Debug, PartialEq)]
+pub struct DdgiSkyLight {
+    /// Visibility rays per uncovered pixel (0: off, such points get no indirect light). More: less
+    /// noise, proportionally more cost at those pixels.
+    pub rays: u32,
+    /// Reach of the visibility rays, in world units; `None`: a tenth of the scene's largest extent.
+    /// Longer: large occluders darken more (a cave, an overhang); shorter: only contact shadows.
+    pub max_distance: Option<f32>,
+}
+
+impl Default for DdgiSkyLight {
+    fn default() -> Self {
+        Self { rays: 8, max_distance: None }
+    }
+}
+
+/// Most visibility rays of [`DdgiSkyLight`] per pixel.
+pub const MAX_SKY_RAYS: u32 = 64;
+
 /// What the probe debug view paints on each probe's sphere.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum DdgiProbeColor {

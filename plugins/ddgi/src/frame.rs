@@ -173,6 +173,7 @@ pub struct DdgiFrame<'w> {
     pub volumes: ResMut<'w, DdgiGpuVolumes>,
     pub output: Res<'w, DdgiOutput>,
     pub probe_view: Option<Res<'w, DdgiProbeView>>,
+    pub sky_light: Option<Res<'w, crate::DdgiSkyLight>>,
 }
 
 impl DdgiFrame<'_> {
@@ -186,6 +187,13 @@ impl DdgiFrame<'_> {
         for (k, (_, volume)) in self.volumes.volumes.iter().enumerate() {
             let suffix = if several { format!("_{k}") } else { String::new() };
             let mut handles = VolumeHandles::import(graph, k, suffix, volume, &self.pipelines.sampler);
+            if !volume.updates_this_frame {
+                for pass in ["ddgi_budget", "ddgi_trace", "ddgi_probe_update"] {
+                    graph.leave_out(&format!("{pass}{}", handles.suffix), "the volume's update period skips this frame");
+                }
+                out.push(handles);
+                continue;
+            }
             match add_volume_update(graph, frame, &mut self.pipelines, specialization, volume, &mut handles) {
                 Ok(()) => out.push(handles),
                 Err(e) => log::error!("DDGI pipelines failed, the volume is off: {e}"),
@@ -274,9 +282,8 @@ impl DdgiFrame<'_> {
             ("gbuffer_depth", Bind::texture(pass.read(&gbuffer.depth))),
             ("gbuffer_albedo", Bind::texture(pass.read(&gbuffer.albedo))),
         ];
-        if debug {
-            group2.push(("gbuffer_normal", Bind::texture(pass.read(&gbuffer.normal))));
-        }
+        // The debug views draw the normals; the sky light traces from them.
+        group2.push(("gbuffer_normal", Bind::texture(pass.read(&gbuffer.normal))));
         if full || debug {
             group2.push(("direct_in", Bind::texture(pass.read(direct))));
         }
@@ -326,13 +333,23 @@ impl DdgiFrame<'_> {
         for (_, v) in self.volumes.volumes.iter_mut() {
             v.frames += 1;
             v.readback.request(&frame.gpu, &v.probes, frame_index);
-            v.counter_readback.request(&frame.gpu, &v.counters, frame_index);
+            // A frame the update period skips traced nothing: its counters are the last update's.
+            if v.updates_this_frame {
+                v.counter_readback.request(&frame.gpu, &v.counters, frame_index);
+            }
         }
     }
 
     /// This frame's gather parameters, as a uniform in the graph.
     fn gather_params(&self, graph: &mut RenderGraph, frame: &CameraFrame, first: bool) -> Handle<GraphBuffer> {
-        let p = DdgiGatherParams { first_volume: u32::from(first), debug_view: self.output.debug_view().unwrap_or(0), _pad1: 0, _pad2: 0 };
+        let sky = self.sky_light.as_deref().copied().unwrap_or_default();
+        let reach = sky.max_distance.unwrap_or_else(|| 0.1 * self.volumes.scene_extent().unwrap_or(0.0));
+        let p = DdgiGatherParams {
+            first_volume: u32::from(first),
+            debug_view: self.output.debug_view().unwrap_or(0),
+            sky_rays: sky.rays.min(crate::debug_view::MAX_SKY_RAYS),
+            sky_distance: if reach.is_finite() && reach > 0.0 { reach } else { crate::gpu::UNBOUNDED_RAY },
+        };
         let buffer = frame.gpu.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("ddgi_gather_params"),
             size: size_of::<DdgiGatherParams>() as u64,

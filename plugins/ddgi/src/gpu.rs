@@ -46,6 +46,10 @@ pub struct DdgiVolumeGpu {
     pub rest_error: f32,
     pub hysteresis_exponent: f32,
     pub rest_smoothing: f32,
+    /// Toroidal shift of a scrolled volume's probe indices ([`DdgiLayout::scroll`]).
+    pub scroll: [u32; 3],
+    /// A cascade's blend band in cells; 0 for a fixed volume.
+    pub cascade_blend: f32,
 }
 
 #[repr(C)]
@@ -133,8 +137,10 @@ pub struct DdgiGatherParams {
     pub first_volume: u32,
     /// `composite_debug`: 1 direct light only, 2 albedo, 3 normals.
     pub debug_view: u32,
-    pub _pad1: u32,
-    pub _pad2: u32,
+    /// Visibility rays of the sky light at uncovered pixels ([`crate::DdgiSkyLight`]; 0: off).
+    pub sky_rays: u32,
+    /// Their reach in world units.
+    pub sky_distance: f32,
 }
 
 /// Parameters of the probe debug view (`ddgi_probe_spheres.wgsl`).
@@ -168,6 +174,8 @@ pub const WEIGHT_TRILINEAR: u32 = 16;
 pub const RELOCATION: u32 = 32;
 pub const CLASSIFICATION: u32 = 64;
 pub const ADAPTIVE: u32 = 128;
+/// A fresh probe's first updates blend as a running mean ([`crate::DdgiVolume::warm_up`]).
+pub const WARM_UP: u32 = 256;
 
 /// `DdgiProbeData::pinned_rays` of a probe whose ray count is not pinned.
 pub const NO_PIN: u32 = u32::MAX;
@@ -229,6 +237,7 @@ const SHARED_CONSTANTS: &[(&str, WgslValue)] = &[
     ("DDGI_RELOCATION", WgslValue::U32(RELOCATION)),
     ("DDGI_CLASSIFICATION", WgslValue::U32(CLASSIFICATION)),
     ("DDGI_ADAPTIVE", WgslValue::U32(ADAPTIVE)),
+    ("DDGI_WARM_UP", WgslValue::U32(WARM_UP)),
     ("DDGI_NO_PIN", WgslValue::U32(NO_PIN)),
     ("DDGI_NO_PROBE", WgslValue::U32(NO_PROBE)),
     ("DDGI_PIN_ACTIVE", WgslValue::U32(PIN_ACTIVE)),
@@ -276,7 +285,7 @@ impl DdgiVolumeGpu {
     /// The uniform of one frame: `rotation` turns the ray directions, `sky` is the miss radiance.
     /// The settings are taken as [`DdgiVolume::validate`] passed them (no clamping here); the budget
     /// pass bounds the ray counts by `rays_per_probe` itself.
-    pub fn new(volume: &DdgiVolume, layout: &DdgiLayout, rotation: glam::Mat3, sky: glam::Vec3, recheck: bool) -> Self {
+    pub fn new(volume: &DdgiVolume, layout: &DdgiLayout, rotation: glam::Mat3, sky: glam::Vec3, recheck: bool, cascade_blend: f32) -> Self {
         let w = volume.weights;
         let a = &volume.adaptive;
         let flags = [
@@ -288,6 +297,7 @@ impl DdgiVolumeGpu {
             (volume.relocation, RELOCATION),
             (volume.classification, CLASSIFICATION),
             (volume.adaptive.enabled, ADAPTIVE),
+            (volume.warm_up, WARM_UP),
         ]
         .iter()
         .filter(|(on, _)| *on)
@@ -330,6 +340,8 @@ impl DdgiVolumeGpu {
             rest_error: a.rest_error,
             hysteresis_exponent: a.hysteresis_exponent,
             rest_smoothing: a.rest_smoothing.unwrap_or(-1.0),
+            scroll: layout.scroll.to_array(),
+            cascade_blend,
         }
     }
 }
@@ -356,7 +368,7 @@ pub fn gpu_structs() -> Vec<engine::shader::HostStruct> {
             view_bias, distance_sharpness, max_ray_distance, distance_scale, irradiance_texels, distance_texels, tiles_per_row,
             firefly_threshold, backface_threshold, min_frontface_distance, recheck, irradiance_atlas_size, distance_atlas_size,
             min_rays, recheck_rays, error_target, error_decay, error_smoothing, error_floor, dark_fraction, frame_budget,
-            max_rest_frames, rest_error, hysteresis_exponent, rest_smoothing,
+            max_rest_frames, rest_error, hysteresis_exponent, rest_smoothing, scroll, cascade_blend,
         }),
         layout!(DdgiProbeData in "ddgi_common.inc.wgsl" {
             offset, state, error, ray_count, ray_offset, luma, pinned_rays, pinned_state, empty_rays, rest, settled_error, updates,
@@ -368,7 +380,7 @@ pub fn gpu_structs() -> Vec<engine::shader::HostStruct> {
             dispatch, total_rays, probe_dispatch, updated_probes, max_luma, budget_scale, _pad0, _pad1,
         }),
         layout!(DdgiBlock in "ddgi_common.inc.wgsl" { rays, unscaled_rays, max_luma, offset, probes, probe_offset }),
-        layout!(DdgiGatherParams in "ddgi_camera.inc.wgsl" { first_volume, debug_view, _pad1, _pad2 }),
+        layout!(DdgiGatherParams in "ddgi_camera.inc.wgsl" { first_volume, debug_view, sky_rays, sky_distance }),
         layout!(DdgiProbeViewParams in "ddgi_probe_spheres.wgsl" { mode, selected, radius, max_rays, max_error, _pad0, _pad1, _pad2 }),
     ]
 }

@@ -51,6 +51,7 @@
 //! `ddgi_gather → ddgi_composite`. Shaders: `plugins/ddgi/shaders/`, one file per pass ([`SHADERS`]).
 
 pub mod atlas;
+pub mod cascades;
 pub mod debug_view;
 pub mod frame;
 pub mod gpu;
@@ -65,7 +66,8 @@ use engine::gpu::GpuContext;
 use engine::render::gpu_scene::{flush_uploads, prepare_gpu_scene};
 use engine::render::{FrameScript, frame_script_is};
 
-pub use debug_view::{DdgiOutput, DdgiProbeColor, DdgiProbeView};
+pub use cascades::{DdgiCascade, DdgiCascades, DdgiFirstCameraCascades};
+pub use debug_view::{DdgiOutput, DdgiProbeColor, DdgiProbeView, DdgiSkyLight};
 pub use frame::{DdgiFrame, VolumeHandles, render_ddgi_frame};
 pub use pipelines::DdgiPipelines;
 pub use resources::{DdgiGpuVolumes, VolumeGpu};
@@ -120,14 +122,21 @@ impl Plugin for DdgiPlugin {
         app.insert_resource(pipelines)
             .init_resource::<DdgiGpuVolumes>()
             .init_resource::<DdgiOutput>()
+            .init_resource::<DdgiSkyLight>()
             .add_systems(
                 engine::app::Prepare,
-                (sync::read_back_ddgi_probes, resources::prepare_ddgi_volumes, sync::upload_ddgi_probe_pins)
+                (sync::read_back_ddgi_probes, cascades::follow_ddgi_cascades, resources::prepare_ddgi_volumes, sync::upload_ddgi_probe_pins)
                     .chain()
                     .after(prepare_gpu_scene),
             )
             .add_systems(engine::app::Render, frame::render_ddgi_frame.run_if(frame_script_is(FRAME_SCRIPT)).after(flush_uploads));
     }
+}
+
+/// Adds DDGI to `app` with cascades that follow the first camera ([`DdgiCascades`] as a resource)
+/// and makes `"ddgi"` the frame script, writing `output`.
+pub fn use_ddgi_cascades(app: &mut App, cascades: DdgiCascades, output: DdgiOutput) {
+    app.insert_resource(FrameScript(FRAME_SCRIPT)).insert_resource(output).insert_resource(cascades::DdgiFirstCameraCascades(cascades)).add_plugins(DdgiPlugin);
 }
 
 /// Adds DDGI to `app`, spawns `volume` and makes `"ddgi"` the frame script, writing `output`.

@@ -11,9 +11,11 @@ use engine::render::readback::ReadbackRing;
 use engine::rng::SplitMix64;
 use engine::scene::{Assets, Image, Material, Mesh};
 use engine::wgpu;
-use glam::{Mat3, Quat, Vec3};
+use engine::scene::RenderOrigin;
+use glam::{DVec3, IVec3, Mat3, Quat, Vec3};
 
 use crate::gpu::{DdgiCounters, DdgiProbeData, DdgiVolumeGpu, MAX_IRRADIANCE, PROBE_INACTIVE};
+use crate::cascades::DdgiCascade;
 use crate::volume::{DdgiLayout, DdgiLimits, DdgiProbe, DdgiProbeState, DdgiVolume};
 
 /// Format of both atlases (irradiance perceptually encoded; distances
@@ -56,10 +58,24 @@ pub struct VolumeGpu {
     pub(crate) counter_readback: ReadbackRing,
     /// The last probe data read back (offsets and states), by probe index.
     pub probe_data: Vec<DdgiProbeData>,
+    /// The volume's box in world space, in double precision; `layout` is in render space (less
+    /// the [`RenderOrigin`] it was laid out for, `render_origin`), and moves with it.
+    pub world_bounds: (DVec3, DVec3),
+    pub render_origin: DVec3,
+    /// Whether this frame updates the probes ([`DdgiVolume::update_period`]; the gather runs
+    /// every frame). Set by prepare.
+    pub updates_this_frame: bool,
+    /// Scrolls so far and the last one: `(frame, cells moved, probes reset)`.
+    pub scrolls: u64,
+    pub last_scroll: Option<(u64, IVec3, u32)>,
+    /// Where the gather takes the volume: fixed volumes first (by entity), then cascades from the
+    /// finest out ([`crate::DdgiCascade`]), and its blend band in cells (0 for a fixed volume).
+    pub order: (u32, Entity),
+    pub cascade_blend: f32,
 }
 
 impl VolumeGpu {
-    fn new(gpu: &GpuContext, settings: &DdgiVolume, layout: DdgiLayout) -> Self {
+    fn new(gpu: &GpuContext, settings: &DdgiVolume, layout: DdgiLayout, render_origin: DVec3) -> Self {
         use wgpu::BufferUsages as B;
         let device = &gpu.device;
         let buffer = |label: &str, size: u64, usage: B| {
@@ -92,8 +108,8 @@ impl VolumeGpu {
             lit: buffer("ddgi_lit", sizes.probe_words, B::STORAGE),
             rays: buffer("ddgi_rays", sizes.rays, B::STORAGE | B::COPY_SRC),
             radiance: buffer("ddgi_radiance", sizes.rays, B::STORAGE | B::COPY_SRC),
-            irradiance_history: buffer("ddgi_irradiance_history", sizes.irradiance_history, B::STORAGE),
-            distance_history: buffer("ddgi_distance_history", sizes.distance_history, B::STORAGE),
+            irradiance_history: buffer("ddgi_irradiance_history", sizes.irradiance_history, B::STORAGE | B::COPY_SRC),
+            distance_history: buffer("ddgi_distance_history", sizes.distance_history, B::STORAGE | B::COPY_SRC),
             irradiance,
             distance,
             frames: 0,
@@ -103,8 +119,83 @@ impl VolumeGpu {
             counter_readback: ReadbackRing::new("ddgi_counters_readback", 8),
             probe_data: initial,
             settings: settings.clone(),
+            world_bounds: (render_origin + layout.bounds.0.as_dvec3(), render_origin + layout.bounds.1.as_dvec3()),
+            render_origin,
+            updates_this_frame: true,
+            scrolls: 0,
+            last_scroll: None,
+            order: (0, Entity::PLACEHOLDER),
+            cascade_blend: 0.0,
             layout,
         }
+    }
+
+    /// Moves the grid by `cells` whole cells (toroidally: no probe's data moves). The probes that
+    /// stay keep their maps, offsets and states; those of the planes that entered (every probe
+    /// when a move reaches across the grid) are reset to new, fresh probes, which their next
+    /// update (this frame: a volume always updates when it scrolls) fills from scratch. Returns
+    /// how many were reset.
+    fn scroll(&mut self, gpu: &GpuContext, cells: IVec3, limits: DdgiLimits) -> u32 {
+        let counts = self.layout.counts.as_ivec3();
+        let spacing = (self.world_bounds.1 - self.world_bounds.0) / counts.as_dvec3();
+        let shift = cells.as_dvec3() * spacing;
+        self.world_bounds = (self.world_bounds.0 + shift, self.world_bounds.1 + shift);
+        let scroll = (self.layout.scroll.as_ivec3() + cells).rem_euclid(counts).as_uvec3();
+        let bounds = ((self.world_bounds.0 - self.render_origin).as_vec3(), (self.world_bounds.1 - self.render_origin).as_vec3());
+        match DdgiLayout::new(&self.settings, bounds, limits) {
+            Ok(layout) => self.layout = DdgiLayout { scroll, ..layout },
+            Err(e) => log::error!("DDGI volume after scrolling: {e}"),
+        }
+        // The probes whose grid coordinates entered: on an axis moved by k > 0, the last k planes;
+        // by k < 0, the first −k.
+        let entered = |g: glam::IVec3| {
+            (0..3).any(|a| {
+                let k = cells[a];
+                (k > 0 && g[a] >= counts[a] - k) || (k < 0 && g[a] < -k)
+            })
+        };
+        let mut reset = 0u32;
+        let mut run: Option<(u32, u32)> = None;
+        let stride = size_of::<DdgiProbeData>() as u64;
+        let flush = |run: (u32, u32)| {
+            let data = vec![DdgiProbeData::NEW; (run.1 - run.0) as usize];
+            gpu.queue.write_buffer(&self.probes, u64::from(run.0) * stride, bytemuck::cast_slice(&data));
+        };
+        for index in 0..self.layout.probe_count {
+            if !entered(self.layout.probe_grid(index).as_ivec3()) {
+                continue;
+            }
+            reset += 1;
+            self.probe_data[index as usize] = DdgiProbeData::NEW;
+            run = match run {
+                Some((a, b)) if b == index => Some((a, index + 1)),
+                Some(r) => {
+                    flush(r);
+                    Some((index, index + 1))
+                }
+                None => Some((index, index + 1)),
+            };
+        }
+        if let Some(r) = run {
+            flush(r);
+        }
+        self.scrolls += 1;
+        self.last_scroll = Some((self.frames, cells, reset));
+        reset
+    }
+
+    /// Lays the probes out again in render space after the [`RenderOrigin`] moved: the same grid
+    /// at the same world place, so every probe keeps its maps.
+    fn follow_render_origin(&mut self, origin: DVec3, limits: DdgiLimits) {
+        if origin == self.render_origin {
+            return;
+        }
+        let bounds = ((self.world_bounds.0 - origin).as_vec3(), (self.world_bounds.1 - origin).as_vec3());
+        match DdgiLayout::new(&self.settings, bounds, limits) {
+            Ok(layout) => self.layout = layout,
+            Err(e) => log::error!("DDGI volume after the render origin moved: {e}"),
+        }
+        self.render_origin = origin;
     }
 
     pub fn probe_state(&self, index: usize) -> DdgiProbeState {
@@ -123,6 +214,9 @@ pub struct DdgiGpuVolumes {
     errors: HashMap<Entity, String>,
     /// Local bounds of each mesh, computed once.
     mesh_bounds: HashMap<u32, Option<(Vec3, Vec3)>>,
+    /// The largest extent of the scene's instances, kept up to date while they change.
+    scene_extent: Option<f32>,
+    scene_extent_known: bool,
     /// Warnings about the scene ([`divergence_warnings`]) and the material generation they are of.
     warnings: Vec<String>,
     warned_generation: Option<u64>,
@@ -180,12 +274,18 @@ impl DdgiGpuVolumes {
         &self.warnings
     }
 
+    /// The largest extent of the scene's instances' bounds (`None`: no geometry).
+    pub fn scene_extent(&self) -> Option<f32> {
+        self.scene_extent
+    }
+
     /// Any volume's settings error (for tools that run a single volume).
     pub fn first_error(&self) -> Option<&str> {
         self.errors.values().next().map(String::as_str)
     }
 
-    fn scene_bounds(&mut self, scene: &GpuScene, meshes: &Assets<Mesh>) -> Option<(Vec3, Vec3)> {
+    /// The render-space bounds of the scene's instances.
+    pub fn scene_bounds(&mut self, scene: &GpuScene, meshes: &Assets<Mesh>) -> Option<(Vec3, Vec3)> {
         let mut out: Option<(Vec3, Vec3)> = None;
         for (_, mesh, transform) in scene.live_instances() {
             let local = *self.mesh_bounds.entry(mesh).or_insert_with(|| {
@@ -206,6 +306,20 @@ impl DdgiGpuVolumes {
     }
 }
 
+/// Whether `new` bounds are `old` moved by whole cells of a grid of `counts` (the same size, every
+/// corner within a thousandth of a cell of a whole step): the cells moved, or `None`.
+pub fn scroll_cells(old: (Vec3, Vec3), new: (Vec3, Vec3), counts: glam::UVec3) -> Option<IVec3> {
+    let size = (old.1 - old.0).as_dvec3();
+    let new_size = (new.1 - new.0).as_dvec3();
+    let cell = size / counts.max(glam::UVec3::ONE).as_dvec3();
+    if cell.min_element() <= 0.0 || ((new_size - size).abs().cmpgt(cell * 1e-3)).any() {
+        return None;
+    }
+    let steps = (new.0.as_dvec3() - old.0.as_dvec3()) / cell;
+    let whole = steps.round();
+    ((steps - whole).abs().max_element() < 1e-3 && whole.abs().max_element() < 1e9).then(|| whole.as_ivec3())
+}
+
 fn random_rotation(rng: &mut SplitMix64) -> Mat3 {
     // Shoemake's uniform random unit quaternion.
     let (u1, u2, u3) = (rng.unit(), rng.unit() * std::f32::consts::TAU, rng.unit() * std::f32::consts::TAU);
@@ -215,8 +329,12 @@ fn random_rotation(rng: &mut SplitMix64) -> Mat3 {
 
 /// Whether two settings need the same resources (probe layout, ray count, map sizes).
 fn same_resources(a: &DdgiVolume, b: &DdgiVolume) -> bool {
-    a.bounds == b.bounds
-        && a.probe_counts == b.probe_counts
+    a.bounds == b.bounds && same_grid(a, b)
+}
+
+/// The same grid but for its place: same counts, rays, map sizes and seed.
+fn same_grid(a: &DdgiVolume, b: &DdgiVolume) -> bool {
+    a.probe_counts == b.probe_counts
         && a.rays_per_probe == b.rays_per_probe
         && a.irradiance_texels == b.irradiance_texels
         && a.distance_texels == b.distance_texels
@@ -235,10 +353,13 @@ pub fn prepare_ddgi_volumes(
     meshes: Res<Assets<Mesh>>,
     materials: Res<Assets<Material>>,
     images: Res<Assets<Image>>,
-    volumes: Query<(Entity, &DdgiVolume)>,
+    volumes: Query<(Entity, &DdgiVolume, Option<&DdgiCascade>)>,
     mut state: ResMut<DdgiGpuVolumes>,
+    render_origin: Option<Res<RenderOrigin>>,
+    time: Option<Res<engine::app::Time>>,
 ) {
     let state = &mut *state;
+    let origin = render_origin.map_or(DVec3::ZERO, |o| o.origin);
     if !volumes.is_empty() && state.warned_generation != Some(materials.generation()) {
         state.warned_generation = Some(materials.generation());
         let warnings = divergence_warnings(&materials, &images);
@@ -256,18 +377,33 @@ pub fn prepare_ddgi_volumes(
         }
         keep
     });
-    let mut list: Vec<(Entity, &DdgiVolume)> = volumes.iter().collect();
-    list.sort_by_key(|(e, _)| *e);
+    let mut list: Vec<(Entity, &DdgiVolume, Option<&DdgiCascade>)> = volumes.iter().collect();
+    list.sort_by_key(|(e, _, _)| *e);
+    let frame = time.map_or(0, |t| t.frame);
+    let limits = DdgiLimits::of(&gpu.device);
     let scene_changed = {
         let c = scene.instance_changes();
         c.structure_changed || !c.moved.is_empty()
     };
-    for (entity, volume) in list {
+    if scene_changed || !state.scene_extent_known {
+        state.scene_extent = state.scene_bounds(&scene, &meshes).map(|(lo, hi)| (hi - lo).max_element());
+        state.scene_extent_known = true;
+    }
+    for (entity, volume, cascade) in list {
         let existing = state.volumes.iter().position(|(e, _)| *e == entity);
-        let rebuild = existing.is_none_or(|i| !same_resources(&state.volumes[i].1.settings, volume));
+        // Bounds moved by whole cells of the same grid scroll it instead of building it anew.
+        let scroll = existing.and_then(|i| {
+            let old = &state.volumes[i].1.settings;
+            match (old.bounds, volume.bounds) {
+                (Some(a), Some(b)) if a != b && same_grid(old, volume) => scroll_cells(a, b, volume.probe_counts),
+                _ => None,
+            }
+        });
+        let rebuild = scroll.is_none() && existing.is_none_or(|i| !same_resources(&state.volumes[i].1.settings, volume));
         if rebuild {
+            // `DdgiVolume::bounds` are in the world; the scene's (from the instances) in render space.
             let bounds = match volume.bounds {
-                Some(b) => Some(b),
+                Some((lo, hi)) => Some(((lo.as_dvec3() - origin).as_vec3(), (hi.as_dvec3() - origin).as_vec3())),
                 None => state.scene_bounds(&scene, &meshes),
             };
             let layout = bounds
@@ -293,7 +429,7 @@ pub fn prepare_ddgi_volumes(
                     continue;
                 }
             };
-            let mut v = VolumeGpu::new(&gpu, volume, layout);
+            let mut v = VolumeGpu::new(&gpu, volume, layout, origin);
             v.probe_entities = (0..v.layout.probe_count)
                 .map(|i| {
                     commands
@@ -312,16 +448,22 @@ pub fn prepare_ddgi_volumes(
                 })
                 .collect();
             state.volumes.push((entity, v));
-            state.volumes.sort_by_key(|(e, _)| *e);
         }
         let Some((_, v)) = state.volumes.iter_mut().find(|(e, _)| *e == entity) else { continue };
         v.settings = volume.clone();
+        v.order = (cascade.map_or(0, |c| c.level + 1), entity);
+        v.cascade_blend = cascade.map_or(0.0, |c| c.blend_cells.max(1e-3));
+        v.follow_render_origin(origin, limits);
+        let scrolled = scroll.is_some_and(|cells| v.scroll(&gpu, cells, limits) > 0 || cells != IVec3::ZERO);
+        let period = u64::from(volume.update_period.max(1));
+        v.updates_this_frame = scrolled || v.frames < 2 || (frame + u64::from(volume.update_phase)) % period == 0;
         let interval = u64::from(volume.recheck_interval);
         let recheck = scene_changed || (interval > 0 && v.frames % interval == 0);
         let rotation = random_rotation(&mut v.rng);
-        let uniform = DdgiVolumeGpu::new(volume, &v.layout, rotation, volume.sky_radiance.unwrap_or(sky.0), recheck);
+        let uniform = DdgiVolumeGpu::new(volume, &v.layout, rotation, volume.sky_radiance.unwrap_or(sky.0), recheck, v.cascade_blend);
         gpu.queue.write_buffer(&v.uniform, 0, bytemuck::bytes_of(&uniform));
     }
+    state.volumes.sort_by_key(|(_, v)| v.order);
 }
 
 #[cfg(test)]

@@ -39,6 +39,7 @@ pub fn read_back_ddgi_probes(
             let d = v.probe_data[i];
             let offset = Vec3::from_array(d.offset);
             let next = DdgiProbe {
+                grid: v.layout.probe_grid(i as u32),
                 offset,
                 position: v.layout.grid_position(i as u32) + offset,
                 state: v.probe_state(i),

@@ -154,7 +154,8 @@ impl DdgiAdaptive {
 /// whatever the grid.
 #[derive(Component, Clone, Debug, PartialEq)]
 pub struct DdgiVolume {
-    /// World-space box the probes fill, `(min, max)`; `None`: the bounds of the scene's instances.
+    /// World-space box the probes fill, `(min, max)` (world coordinates, not render space: see
+    /// [`engine::scene::RenderOrigin`]); `None`: the bounds of the scene's instances.
     /// Probes sit at the centres of `probe_counts` equal cells of the box.
     pub bounds: Option<(Vec3, Vec3)>,
     /// Probes along x, y and z (any size ≥ 1, not only powers of two).
@@ -208,6 +209,20 @@ pub struct DdgiVolume {
     pub adaptive: DdgiAdaptive,
     /// Seed of the per-frame random rotation of the ray directions.
     pub seed: u64,
+    /// A fresh probe (new, scrolled in, or switched back on) blends its first updates as a running
+    /// mean of its estimates — the k-th weighs 1/k — until that is slower than `hysteresis`
+    /// (G3D's just-woken probes converge this way): after k updates its maps hold k frames' worth
+    /// of rays instead of mostly the first frame's. Off (the default for a fixed volume, whose
+    /// behaviour it keeps), a fresh probe takes its first estimate and then the hysteresis.
+    /// On in [`crate::DdgiCascades`]' volumes, whose scrolled-in probes must converge fast. No cost.
+    pub warm_up: bool,
+    /// Update the probes only every this many frames (≥ 1; the gather still reads them every
+    /// frame): far cascades change slowly on screen and need fewer updates. A volume updates
+    /// whatever its period on the frame it scrolls and in its first frames.
+    pub update_period: u32,
+    /// Which frames of the period update: those where `(frame + update_phase) % update_period == 0`
+    /// (cascades take different phases so their updates do not fall on the same frames).
+    pub update_phase: u32,
 }
 
 impl Default for DdgiVolume {
@@ -234,6 +249,9 @@ impl Default for DdgiVolume {
             recheck_rays: 16,
             adaptive: DdgiAdaptive::default(),
             seed: 0xdd61,
+            warm_up: false,
+            update_period: 1,
+            update_phase: 0,
         }
     }
 }
@@ -329,6 +347,9 @@ impl DdgiVolume {
         if a.frame_budget == Some(0) {
             return Err(invalid("adaptive.frame_budget", 0, "must be positive (None: no limit)"));
         }
+        if !(1..=1024).contains(&self.update_period) {
+            return Err(invalid("update_period", self.update_period, "must be between 1 and 1024 frames"));
+        }
         if self.recheck_rays == 0 {
             return Err(invalid("recheck_rays", 0, "must be at least 1"));
         }
@@ -417,6 +438,10 @@ pub struct DdgiLayout {
     pub distance_atlas: UVec2,
     /// The size of every per-volume buffer: the limit checks and the allocation both read them here.
     pub sizes: DdgiBufferSizes,
+    /// Toroidal shift of the probe indices of a volume that has scrolled: the probe at grid
+    /// coordinates `c` is stored at the index of `(c + scroll) mod counts` ([`DdgiLayout::probe_index`]).
+    /// Scrolling by whole cells moves the grid without moving any probe's data.
+    pub scroll: UVec3,
 }
 
 /// Bytes of each per-volume GPU buffer, computed once per layout.
@@ -533,12 +558,22 @@ impl DdgiLayout {
             irradiance_atlas,
             distance_atlas,
             sizes,
+            scroll: UVec3::ZERO,
         })
     }
 
+    /// Grid coordinates (from `origin`) of the probe stored at `index`.
     pub fn probe_grid(&self, index: u32) -> UVec3 {
-        let c = self.counts;
-        UVec3::new(index % c.x, (index / c.x) % c.y, index / (c.x * c.y))
+        let c = self.counts.max(UVec3::ONE);
+        let stored = UVec3::new(index % c.x, (index / c.x) % c.y, index / (c.x * c.y));
+        (stored + c - self.scroll % c) % c
+    }
+
+    /// Index of the probe at grid coordinates `grid` (each below the counts).
+    pub fn probe_index(&self, grid: UVec3) -> u32 {
+        let c = self.counts.max(UVec3::ONE);
+        let stored = (grid + self.scroll % c) % c;
+        stored.x + c.x * (stored.y + c.y * stored.z)
     }
 
     /// Hit distances are clamped to this for the distance moments, and stored divided by it: 1.5

@@ -1,0 +1,234 @@
+//! Probe volumes that follow the camera: [`DdgiCascades`] on a camera (or as a resource, for the
+//! first camera) keeps N nested volumes centred on it, each with twice the probe spacing of the one
+//! inside it. When the camera crosses a cell of a cascade, that cascade *scrolls*: its bounds move
+//! by whole cells, which the prepare stage turns into a toroidal shift of the probe indices
+//! ([`crate::DdgiLayout::scroll`]) — the probes that stay keep their maps, the planes that entered
+//! are reset and converge fast ([`crate::DdgiVolume::warm_up`]). The gather takes the finest
+//! cascade that covers a point and blends into the next one across a band of
+//! [`DdgiCascades::blend_cells`] cells; far cascades update less often; fixed volumes keep working
+//! and are gathered first.
+
+use bevy_ecs::prelude::*;
+use engine::render::gpu_scene::GpuScene;
+use engine::scene::{Assets, Camera, GlobalTransform, Mesh, Name, RenderOrigin};
+use glam::{DVec3, UVec3};
+
+use crate::resources::DdgiGpuVolumes;
+use crate::volume::{DdgiVolume, MAX_PROBES};
+
+/// Most cascades.
+pub const MAX_CASCADES: u32 = 8;
+
+/// Nested probe volumes centred on a camera. Put it on a camera entity, or insert
+/// [`DdgiFirstCameraCascades`] to give it to the first camera ([`crate::use_ddgi_cascades`]).
+///
+/// Cost: each cascade is a volume of `probe_counts` probes, so `count` times the probes of one; far
+/// cascades update only every few frames (`max_update_period`), and with adaptive budgets
+/// (`volume.adaptive`) quiet probes rest. Memory: `count` times one volume's.
+#[derive(Component, Clone, Debug, PartialEq)]
+pub struct DdgiCascades {
+    /// Number of cascades, 1–8. `None`: as many as it takes for the coarsest cascade to reach the
+    /// whole scene from anywhere in it (half its width at least the scene's largest extent).
+    pub count: Option<u32>,
+    /// Probes of each cascade along x, y and z. More: finer light near the camera and a wider
+    /// reach, at proportionally more rays and memory.
+    pub probe_counts: UVec3,
+    /// Probe spacing of the finest cascade, in world units; cascade k has `spacing · 2^k`.
+    pub spacing: f32,
+    /// Width of the band, in cells of the finer cascade, over which a cascade fades into the next
+    /// one out (inside its outer probes). Wider: smoother transitions, less of each cascade used
+    /// at its full resolution.
+    pub blend_cells: f32,
+    /// Longest update period of a cascade, in frames: cascade k ≥ 1 updates every
+    /// `min(2^(k−1), max_update_period)` frames (the first two every frame). 1: all every frame.
+    pub max_update_period: u32,
+    /// Rays per frame over every cascade that updates in that frame (adaptive budgets), shared in
+    /// proportion to their probes. `None`: each cascade's `volume.adaptive.frame_budget`.
+    pub frame_budget: Option<u32>,
+    /// The settings every cascade's volume starts from (rays, hysteresis, weights, adaptive
+    /// budgets, relocation, classification); its `bounds`, `probe_counts` and update period are
+    /// set per cascade.
+    pub volume: DdgiVolume,
+}
+
+impl Default for DdgiCascades {
+    fn default() -> Self {
+        Self {
+            count: None,
+            probe_counts: UVec3::new(16, 8, 16),
+            spacing: 1.0,
+            blend_cells: 2.0,
+            max_update_period: 8,
+            frame_budget: None,
+            volume: DdgiVolume { warm_up: true, ..Default::default() },
+        }
+    }
+}
+
+impl DdgiCascades {
+    /// Checks the settings; the first problem is returned with its field and value.
+    pub fn validate(&self) -> Result<(), crate::DdgiSettingsError> {
+        let invalid = |field, value: String, reason| crate::DdgiSettingsError::Invalid { field, value, reason };
+        if let Some(n) = self.count
+            && !(1..=MAX_CASCADES).contains(&n)
+        {
+            return Err(invalid("DdgiCascades.count", n.to_string(), "must be between 1 and 8"));
+        }
+        if !(self.spacing.is_finite() && self.spacing > 0.0) {
+            return Err(invalid("DdgiCascades.spacing", format!("{:?}", self.spacing), "must be finite and positive"));
+        }
+        if !(self.blend_cells.is_finite() && self.blend_cells > 0.0) {
+            return Err(invalid("DdgiCascades.blend_cells", format!("{:?}", self.blend_cells), "must be finite and positive"));
+        }
+        let c = self.probe_counts;
+        if c.min_element() < 2 || u64::from(c.x) * u64::from(c.y) * u64::from(c.z) > u64::from(MAX_PROBES) {
+            return Err(invalid("DdgiCascades.probe_counts", format!("{c:?}"), "needs at least 2 probes per axis"));
+        }
+        if f64::from(self.blend_cells) * 2.0 >= f64::from(c.min_element() - 1) {
+            return Err(invalid("DdgiCascades.blend_cells", format!("{:?}", self.blend_cells), "must be under half the probes of the shortest axis"));
+        }
+        if self.max_update_period == 0 {
+            return Err(invalid("DdgiCascades.max_update_period", "0".into(), "must be at least 1"));
+        }
+        self.volume.validate()
+    }
+
+    /// Probe spacing of cascade `level`.
+    pub fn level_spacing(&self, level: u32) -> f64 {
+        f64::from(self.spacing) * f64::from(1u32 << level.min(31))
+    }
+
+    /// Update period of cascade `level`.
+    pub fn update_period(&self, level: u32) -> u32 {
+        if level < 2 { 1 } else { (1u32 << (level - 1).min(20)).min(self.max_update_period.max(1)) }
+    }
+
+    /// The number of cascades for a scene whose largest extent is `extent` ([`DdgiCascades::count`]).
+    pub fn resolved_count(&self, extent: Option<f32>) -> u32 {
+        if let Some(n) = self.count {
+            return n.clamp(1, MAX_CASCADES);
+        }
+        let reach = f64::from(self.probe_counts.min_element()) * f64::from(self.spacing) * 0.5;
+        let extent = f64::from(extent.unwrap_or(0.0).max(0.0));
+        (1..=MAX_CASCADES).find(|&n| reach * f64::from(1u32 << (n - 1)) >= extent).unwrap_or(MAX_CASCADES)
+    }
+
+    /// The world-space box of cascade `level` for a camera at `camera` (world coordinates), given
+    /// its current box's lowest corner (`None`: not placed yet): the grid snapped to whole cells
+    /// around the camera, moved only when the camera is more than three quarters of a cell from
+    /// its centre (so that a camera on a cell boundary does not scroll back and forth).
+    pub fn level_bounds(&self, level: u32, camera: DVec3, current: Option<DVec3>) -> (DVec3, DVec3) {
+        let cell = self.level_spacing(level);
+        let half = self.probe_counts.as_dvec3() * 0.5 * cell;
+        if let Some(lo) = current
+            && ((camera - (lo + half)).abs().cmple(DVec3::splat(0.75 * cell))).all()
+        {
+            return (lo, lo + half * 2.0);
+        }
+        let lo = ((camera - half) / cell).round() * cell;
+        (lo, lo + half * 2.0)
+    }
+}
+
+/// Cascades for the first camera that has no [`DdgiCascades`] of its own.
+#[derive(Resource, Clone, Debug, PartialEq)]
+pub struct DdgiFirstCameraCascades(pub DdgiCascades);
+
+/// One volume of a camera's cascades (spawned by [`follow_ddgi_cascades`]).
+#[derive(Component, Clone, Copy, Debug, PartialEq)]
+pub struct DdgiCascade {
+    /// The camera the cascade follows.
+    pub camera: Entity,
+    /// 0 for the finest.
+    pub level: u32,
+    /// The blend band, in this cascade's cells.
+    pub blend_cells: f32,
+}
+
+/// Prepare stage, before the volumes are prepared: spawns each camera's cascades (again when their
+/// settings change), places every cascade's box around its camera, and sets its update period and
+/// share of the frame budget.
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+pub fn follow_ddgi_cascades(
+    mut commands: Commands,
+    shared: Option<Res<DdgiFirstCameraCascades>>,
+    with_cascades: Query<(Entity, &DdgiCascades, &GlobalTransform), With<Camera>>,
+    cameras: Query<(Entity, &GlobalTransform), With<Camera>>,
+    mut volumes: Query<(Entity, &DdgiCascade, &mut DdgiVolume)>,
+    origin: Option<Res<RenderOrigin>>,
+    time: Option<Res<engine::app::Time>>,
+    scene: Res<GpuScene>,
+    meshes: Res<Assets<Mesh>>,
+    mut state: ResMut<DdgiGpuVolumes>,
+    mut errors: Local<Vec<String>>,
+) {
+    let origin = origin.map_or(DVec3::ZERO, |o| o.origin);
+    let frame = time.map_or(0, |t| t.frame);
+    let mut followed: Vec<(Entity, DdgiCascades, DVec3)> =
+        with_cascades.iter().map(|(e, c, t)| (e, c.clone(), origin + t.translation().as_dvec3())).collect();
+    if let Some(shared) = shared
+        && let Some((e, t)) = cameras.iter().find(|(e, _)| !followed.iter().any(|(f, _, _)| f == e))
+    {
+        followed.push((e, shared.0.clone(), origin + t.translation().as_dvec3()));
+    }
+    let mut extent: Option<Option<f32>> = None;
+    for (camera, cascades, position) in followed {
+        if let Err(e) = cascades.validate() {
+            let message = format!("DDGI cascades of camera {camera}: {e}; they are off");
+            if !errors.contains(&message) {
+                log::error!("{message}");
+                errors.push(message);
+            }
+            for (entity, c, _) in &volumes {
+                if c.camera == camera {
+                    commands.entity(entity).try_despawn();
+                }
+            }
+            continue;
+        }
+        let scene_extent = *extent.get_or_insert_with(|| state.scene_bounds(&scene, &meshes).map(|(lo, hi)| (hi - lo).max_element()));
+        let count = cascades.resolved_count(scene_extent);
+        let mine: Vec<Entity> = volumes.iter().filter(|(_, c, _)| c.camera == camera).map(|(e, _, _)| e).collect();
+        let template = |level: u32| DdgiVolume {
+            probe_counts: cascades.probe_counts,
+            update_period: cascades.update_period(level),
+            update_phase: level,
+            bounds: None,
+            ..cascades.volume.clone()
+        };
+        // The cascades are respawned when their number or blend band changes; every other setting
+        // is copied into them each frame (prepare rebuilds a volume whose grid changed, and scrolls
+        // one whose box moved by whole cells).
+        let stale = mine.len() != count as usize
+            || volumes.iter().filter(|(_, c, _)| c.camera == camera).any(|(_, c, _)| c.level >= count || c.blend_cells != cascades.blend_cells);
+        if stale {
+            for &e in &mine {
+                commands.entity(e).try_despawn();
+            }
+            for level in 0..count {
+                let (lo, hi) = cascades.level_bounds(level, position, None);
+                let volume = DdgiVolume { bounds: Some((lo.as_vec3(), hi.as_vec3())), ..template(level) };
+                let cascade = DdgiCascade { camera, level, blend_cells: cascades.blend_cells };
+                commands.spawn((volume, cascade, Name(format!("ddgi_cascade_{level}"))));
+            }
+            continue;
+        }
+        // The cascades that update this frame share the frame budget in proportion to their probes
+        // (every cascade has the same number).
+        let updating = (0..count).filter(|&k| (frame + u64::from(k)) % u64::from(cascades.update_period(k)) == 0).count().max(1);
+        let budget = cascades.frame_budget.map(|total| (total / updating as u32).max(1)).or(cascades.volume.adaptive.frame_budget);
+        for (_, c, mut volume) in volumes.iter_mut().filter(|(_, c, _)| c.camera == camera) {
+            let current = volume.bounds.map(|(lo, _)| lo.as_dvec3());
+            let (lo, hi) = cascades.level_bounds(c.level, position, current);
+            let t = template(c.level);
+            let next = DdgiVolume {
+                bounds: Some((lo.as_vec3(), hi.as_vec3())),
+                adaptive: crate::DdgiAdaptive { frame_budget: budget, ..t.adaptive.clone() },
+                ..t
+            };
+            if *volume != next {
+                *volume = next;
+            }
+        }
+    }
+}
