@@ -96,6 +96,10 @@ enum Command {
         /// 1e5,0,0): large-world coordinates keep every method's error as at the origin.
         #[arg(long, value_parser = parse_dvec3)]
         offset: Option<glam::DVec3>,
+        /// Also DDGI with N camera-following cascades (0: none) of --probes probes each (default
+        /// 16,8,16), the coarsest as wide as the scene, at the fixed configuration's rays per probe.
+        #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=8))]
+        cascades: u32,
     },
     /// Benchmarks (results as Markdown tables on standard output).
     #[command(subcommand)]
@@ -142,6 +146,10 @@ struct PlayArgs {
     /// Fixed ray budgets instead of adaptive ones.
     #[arg(long)]
     no_adaptive: bool,
+    /// Camera-following cascades instead of one volume over the level (0): N nested volumes of
+    /// 16×8×16 probes, the finest at --probe-spacing, each next twice as coarse.
+    #[arg(long, default_value_t = play::PlayOptions::default().cascades, value_parser = clap::value_parser!(u32).range(0..=8))]
+    cascades: u32,
     /// Build the level from procedural geometry only, without the shared Kenney models.
     #[arg(long)]
     no_assets: bool,
@@ -177,6 +185,7 @@ fn play(args: PlayArgs) -> Result<(), String> {
         rays_per_probe: args.rays,
         adaptive: !args.no_adaptive,
         use_assets: !args.no_assets,
+        cascades: args.cascades,
     };
     if args.soak {
         let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
@@ -335,9 +344,23 @@ struct DdgiArgs {
     /// and dark probes are switched off. `timings.json` records the rays traced per frame.
     #[arg(long)]
     adaptive: bool,
+    /// Camera-following cascades instead of one volume over the scene (0: today's fixed volume):
+    /// N nested volumes of --probes probes each, centred on the camera, each with twice the
+    /// spacing of the one inside it, the coarsest as wide as the scene.
+    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=8))]
+    cascades: u32,
 }
 
 impl DdgiArgs {
+    /// With `--cascades N`: the cascades for `scene` ([`ddgi::DdgiCascades::fitted`] to its largest
+    /// horizontal extent).
+    fn cascades(&self, scene: &SceneDescription) -> Option<ddgi::DdgiCascades> {
+        (self.cascades > 0).then(|| {
+            let extent = scene.bounds().map_or(1.0, |(lo, hi)| (hi - lo).x.max((hi - lo).z));
+            ddgi::DdgiCascades::fitted(self.cascades, self.probes, extent, self.volume())
+        })
+    }
+
     fn volume(&self) -> ddgi::DdgiVolume {
         ddgi::DdgiVolume {
             probe_counts: self.probes,
@@ -437,6 +460,10 @@ fn render(args: RenderArgs) -> Result<(), String> {
     let frame = if ddgi_mode {
         let volume = args.ddgi.volume();
         volume.validate().map_err(|e| e.to_string())?;
+        let cascades = args.ddgi.cascades(&scene);
+        if let Some(c) = &cascades {
+            c.validate().map_err(|e| e.to_string())?;
+        }
         let output = if args.mode == "indirect" { ddgi::DdgiOutput::Indirect } else { ddgi::DdgiOutput::Full };
         let mut dumped: Result<Vec<PathBuf>, String> = Ok(Vec::new());
         let dump = args.ddgi.dump_atlases;
@@ -445,7 +472,10 @@ fn render(args: RenderArgs) -> Result<(), String> {
             &gpu,
             scene,
             &settings,
-            |app| ddgi::use_ddgi(app, volume, output),
+            |app| match cascades {
+                Some(c) => ddgi::use_ddgi_cascades(app, c, output),
+                None => ddgi::use_ddgi(app, volume, output),
+            },
             |world| {
                 let volumes = world.resource::<ddgi::DdgiGpuVolumes>();
                 if let Some(error) = volumes.volumes.is_empty().then(|| volumes.first_error()).flatten() {
@@ -644,8 +674,13 @@ fn main() -> ExitCode {
             out,
             cache,
             offset,
+            cascades,
         } => load(&scene).and_then(|mut description| {
             description.origin = offset.unwrap_or_default();
+            let extent = description.bounds().map_or(1.0, |(lo, hi)| (hi - lo).x.max((hi - lo).z));
+            let probes_per_cascade = probes.unwrap_or(glam::UVec3::new(16, 8, 16));
+            let cascades =
+                (cascades > 0).then(|| ddgi::DdgiCascades::fitted(cascades, probes_per_cascade, extent, ddgi::DdgiVolume::default()));
             let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
             let default_out = PathBuf::from("out/eval").join(scene.replace(['/', '\\', '.'], "_"));
             let out = out.unwrap_or_else(|| if time_series { default_out.join("time_series") } else { default_out });
@@ -668,6 +703,7 @@ fn main() -> ExitCode {
                 adaptive,
                 settle_frames,
                 grid: probes.map(|g| g.to_array()),
+                cascades,
             };
             if time_series {
                 eval::time_series::run(&gpu, &eval_scenes::scene_facts(&scene), description, &options, frames)?;

@@ -46,6 +46,8 @@ pub enum Config {
     /// Direct light + DDGI's indirect light from one probe volume, after [`DDGI_FRAMES`] frames (in
     /// a time series: frame after frame, the probes following the change at their hysteresis).
     Ddgi { name: String, volume: Box<ddgi::DdgiVolume> },
+    /// DDGI's camera-following cascades instead of one volume.
+    DdgiCascades { name: String, cascades: Box<ddgi::DdgiCascades> },
 }
 
 /// Frames DDGI runs before a still image is taken (the probes converge over many frames: each
@@ -186,7 +188,7 @@ impl Config {
         match self {
             Config::Direct => "direct".into(),
             Config::PathTrace { spp } => format!("pathtrace_{spp}spp"),
-            Config::Ddgi { name, .. } => name.clone(),
+            Config::Ddgi { name, .. } | Config::DdgiCascades { name, .. } => name.clone(),
         }
     }
 
@@ -195,7 +197,7 @@ impl Config {
         match self {
             Config::Direct => "direct light",
             Config::PathTrace { .. } => "path tracer",
-            Config::Ddgi { .. } => "DDGI",
+            Config::Ddgi { .. } | Config::DdgiCascades { .. } => "DDGI",
         }
     }
 
@@ -205,7 +207,7 @@ impl Config {
         match self {
             Config::Direct => 1,
             Config::PathTrace { spp } => spp.div_ceil(self.samples_per_frame()),
-            Config::Ddgi { .. } => DDGI_FRAMES,
+            Config::Ddgi { .. } | Config::DdgiCascades { .. } => DDGI_FRAMES,
         }
     }
 
@@ -226,6 +228,7 @@ impl Config {
                 pathtrace::use_path_tracer(app, settings);
             }
             Config::Ddgi { volume, .. } => ddgi::use_ddgi(app, (**volume).clone(), ddgi::DdgiOutput::Full),
+            Config::DdgiCascades { cascades, .. } => ddgi::use_ddgi_cascades(app, (**cascades).clone(), ddgi::DdgiOutput::Full),
         }
     }
 }
@@ -369,6 +372,17 @@ pub struct EvalOptions {
     /// Time series: frames DDGI runs before the change (it must have settled: the static phase is
     /// measured at their end).
     pub settle_frames: u32,
+    /// Also DDGI with these camera-following cascades (`--cascades N`).
+    pub cascades: Option<ddgi::DdgiCascades>,
+}
+
+impl Config {
+    /// The cascaded configuration of `cascades`, named by its count and grid.
+    pub fn ddgi_cascades(cascades: &ddgi::DdgiCascades) -> Config {
+        let (n, c) = (cascades.count.unwrap_or(0), cascades.probe_counts);
+        let name = format!("ddgi_cascades_{n}x{}x{}x{}", c.x, c.y, c.z);
+        Config::DdgiCascades { name, cascades: Box::new(cascades.clone()) }
+    }
 }
 
 /// Runs the evaluation of `scene` (described by `facts`) and writes the report.
@@ -381,7 +395,9 @@ pub fn run(gpu: &GpuContext, facts: &SceneFacts, scene: SceneDescription, option
     let reference_ldr = tonemap_to_srgb8(&reference, EXPOSURE);
     let mut rows = Vec::new();
     let mut direct_ldr: Option<Vec<u8>> = None;
-    for config in Config::still_list(facts, experiments, grid, adaptive) {
+    let mut list = Config::still_list(facts, experiments, grid, adaptive);
+    list.extend(options.cascades.iter().map(Config::ddgi_cascades));
+    for config in list {
         let frame = render(gpu, &scene, &config, width, height, pathtrace::PathTraceSettings::default().seed)?;
         let error = compare(&reference, &frame.hdr, width, height, EXPOSURE);
         let (per_frame, total) = gpu_ms(&frame);

@@ -20,6 +20,7 @@ fn options(size: u32, reference_spp: u32, out: PathBuf, cache: PathBuf) -> EvalO
         adaptive: ddgi::DdgiAdaptive::on(),
         grid: None,
         settle_frames: 240,
+        cascades: None,
     }
 }
 

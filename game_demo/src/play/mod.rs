@@ -44,7 +44,13 @@ pub struct PlayOptions {
     pub adaptive: bool,
     /// Load the Kenney models (when the shared assets are present).
     pub use_assets: bool,
+    /// Camera-following cascades (0: one volume over the level): this many nested volumes of
+    /// [`CASCADE_PROBES`] probes, the finest at `probe_spacing`.
+    pub cascades: u32,
 }
+
+/// Probes of each cascade of `play --cascades N`.
+pub const CASCADE_PROBES: glam::UVec3 = glam::UVec3::new(16, 8, 16);
 
 impl Default for PlayOptions {
     fn default() -> Self {
@@ -55,6 +61,7 @@ impl Default for PlayOptions {
             rays_per_probe: ddgi::DdgiVolume::default().rays_per_probe,
             adaptive: true,
             use_assets: true,
+            cascades: 0,
         }
     }
 }
@@ -85,7 +92,19 @@ pub fn setup_play(app: &mut App, options: &PlayOptions, scripted: bool) -> Resul
     };
     volume.adaptive.enabled = options.adaptive;
     volume.validate().map_err(|e| format!("the level's DDGI volume: {e}"))?;
-    ddgi::use_ddgi(app, volume, DdgiOutput::Full);
+    if options.cascades > 0 {
+        let cascades = ddgi::DdgiCascades {
+            count: Some(options.cascades),
+            probe_counts: CASCADE_PROBES,
+            spacing: options.probe_spacing,
+            volume: DdgiVolume { bounds: None, probe_counts: CASCADE_PROBES, warm_up: true, ..volume },
+            ..Default::default()
+        };
+        cascades.validate().map_err(|e| format!("the level's DDGI cascades: {e}"))?;
+        ddgi::use_ddgi_cascades(app, cascades, DdgiOutput::Full);
+    } else {
+        ddgi::use_ddgi(app, volume, DdgiOutput::Full);
+    }
     app.init_resource::<DdgiProbeView>();
     Ok(level)
 }

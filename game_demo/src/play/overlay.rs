@@ -665,8 +665,15 @@ mod tests {
     #[test]
     fn overlay_builds_its_ui_from_a_running_level() {
         let Some(gpu) = GpuContext::for_tests("overlay_builds_its_ui_from_a_running_level") else { return };
-        let options =
-            crate::play::PlayOptions { width: 128, height: 72, probe_spacing: 4.0, rays_per_probe: 16, adaptive: true, use_assets: false };
+        let options = crate::play::PlayOptions {
+            width: 128,
+            height: 72,
+            probe_spacing: 4.0,
+            rays_per_probe: 16,
+            adaptive: true,
+            use_assets: false,
+            cascades: 0,
+        };
         let mut app = engine::headless::headless_app(&gpu, RenderSize { width: 128, height: 72 }, crate::play::STEP_SECONDS);
         crate::play::setup_play(&mut app, &options, true).expect("the level builds");
         engine::headless::run_frames(&mut app, 4, |_, _| {});

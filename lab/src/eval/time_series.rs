@@ -209,7 +209,7 @@ struct StaticSamples {
 /// for its static phase to be static), the others as many as their still image needs.
 fn settle_frames_of(config: &Config, settle_frames: u32) -> u32 {
     match config {
-        Config::Ddgi { .. } => settle_frames,
+        Config::Ddgi { .. } | Config::DdgiCascades { .. } => settle_frames,
         _ => config.frames(),
     }
 }
@@ -314,7 +314,9 @@ pub fn run(
     let changed = before.nodes[change.node].name.clone();
     let seed = pathtrace::PathTraceSettings::default().seed;
     let mut runs = Vec::new();
-    for config in Config::time_series_list(facts, grid, adaptive) {
+    let mut list = Config::time_series_list(facts, grid, adaptive);
+    list.extend(options.cascades.iter().map(Config::ddgi_cascades));
+    for config in list {
         let settle = settle_frames_of(&config, settle_frames);
         let settings = HeadlessSettings { width, height, frames: settle + frames, ..Default::default() };
         let mut app = scene_app(gpu, before.clone(), &settings, |app| config.configure(app, seed)).map_err(|e| e.to_string())?;
@@ -472,10 +474,9 @@ fn write_report(
     plot_note: &str,
 ) -> Result<(), String> {
     let name = facts.name.as_str();
-    let settle: Vec<String> = Config::time_series_list(facts, options.grid, &options.adaptive)
-        .iter()
-        .map(|c| format!("{} {}", c.name(), settle_frames_of(c, options.settle_frames)))
-        .collect();
+    let mut list = Config::time_series_list(facts, options.grid, &options.adaptive);
+    list.extend(options.cascades.iter().map(Config::ddgi_cascades));
+    let settle: Vec<String> = list.iter().map(|c| format!("{} {}", c.name(), settle_frames_of(c, options.settle_frames))).collect();
     let mut md = format!(
         "# Time series: {name}\n\nBefore frame 0, {}.\n\n{}×{} on {adapter}, {frames} frames after the change. Reference: the scene after the change, \
          path traced at {} paths per pixel (another seed). Every frame is compared with it (mean FLIP on sRGB at exposure 1, RMSE on \

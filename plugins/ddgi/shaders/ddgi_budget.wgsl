@@ -26,7 +26,8 @@ fn ddgi_probe_budget(p: u32) -> u32 {
         // next frame after relocation moved it out of geometry, or after the camera's view came to
         // depend on it).
         let seen = DDGI_PROBE_EMPTY | DDGI_PROBE_SEEN;
-        let recheck = v.recheck != 0u || (data.state & DDGI_PROBE_RECHECK) != 0u || (data.state & seen) == seen;
+        let recheck = v.recheck != 0u || (data.state & DDGI_PROBE_RECHECK) != 0u || (data.state & seen) == seen
+            || (v.wake_boxes > 0u && ddgi_near_mover(ddgi_probe_position(p)));
         return select(0u, clamp(v.recheck_rays, 1u, max_rays), recheck);
     }
     if !ddgi_has(DDGI_ADAPTIVE) || (data.state & DDGI_PROBE_FRESH) != 0u {
@@ -90,7 +91,7 @@ fn ddgi_rest(p: u32, data: DdgiProbeData, rays: u32) -> vec2<u32> {
     let period = clamp(data.rest & 0xffffu, 1u, v.max_rest_frames);
     let left = data.rest >> 16u;
     if left > 0u {
-        if !ddgi_neighbour_changing(p) {
+        if !ddgi_neighbour_changing(p) && !(v.wake_boxes > 0u && ddgi_near_mover(ddgi_probe_position(p))) {
             return vec2<u32>(0u, period | ((left - 1u) << 16u));
         }
         return vec2<u32>(rays, 1u);

@@ -77,6 +77,11 @@ struct DdgiVolumeGpu {
     // its outer probes, and it fills only what the volumes gathered before it left (nested
     // blending). 0: a fixed volume (weight 1 inside its bounds, fading one cell outside).
     cascade_blend: f32,
+    // Boxes in ddgi_wake this frame.
+    wake_boxes: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 // Per-probe state: relocation and classification write offset and state, the irradiance update
@@ -186,6 +191,22 @@ struct DdgiTexel {
 // classification's dark test reads its neighbours here, not in ddgi_probes, which other workgroups
 // of the same dispatch are rewriting (their order would decide the result).
 @group(1) @binding(15) var<storage, read_write> ddgi_lit: array<f32>;
+
+// Boxes (min, max corners in render space) around the instances that moved this frame, grown by a
+// probe spacing: the probes inside them wake (a switched-off probe traces its re-check rays, a
+// resting one updates), and no other probe needs to.
+@group(1) @binding(16) var<storage, read> ddgi_wake: array<vec4<f32>>;
+
+fn ddgi_near_mover(position: vec3<f32>) -> bool {
+    for (var b = 0u; b < min(ddgi_volume.wake_boxes, DDGI_MAX_WAKE_BOXES); b++) {
+        let lo = ddgi_wake[2u * b].xyz;
+        let hi = ddgi_wake[2u * b + 1u].xyz;
+        if all(position >= lo) && all(position <= hi) {
+            return true;
+        }
+    }
+    return false;
+}
 
 fn ddgi_has(flag: u32) -> bool {
     return (ddgi_volume.flags & flag) != 0u;

@@ -85,12 +85,26 @@ impl DdgiCascades {
             return Err(invalid("DdgiCascades.probe_counts", format!("{c:?}"), "needs at least 2 probes per axis"));
         }
         if f64::from(self.blend_cells) * 2.0 >= f64::from(c.min_element() - 1) {
-            return Err(invalid("DdgiCascades.blend_cells", format!("{:?}", self.blend_cells), "must be under half the probes of the shortest axis"));
+            return Err(invalid(
+                "DdgiCascades.blend_cells",
+                format!("{:?}", self.blend_cells),
+                "must be under half the probes of the shortest axis",
+            ));
         }
         if self.max_update_period == 0 {
             return Err(invalid("DdgiCascades.max_update_period", "0".into(), "must be at least 1"));
         }
         self.volume.validate()
+    }
+
+    /// `count` cascades of `probe_counts` probes whose coarsest one is as wide as `extent` (the
+    /// scene's largest horizontal extent, say) on its narrower horizontal axis, with `volume`'s
+    /// settings: the finest spacing is `extent / (probes · 2^(count − 1))`.
+    pub fn fitted(count: u32, probe_counts: UVec3, extent: f32, volume: DdgiVolume) -> Self {
+        let count = count.clamp(1, MAX_CASCADES);
+        let across = probe_counts.x.min(probe_counts.z).max(1) as f32;
+        let spacing = (extent.max(1e-6) / (across * (1u32 << (count - 1)) as f32)).max(1e-6);
+        Self { count: Some(count), probe_counts, spacing, volume: DdgiVolume { warm_up: true, ..volume }, ..Default::default() }
     }
 
     /// Probe spacing of cascade `level`.
@@ -200,7 +214,10 @@ pub fn follow_ddgi_cascades(
         // is copied into them each frame (prepare rebuilds a volume whose grid changed, and scrolls
         // one whose box moved by whole cells).
         let stale = mine.len() != count as usize
-            || volumes.iter().filter(|(_, c, _)| c.camera == camera).any(|(_, c, _)| c.level >= count || c.blend_cells != cascades.blend_cells);
+            || volumes
+                .iter()
+                .filter(|(_, c, _)| c.camera == camera)
+                .any(|(_, c, _)| c.level >= count || c.blend_cells != cascades.blend_cells);
         if stale {
             for &e in &mine {
                 commands.entity(e).try_despawn();
@@ -215,7 +232,7 @@ pub fn follow_ddgi_cascades(
         }
         // The cascades that update this frame share the frame budget in proportion to their probes
         // (every cascade has the same number).
-        let updating = (0..count).filter(|&k| (frame + u64::from(k)) % u64::from(cascades.update_period(k)) == 0).count().max(1);
+        let updating = (0..count).filter(|&k| (frame + u64::from(k)).is_multiple_of(u64::from(cascades.update_period(k)))).count().max(1);
         let budget = cascades.frame_budget.map(|total| (total / updating as u32).max(1)).or(cascades.volume.adaptive.frame_budget);
         for (_, c, mut volume) in volumes.iter_mut().filter(|(_, c, _)| c.camera == camera) {
             let current = volume.bounds.map(|(lo, _)| lo.as_dvec3());

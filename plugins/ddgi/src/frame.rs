@@ -47,6 +47,8 @@ pub struct VolumeHandles {
     /// The atlases that sampling reads.
     pub irradiance: Handle<GraphTexture>,
     pub distance: Handle<GraphTexture>,
+    /// The boxes around this frame's movers whose probes wake ([`crate::gpu::MAX_WAKE_BOXES`]).
+    pub wake: Handle<GraphBuffer>,
     sampler: wgpu::Sampler,
 }
 
@@ -73,6 +75,7 @@ impl VolumeHandles {
         );
         let irradiance_history = buffer("ddgi_irradiance_history", &volume.irradiance_history);
         let distance_history = buffer("ddgi_distance_history", &volume.distance_history);
+        let wake = buffer("ddgi_wake", &volume.wake);
         let irradiance = graph.import_texture(&format!("ddgi_irradiance{suffix}"), &volume.irradiance);
         let distance = graph.import_texture(&format!("ddgi_distance{suffix}"), &volume.distance);
         Self {
@@ -90,6 +93,7 @@ impl VolumeHandles {
             distance_history,
             irradiance,
             distance,
+            wake,
             sampler: sampler.clone(),
         }
     }
@@ -114,6 +118,7 @@ impl VolumeHandles {
             "ddgi_blocks" => ("ddgi_blocks", Slot::Buffer(&mut self.blocks)),
             "ddgi_updated" => ("ddgi_updated", Slot::Buffer(&mut self.updated)),
             "ddgi_lit" => ("ddgi_lit", Slot::Buffer(&mut self.lit)),
+            "ddgi_wake" => ("ddgi_wake", Slot::Buffer(&mut self.wake)),
             _ => return None,
         })
     }

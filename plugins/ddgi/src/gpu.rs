@@ -50,6 +50,11 @@ pub struct DdgiVolumeGpu {
     pub scroll: [u32; 3],
     /// A cascade's blend band in cells; 0 for a fixed volume.
     pub cascade_blend: f32,
+    /// Boxes in `ddgi_wake` this frame (around the instances that moved).
+    pub wake_boxes: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
 }
 
 #[repr(C)]
@@ -212,6 +217,9 @@ pub const EMPTY_RAYS: u32 = 512;
 pub const BUDGET_BLOCK: u32 = 256;
 /// Rays per workgroup of the trace (one thread each).
 pub const RAY_GROUP: u32 = 64;
+/// Most boxes around moved instances whose probes a frame wakes locally; more movers than this in
+/// a volume wake it all (a re-check of every switched-off probe, as for added or removed instances).
+pub const MAX_WAKE_BOXES: u32 = 256;
 
 /// Hit distance of a miss in the shaded-ray buffer.
 pub const MISS: f32 = 3.0e38;
@@ -251,6 +259,7 @@ const SHARED_CONSTANTS: &[(&str, WgslValue)] = &[
     ("DDGI_EMPTY_RAYS", WgslValue::U32(EMPTY_RAYS)),
     ("DDGI_BUDGET_BLOCK", WgslValue::U32(BUDGET_BLOCK)),
     ("DDGI_RAY_GROUP", WgslValue::U32(RAY_GROUP)),
+    ("DDGI_MAX_WAKE_BOXES", WgslValue::U32(MAX_WAKE_BOXES)),
     ("DDGI_MISS", WgslValue::F32(MISS)),
     ("DDGI_BACKFACE_SCALE", WgslValue::F32(BACKFACE_SCALE)),
     ("DDGI_IRRADIANCE_GAMMA", WgslValue::F32(IRRADIANCE_GAMMA)),
@@ -285,7 +294,16 @@ impl DdgiVolumeGpu {
     /// The uniform of one frame: `rotation` turns the ray directions, `sky` is the miss radiance.
     /// The settings are taken as [`DdgiVolume::validate`] passed them (no clamping here); the budget
     /// pass bounds the ray counts by `rays_per_probe` itself.
-    pub fn new(volume: &DdgiVolume, layout: &DdgiLayout, rotation: glam::Mat3, sky: glam::Vec3, recheck: bool, cascade_blend: f32) -> Self {
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        volume: &DdgiVolume,
+        layout: &DdgiLayout,
+        rotation: glam::Mat3,
+        sky: glam::Vec3,
+        recheck: bool,
+        cascade_blend: f32,
+        wake_boxes: u32,
+    ) -> Self {
         let w = volume.weights;
         let a = &volume.adaptive;
         let flags = [
@@ -342,6 +360,10 @@ impl DdgiVolumeGpu {
             rest_smoothing: a.rest_smoothing.unwrap_or(-1.0),
             scroll: layout.scroll.to_array(),
             cascade_blend,
+            wake_boxes,
+            _pad0: 0,
+            _pad1: 0,
+            _pad2: 0,
         }
     }
 }
@@ -368,7 +390,8 @@ pub fn gpu_structs() -> Vec<engine::shader::HostStruct> {
             view_bias, distance_sharpness, max_ray_distance, distance_scale, irradiance_texels, distance_texels, tiles_per_row,
             firefly_threshold, backface_threshold, min_frontface_distance, recheck, irradiance_atlas_size, distance_atlas_size,
             min_rays, recheck_rays, error_target, error_decay, error_smoothing, error_floor, dark_fraction, frame_budget,
-            max_rest_frames, rest_error, hysteresis_exponent, rest_smoothing, scroll, cascade_blend,
+            max_rest_frames, rest_error, hysteresis_exponent, rest_smoothing, scroll, cascade_blend, wake_boxes, _pad0, _pad1,
+            _pad2,
         }),
         layout!(DdgiProbeData in "ddgi_common.inc.wgsl" {
             offset, state, error, ray_count, ray_offset, luma, pinned_rays, pinned_state, empty_rays, rest, settled_error, updates,

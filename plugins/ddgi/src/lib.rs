@@ -125,7 +125,12 @@ impl Plugin for DdgiPlugin {
             .init_resource::<DdgiSkyLight>()
             .add_systems(
                 engine::app::Prepare,
-                (sync::read_back_ddgi_probes, cascades::follow_ddgi_cascades, resources::prepare_ddgi_volumes, sync::upload_ddgi_probe_pins)
+                (
+                    sync::read_back_ddgi_probes,
+                    cascades::follow_ddgi_cascades,
+                    resources::prepare_ddgi_volumes,
+                    sync::upload_ddgi_probe_pins,
+                )
                     .chain()
                     .after(prepare_gpu_scene),
             )
@@ -136,7 +141,10 @@ impl Plugin for DdgiPlugin {
 /// Adds DDGI to `app` with cascades that follow the first camera ([`DdgiCascades`] as a resource)
 /// and makes `"ddgi"` the frame script, writing `output`.
 pub fn use_ddgi_cascades(app: &mut App, cascades: DdgiCascades, output: DdgiOutput) {
-    app.insert_resource(FrameScript(FRAME_SCRIPT)).insert_resource(output).insert_resource(cascades::DdgiFirstCameraCascades(cascades)).add_plugins(DdgiPlugin);
+    app.insert_resource(FrameScript(FRAME_SCRIPT))
+        .insert_resource(output)
+        .insert_resource(cascades::DdgiFirstCameraCascades(cascades))
+        .add_plugins(DdgiPlugin);
 }
 
 /// Adds DDGI to `app`, spawns `volume` and makes `"ddgi"` the frame script, writing `output`.

@@ -9,13 +9,13 @@ use engine::render::SkyRadiance;
 use engine::render::gpu_scene::GpuScene;
 use engine::render::readback::ReadbackRing;
 use engine::rng::SplitMix64;
+use engine::scene::RenderOrigin;
 use engine::scene::{Assets, Image, Material, Mesh};
 use engine::wgpu;
-use engine::scene::RenderOrigin;
 use glam::{DVec3, IVec3, Mat3, Quat, Vec3};
 
-use crate::gpu::{DdgiCounters, DdgiProbeData, DdgiVolumeGpu, MAX_IRRADIANCE, PROBE_INACTIVE};
 use crate::cascades::DdgiCascade;
+use crate::gpu::{DdgiCounters, DdgiProbeData, DdgiVolumeGpu, MAX_IRRADIANCE, PROBE_INACTIVE};
 use crate::volume::{DdgiLayout, DdgiLimits, DdgiProbe, DdgiProbeState, DdgiVolume};
 
 /// Format of both atlases (irradiance perceptually encoded; distances
@@ -40,6 +40,8 @@ pub struct VolumeGpu {
     pub updated: wgpu::Buffer,
     /// Each probe's luma (−1: switched off) as the budget pass found it, for the dark test.
     pub lit: wgpu::Buffer,
+    /// This frame's boxes around movers (two vec4 corners each, [`crate::gpu::MAX_WAKE_BOXES`]).
+    pub wake: wgpu::Buffer,
     pub rays: wgpu::Buffer,
     pub radiance: wgpu::Buffer,
     /// The maps at full precision (see `ddgi_common.inc.wgsl`): irradiance and its smoothed change (two
@@ -106,6 +108,7 @@ impl VolumeGpu {
             blocks: buffer("ddgi_blocks", sizes.blocks, B::STORAGE),
             updated: buffer("ddgi_updated", sizes.probe_words, B::STORAGE),
             lit: buffer("ddgi_lit", sizes.probe_words, B::STORAGE),
+            wake: buffer("ddgi_wake", u64::from(crate::gpu::MAX_WAKE_BOXES) * 32, B::STORAGE | B::COPY_DST),
             rays: buffer("ddgi_rays", sizes.rays, B::STORAGE | B::COPY_SRC),
             radiance: buffer("ddgi_radiance", sizes.rays, B::STORAGE | B::COPY_SRC),
             irradiance_history: buffer("ddgi_irradiance_history", sizes.irradiance_history, B::STORAGE | B::COPY_SRC),
@@ -216,6 +219,8 @@ pub struct DdgiGpuVolumes {
     mesh_bounds: HashMap<u32, Option<(Vec3, Vec3)>>,
     /// The largest extent of the scene's instances, kept up to date while they change.
     scene_extent: Option<f32>,
+    /// Each instance slot's last box (render space), for the wake-up around movers.
+    instance_boxes: HashMap<u32, (Vec3, Vec3)>,
     scene_extent_known: bool,
     /// Warnings about the scene ([`divergence_warnings`]) and the material generation they are of.
     warnings: Vec<String>,
@@ -288,21 +293,46 @@ impl DdgiGpuVolumes {
     pub fn scene_bounds(&mut self, scene: &GpuScene, meshes: &Assets<Mesh>) -> Option<(Vec3, Vec3)> {
         let mut out: Option<(Vec3, Vec3)> = None;
         for (_, mesh, transform) in scene.live_instances() {
-            let local = *self.mesh_bounds.entry(mesh).or_insert_with(|| {
-                meshes.iter().find(|(h, _)| h.index() == mesh).and_then(|(_, m)| m.bounds()).filter(|(a, b)| a.is_finite() && b.is_finite())
-            });
-            let Some((lo, hi)) = local else { continue };
-            for i in 0..8 {
-                let corner = Vec3::new(
-                    if i & 1 == 0 { lo.x } else { hi.x },
-                    if i & 2 == 0 { lo.y } else { hi.y },
-                    if i & 4 == 0 { lo.z } else { hi.z },
-                );
-                let p = transform.transform_point3(corner);
-                out = Some(out.map_or((p, p), |(a, b)| (a.min(p), b.max(p))));
+            if let Some((lo, hi)) = self.instance_box(mesh, &transform, meshes) {
+                out = Some(out.map_or((lo, hi), |(a, b)| (a.min(lo), b.max(hi))));
             }
         }
         out
+    }
+
+    /// The render-space box of an instance of `mesh` placed by `transform`.
+    fn instance_box(&mut self, mesh: u32, transform: &glam::Affine3A, meshes: &Assets<Mesh>) -> Option<(Vec3, Vec3)> {
+        let local = *self.mesh_bounds.entry(mesh).or_insert_with(|| {
+            meshes.iter().find(|(h, _)| h.index() == mesh).and_then(|(_, m)| m.bounds()).filter(|(a, b)| a.is_finite() && b.is_finite())
+        });
+        let (lo, hi) = local?;
+        let mut out: Option<(Vec3, Vec3)> = None;
+        for i in 0..8 {
+            let corner =
+                Vec3::new(if i & 1 == 0 { lo.x } else { hi.x }, if i & 2 == 0 { lo.y } else { hi.y }, if i & 4 == 0 { lo.z } else { hi.z });
+            let p = transform.transform_point3(corner);
+            out = Some(out.map_or((p, p), |(a, b)| (a.min(p), b.max(p))));
+        }
+        out
+    }
+
+    /// The boxes of the instances that moved this frame, where they were and where they are now
+    /// (render space), and whether instances were added or removed. Keeps every written
+    /// instance's box for its next move.
+    fn mover_boxes(&mut self, scene: &GpuScene, meshes: &Assets<Mesh>) -> Vec<(Vec3, Vec3)> {
+        let changes = scene.instance_changes();
+        let mut boxes = Vec::new();
+        for &slot in &changes.dirty {
+            let now = scene.instance_placement(slot).and_then(|(mesh, xf)| self.instance_box(mesh, &xf, meshes));
+            let before = match now {
+                Some(b) => self.instance_boxes.insert(slot, b),
+                None => self.instance_boxes.remove(&slot),
+            };
+            if changes.moved.contains(&slot) {
+                boxes.extend(now.into_iter().chain(before));
+            }
+        }
+        boxes
     }
 }
 
@@ -385,6 +415,8 @@ pub fn prepare_ddgi_volumes(
         let c = scene.instance_changes();
         c.structure_changed || !c.moved.is_empty()
     };
+    let structure_changed = scene.instance_changes().structure_changed;
+    let movers = state.mover_boxes(&scene, &meshes);
     if scene_changed || !state.scene_extent_known {
         state.scene_extent = state.scene_bounds(&scene, &meshes).map(|(lo, hi)| (hi - lo).max_element());
         state.scene_extent_known = true;
@@ -456,11 +488,26 @@ pub fn prepare_ddgi_volumes(
         v.follow_render_origin(origin, limits);
         let scrolled = scroll.is_some_and(|cells| v.scroll(&gpu, cells, limits) > 0 || cells != IVec3::ZERO);
         let period = u64::from(volume.update_period.max(1));
-        v.updates_this_frame = scrolled || v.frames < 2 || (frame + u64::from(volume.update_phase)) % period == 0;
+        v.updates_this_frame = scrolled || v.frames < 2 || (frame + u64::from(volume.update_phase)).is_multiple_of(period);
         let interval = u64::from(volume.recheck_interval);
-        let recheck = scene_changed || (interval > 0 && v.frames % interval == 0);
+        // Probes within a spacing of an instance that moved (where it was or is now) wake; only when
+        // instances came or went, or too many moved, does every switched-off probe re-check.
+        let grow = Vec3::splat(v.layout.spacing.max_element());
+        let (lo, hi) = (v.layout.bounds.0 - grow, v.layout.bounds.1 + grow);
+        let wake: Vec<[f32; 4]> = movers
+            .iter()
+            .filter(|(a, b)| a.cmple(hi).all() && b.cmpge(lo).all())
+            .flat_map(|(a, b)| [(*a - grow).extend(0.0).to_array(), (*b + grow).extend(0.0).to_array()])
+            .collect();
+        let wake_all = wake.len() / 2 > crate::gpu::MAX_WAKE_BOXES as usize;
+        let wake_boxes = if wake_all { 0 } else { (wake.len() / 2) as u32 };
+        if wake_boxes > 0 {
+            gpu.queue.write_buffer(&v.wake, 0, bytemuck::cast_slice(&wake));
+        }
+        let recheck = structure_changed || wake_all || (interval > 0 && v.frames % interval == 0);
         let rotation = random_rotation(&mut v.rng);
-        let uniform = DdgiVolumeGpu::new(volume, &v.layout, rotation, volume.sky_radiance.unwrap_or(sky.0), recheck, v.cascade_blend);
+        let uniform =
+            DdgiVolumeGpu::new(volume, &v.layout, rotation, volume.sky_radiance.unwrap_or(sky.0), recheck, v.cascade_blend, wake_boxes);
         gpu.queue.write_buffer(&v.uniform, 0, bytemuck::bytes_of(&uniform));
     }
     state.volumes.sort_by_key(|(_, v)| v.order);

@@ -200,8 +200,12 @@ pub struct DdgiVolume {
     /// Relocation keeps probes at least this far from front faces, as a fraction of the smallest
     /// probe spacing.
     pub min_frontface_distance: f32,
-    /// Inactive probes trace again every this many frames (and whenever instances move) so that
-    /// they wake when the scene changes. 0: only when instances move.
+    /// Inactive probes trace again every this many frames (and all of them when instances are
+    /// added or removed) so that they wake when the scene changes. Around an instance that moves,
+    /// only the probes within a probe spacing of where it was or is now wake, in the frame it
+    /// moves — a switched-off one traces its re-check rays, a resting one updates — unless more
+    /// than [`crate::gpu::MAX_WAKE_BOXES`] instances moved in the volume, when every switched-off
+    /// probe re-checks. 0: only then.
     pub recheck_interval: u32,
     /// Rays of an inactive probe on a re-check frame.
     pub recheck_rays: u32,

@@ -98,7 +98,8 @@ fn set_bounds(app: &mut App, volume: DdgiVolume) {
 
 fn pin_all(app: &mut App, pin: Option<DdgiProbePin>) {
     let world = app.world_mut();
-    let probes: Vec<_> = world.query_filtered::<engine::bevy_ecs::entity::Entity, engine::bevy_ecs::query::With<DdgiProbe>>().iter(world).collect();
+    let probes: Vec<_> =
+        world.query_filtered::<engine::bevy_ecs::entity::Entity, engine::bevy_ecs::query::With<DdgiProbe>>().iter(world).collect();
     for e in probes {
         match pin {
             Some(p) => {
@@ -266,7 +267,12 @@ fn cascades_follow_a_moving_camera_by_scrolling() {
     // Each stays centred on the camera, within three quarters of one of its cells.
     let camera = {
         let world = a.world_mut();
-        world.query_filtered::<&engine::scene::GlobalTransform, engine::bevy_ecs::query::With<Camera>>().iter(world).next().unwrap().translation()
+        world
+            .query_filtered::<&engine::scene::GlobalTransform, engine::bevy_ecs::query::With<Camera>>()
+            .iter(world)
+            .next()
+            .unwrap()
+            .translation()
     };
     let volumes = a.world().resource::<DdgiGpuVolumes>();
     for (_, v) in &volumes.volumes {
@@ -310,4 +316,62 @@ fn a_point_outside_every_volume_is_lit_by_the_sky_not_black() {
     a.insert_resource(ddgi::DdgiSkyLight { rays: 0, max_distance: None });
     frames(&mut a, 1);
     assert_eq!(read_hdr(&gpu, a.world())[centre], 0.0);
+}
+
+/// A big closed room whose empty middle the classification switches off, and a block that jumps
+/// from one side to the other: in the frame it moves, the switched-off probes within a spacing of
+/// where it lands (or left) trace their re-check rays, and the others stay dark — no global
+/// re-check (`recheck_interval` 0).
+#[test]
+fn a_mover_wakes_the_probes_around_it_and_no_others() {
+    let Some(gpu) = gpu("a_mover_wakes_the_probes_around_it_and_no_others") else { return };
+    let material = Material { base_color: Vec3::splat(0.5).extend(1.0), emissive: Vec3::splat(0.2), ..Default::default() };
+    let mut s = closed_room(Vec3::splat(-4.0), Vec3::splat(4.0), 0.3, material);
+    let block = s.add_mesh(engine::shapes::cuboid("block", Vec3::splat(0.2)));
+    s.add_node("block", Transform::from_xyz(2.0, 0.0, 0.0), None, vec![NodeContent::Meshes(vec![(block, 0)])]);
+    let volume = DdgiVolume {
+        bounds: Some((Vec3::splat(-4.0), Vec3::splat(4.0))),
+        probe_counts: UVec3::splat(8),
+        rays_per_probe: 128,
+        relocation: false,
+        recheck_interval: 0,
+        ..Default::default()
+    };
+    let mut a = app(&gpu, s, |app| use_ddgi(app, volume, DdgiOutput::Full));
+    frames(&mut a, 8);
+    let probes = |a: &App| -> Vec<ddgi::gpu::DdgiProbeData> { bytemuck::pod_collect_to_vec(&read_buffer(&gpu, &first(a).probes)) };
+    let off = probes(&a).iter().filter(|p| p.state & ddgi::gpu::PROBE_INACTIVE != 0).count();
+    assert!(off > 20, "the room's empty middle is switched off ({off} probes)");
+    // The block jumps to the other side.
+    {
+        let world = a.world_mut();
+        let mut q = world.query::<(&engine::scene::Name, &mut Transform)>();
+        for (name, mut t) in q.iter_mut(world) {
+            if name.0 == "block" {
+                t.translation = Vec3::new(-2.0, 0.0, 0.0);
+            }
+        }
+    }
+    frames(&mut a, 1);
+    let v = first(&a);
+    let data = probes(&a);
+    let near = |p: Vec3| {
+        [Vec3::new(2.0, 0.0, 0.0), Vec3::new(-2.0, 0.0, 0.0)].iter().any(|c| ((p - *c).abs() - Vec3::splat(1.2)).max_element() <= 1e-4)
+    };
+    let (mut woken, mut quiet_far) = (0, 0);
+    for (i, d) in data.iter().enumerate() {
+        if d.state & ddgi::gpu::PROBE_INACTIVE == 0 {
+            continue;
+        }
+        let flagged = d.state & (ddgi::gpu::PROBE_SEEN | ddgi::gpu::PROBE_RECHECK) != 0;
+        let p = v.layout.grid_position(i as u32);
+        if near(p) {
+            woken += usize::from(d.ray_count > 0);
+        } else if !flagged {
+            assert_eq!(d.ray_count, 0, "switched-off probe {i} at {p}, far from the block, traced");
+            quiet_far += 1;
+        }
+    }
+    assert!(woken > 0, "no switched-off probe near where the block landed traced its re-check rays");
+    assert!(quiet_far > 0, "the far probes were all on: the test shows nothing");
 }

@@ -1,6 +1,7 @@
 //! Stiff and extreme cases on lavapipe, at tiny resolutions (32×32 images, a few probes, a few
 //! frames), grouped so that the whole file runs in well under three minutes in CI: light
 //! intensities from 1e-6 to 1e6, scene scales from 1e-3 to 1e4 units (probe spacing in proportion),
+//! scenes 1e3 to 1e5 units from the world's origin,
 //! hysteresis 0 to 1, 1 to 1024 rays per probe, 1×1×1 grids and grids far larger than the scene,
 //! probe spacing thinner than walls and wider than rooms, probes and camera inside geometry,
 //! degenerate and sliver triangles, albedo 0 and 1, spot lights with equal cones, emission at the
@@ -221,6 +222,48 @@ fn furnace_converges_monotonically_at_every_scale_from_1e_minus_3_to_1e4() {
         assert!((last.mean() - converged).abs() <= 0.02 * converged, "{what}: {} vs {converged}", last.mean());
         let radiance = emission / (1.0 - albedo);
         assert!((last.mean_pixel() - radiance).abs() <= 0.03 * radiance, "{what}: image {} vs {radiance}", last.mean_pixel());
+    }
+}
+
+#[test]
+fn far_from_the_origin_1e3_to_1e5_the_furnace_and_the_inverse_square_law_hold_as_at_it() {
+    let Some(gpu) = gpu("far_from_the_origin") else { return };
+    // The scenes of the two tests above, placed 1e3, 1e4 and 1e5 units from the world's origin
+    // (large-world coordinates: double-precision placement, render space rebased to the camera),
+    // at scales 0.1 and 1: the same bounds hold, and the same values to float precision.
+    let (albedo, emission) = (0.5f32, 0.3f32);
+    let converged = PI * emission / (1.0 - albedo);
+    for offset in [glam::DVec3::new(1e3, 0.0, 0.0), glam::DVec3::new(0.0, -1e4, 1e4), glam::DVec3::splat(1e5)] {
+        for scale in [1e-1f32, 1.0] {
+            let what = format!("offset {offset}, scale {scale:e}");
+            let at = |p: Vec3| (p.as_dvec3() + offset).as_vec3();
+            let (lo, hi) = (Vec3::new(-1.0, 0.0, -1.0) * scale, Vec3::new(1.0, 1.5, 1.0) * scale);
+            let mut scene = closed_room(lo, hi, 0.2 * scale, material(albedo, emission));
+            scene.origin = offset;
+            let frames = run(&gpu, scene, volume((at(lo), at(hi)), UVec3::splat(2), 32, 0.0), 10);
+            for (k, f) in frames.iter().enumerate() {
+                f.assert_finite(&format!("{what}, frame {k}"));
+                assert!(f.max_texel() <= converged * 1.01, "{what}, frame {k}: texel {} over π·Le/(1 − ρ)", f.max_texel());
+            }
+            assert_monotone_towards(&frames, converged, 1e-3 * converged, &what);
+            let last = frames.last().unwrap();
+            assert!((last.mean() - converged).abs() <= 0.02 * converged, "{what}: {} vs {converged}", last.mean());
+            let radiance = emission / (1.0 - albedo);
+            assert!((last.mean_pixel() - radiance).abs() <= 0.03 * radiance, "{what}: image {} vs {radiance}", last.mean_pixel());
+
+            // The floor under a point light: ρ/π · I/h² straight below it.
+            let (intensity, h) = (2.0f32, scale);
+            let mut scene = floor(scale, albedo);
+            scene.origin = offset;
+            let light = PointLight { color: Vec3::ONE, intensity, range: None };
+            scene.add_node("light", Transform::from_xyz(0.0, h, 0.0), None, vec![NodeContent::PointLight(light)]);
+            let bounds = (at(Vec3::new(-2.0, 0.05, -2.0) * scale), at(Vec3::new(2.0, 1.5, 2.0) * scale));
+            let frames = run(&gpu, scene, volume(bounds, UVec3::new(3, 2, 3), 64, 0.5), 4);
+            let last = frames.last().unwrap();
+            last.assert_finite(&what);
+            let expected = albedo / PI * intensity / (h * h);
+            assert!((last.centre_pixel() - expected).abs() <= 0.05 * expected, "{what}: floor {} vs {expected}", last.centre_pixel());
+        }
     }
 }
 

@@ -52,7 +52,9 @@ fn render(
             Mode::Direct => {}
             Mode::Ddgi => use_ddgi(app, volume, DdgiOutput::Full),
             Mode::Indirect => use_ddgi(app, volume, DdgiOutput::Indirect),
-            Mode::PathTrace => pathtrace::use_path_tracer(app, pathtrace::PathTraceSettings { samples_per_frame: 16, ..Default::default() }),
+            Mode::PathTrace => {
+                pathtrace::use_path_tracer(app, pathtrace::PathTraceSettings { samples_per_frame: 16, ..Default::default() })
+            }
         }
     })
     .expect("app");
@@ -154,4 +156,3 @@ fn meshes_far_from_their_own_origin_are_recentred_and_keep_their_shape() {
     let (same, zero) = engine::scene::recentre_far_mesh(near.clone());
     assert_eq!((same.positions, zero), (near.positions, Vec3::ZERO), "a mesh near its origin is left as it is");
 }
-
