@@ -221,6 +221,47 @@ fn play(args: PlayArgs) -> Result<(), String> {
 
 #[derive(Subcommand)]
 enum BenchCommand {
+    /// DDGI's GPU time per frame while the camera walks the open world's tour (out of the house,
+    /// 500 m into the forest and back): median, slowest frame and frames over twice the median,
+    /// per-cascade times, scrolls and rebases; every frame in --out/walk.csv.
+    Walk {
+        #[arg(long, default_value = "open_world")]
+        scene: String,
+        /// Camera-following cascades (0: one volume over the scene's GI bounds with --probes).
+        #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(0..=8))]
+        cascades: u32,
+        /// Probes of each cascade (or of the fixed volume).
+        #[arg(long, value_parser = parse_uvec3, default_value = "16,8,16")]
+        probes: glam::UVec3,
+        /// Probe spacing of the finest cascade (metres).
+        #[arg(long, default_value_t = 1.5)]
+        spacing: f32,
+        /// Rays per probe per frame.
+        #[arg(long, default_value_t = ddgi::DdgiVolume::default().rays_per_probe)]
+        rays: u32,
+        /// Fixed ray budgets instead of adaptive ones.
+        #[arg(long)]
+        no_adaptive: bool,
+        /// Frames of the walk (60 per second).
+        #[arg(long, default_value_t = 600)]
+        frames: u32,
+        /// Frames the camera stands at the door first.
+        #[arg(long, default_value_t = 60)]
+        warmup: u32,
+        /// Walking speed, metres per second.
+        #[arg(long, default_value_t = 1.5)]
+        speed: f32,
+        #[arg(long, default_value_t = 1920)]
+        width: u32,
+        #[arg(long, default_value_t = 1080)]
+        height: u32,
+        /// Place the scene this far from the world's origin, `x,y,z`.
+        #[arg(long, value_parser = parse_dvec3)]
+        offset: Option<glam::DVec3>,
+        /// Output folder of walk.csv.
+        #[arg(long, default_value = "out/walk")]
+        out: PathBuf,
+    },
     /// Closest-hit throughput of probe-like rays (grids 16×8×16 … 32×32×32, 32 … 256 rays per probe;
     /// GPU timestamps of the trace pass alone) and the CPU cost of TLAS updates when instances move.
     Trace {
@@ -561,6 +602,78 @@ fn bench_ddgi(name: &str, iterations: u32, size: engine::render::RenderSize, gri
     Ok(())
 }
 
+#[allow(clippy::too_many_arguments)]
+fn bench_walk(
+    name: &str,
+    cascades: u32,
+    probes: glam::UVec3,
+    spacing: f32,
+    rays: u32,
+    adaptive: bool,
+    frames: u32,
+    warmup: u32,
+    speed: f32,
+    (width, height): (u32, u32),
+    offset: Option<glam::DVec3>,
+    out: &std::path::Path,
+) -> Result<(), String> {
+    let scene = load(name)?;
+    let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
+    let volume = ddgi::DdgiVolume {
+        bounds: scenes::find(name).and_then(|e| (e.gi_bounds)()),
+        probe_counts: probes,
+        rays_per_probe: rays,
+        adaptive: ddgi::DdgiAdaptive {
+            enabled: adaptive,
+            min_rays: ddgi::DdgiAdaptive::default().min_rays.min(rays),
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    volume.validate().map_err(|e| e.to_string())?;
+    let cascades = (cascades > 0).then(|| ddgi::DdgiCascades {
+        count: Some(cascades),
+        probe_counts: probes,
+        spacing,
+        volume: ddgi::DdgiVolume { bounds: None, warm_up: true, ..volume.clone() },
+        ..Default::default()
+    });
+    if let Some(c) = &cascades {
+        c.validate().map_err(|e| e.to_string())?;
+    }
+    let what = cascades
+        .as_ref()
+        .map_or(format!("one volume of {probes}"), |c| format!("{} cascades of {probes}, finest {spacing} m", c.count.unwrap_or(0)));
+    let options = lab::walk::WalkOptions {
+        size: engine::render::RenderSize { width, height },
+        frames,
+        speed,
+        warmup,
+        cascades,
+        volume,
+        offset: offset.unwrap_or_default(),
+    };
+    let report = lab::walk::walk(&gpu, scene, &options, Some(out))?;
+    println!(
+        "# bench walk: {name}, {what}, {rays} rays (adaptive: {adaptive}), {width}×{height}, {frames} frames at {speed} m/s, on {}",
+        gpu.adapter_name()
+    );
+    println!(
+        "DDGI GPU ms per frame: median {:.3}, slowest {:.3}; frames over 2× the median: {}",
+        report.median_ddgi_ms(),
+        report.max_ddgi_ms(),
+        report.frames_over(2.0)
+    );
+    for k in 0..report.volumes {
+        println!("  volume {k}: median {:.3} ms (its budget, trace, probe update and gather)", report.median_volume_ms(k));
+    }
+    let scrolls = report.frames.iter().filter(|f| f.scrolled > 0).count();
+    let over: Vec<u32> = report.frames.iter().filter(|f| f.ddgi_ms > 2.0 * report.median_ddgi_ms()).map(|f| f.frame).collect();
+    println!("frames with a scroll: {scrolls}; frames over 2× the median: {over:?}");
+    println!("rebases: {}; every frame in {}", report.frames.iter().filter(|f| f.rebased).count(), out.join("walk.csv").display());
+    Ok(())
+}
+
 fn bench(command: BenchCommand) -> Result<(), String> {
     let (name, iterations, no_flat_rebuild, cpu_only) = match command {
         BenchCommand::Trace { scene, iterations, no_flat_rebuild, cpu_only } => (scene, iterations, no_flat_rebuild, cpu_only),
@@ -589,6 +702,9 @@ fn bench(command: BenchCommand) -> Result<(), String> {
                 );
             }
             return Ok(());
+        }
+        BenchCommand::Walk { scene, cascades, probes, spacing, rays, no_adaptive, frames, warmup, speed, width, height, offset, out } => {
+            return bench_walk(&scene, cascades, probes, spacing, rays, !no_adaptive, frames, warmup, speed, (width, height), offset, &out);
         }
         BenchCommand::Ddgi { scene, iterations, width, height, grid, rays } => {
             return bench_ddgi(&scene, iterations, engine::render::RenderSize { width, height }, &grid, &rays);

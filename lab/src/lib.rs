@@ -6,13 +6,15 @@
 //!   the time series after a change in the scene ([`eval::time_series`]);
 //! - [`bench`]: ray-tracing and DDGI throughput, TLAS update costs, DDGI's classification check;
 //! - [`plot`]: the evaluation's plots (plotters, with an embedded font);
-//! - [`soak`]: judging a soak run (non-finite values, memory growth, frame-time drift) and its CSV.
+//! - [`soak`]: judging a soak run (non-finite values, memory growth, frame-time drift) and its CSV;
+//! - [`walk`]: DDGI's GPU time frame by frame while the camera walks the open world.
 
 pub mod bench;
 pub mod eval;
 pub mod metrics;
 pub mod plot;
 pub mod soak;
+pub mod walk;
 
 /// The median of `values` (the upper one of an even count; sorts them), or `None` when empty.
 pub fn median(values: &mut [f64]) -> Option<f64> {

@@ -260,7 +260,7 @@ fn named_mesh(name: &str) -> Mesh {
 
 /// Direction sunlight travels: `elevation` radians below the horizon, its horizontal part turned
 /// `azimuth` radians from -X towards -Z.
-fn sun_direction(elevation: f32, azimuth: f32) -> Vec3 {
+pub(crate) fn sun_direction(elevation: f32, azimuth: f32) -> Vec3 {
     let (sin_el, cos_el) = elevation.sin_cos();
     let (sin_az, cos_az) = azimuth.sin_cos();
     Vec3::new(-cos_el * cos_az, -sin_el, -cos_el * sin_az)
@@ -270,7 +270,7 @@ fn sun_direction(elevation: f32, azimuth: f32) -> Vec3 {
 const SUN_GIZMO_DISTANCE: f32 = 20.0;
 
 /// Adds a directional light travelling along `direction`, its node placed up-sun of `target`.
-fn add_sun(desc: &mut SceneDescription, target: Vec3, direction: Vec3, intensity: f32) {
+pub(crate) fn add_sun(desc: &mut SceneDescription, target: Vec3, direction: Vec3, intensity: f32) {
     let transform = Transform::from_translation(target - direction * SUN_GIZMO_DISTANCE).looking_at(target, Vec3::Y);
     let sun = DirectionalLight { color: SUN_COLOR, intensity };
     desc.add_node("sun", transform, None, vec![NodeContent::DirectionalLight(sun)]);
@@ -725,10 +725,10 @@ const BUSH_SUBDIVISIONS: u32 = 2;
 const TRUNK_SINK: f32 = 0.5;
 
 /// Albedos.
-const GROUND_ALBEDO: Vec3 = Vec3::new(0.28, 0.3, 0.16);
-const PINE_ALBEDO: Vec3 = Vec3::new(0.07, 0.2, 0.08);
-const OAK_ALBEDO: Vec3 = Vec3::new(0.14, 0.32, 0.08);
-const BIRCH_ALBEDO: Vec3 = Vec3::new(0.3, 0.45, 0.15);
+pub(crate) const GROUND_ALBEDO: Vec3 = Vec3::new(0.28, 0.3, 0.16);
+pub(crate) const PINE_ALBEDO: Vec3 = Vec3::new(0.07, 0.2, 0.08);
+pub(crate) const OAK_ALBEDO: Vec3 = Vec3::new(0.14, 0.32, 0.08);
+pub(crate) const BIRCH_ALBEDO: Vec3 = Vec3::new(0.3, 0.45, 0.15);
 const BUSH_ALBEDO: Vec3 = Vec3::new(0.12, 0.3, 0.1);
 const FERN_ALBEDO: Vec3 = Vec3::new(0.2, 0.42, 0.12);
 
@@ -815,7 +815,7 @@ fn add_blob(mesh: &mut Mesh, sphere: &Mesh, center: Vec3, radii: Vec3) {
 }
 
 /// A pine: a 3.5 m trunk under five stacked cones of needles, about 11 m tall (≈3,900 triangles).
-fn pine_mesh() -> Mesh {
+pub(crate) fn pine_mesh() -> Mesh {
     let mut mesh = named_mesh("pine");
     add_trunk(&mut mesh, 0.28, 0.12, 3.5);
     for (radius, y0, y1) in [(2.6, 2.0, 5.5), (2.2, 3.6, 7.0), (1.8, 5.2, 8.4), (1.35, 6.8, 9.7), (0.9, 8.3, 11.0)] {
@@ -826,7 +826,7 @@ fn pine_mesh() -> Mesh {
 
 /// An oak: a stout 5 m trunk under a crown of four overlapping geodesic spheres, about 10 m tall
 /// (≈5,200 triangles).
-fn oak_mesh() -> Mesh {
+pub(crate) fn oak_mesh() -> Mesh {
     let mut mesh = named_mesh("oak");
     add_trunk(&mut mesh, 0.4, 0.25, 5.0);
     let sphere = icosphere("", CROWN_SUBDIVISIONS);
@@ -842,7 +842,7 @@ fn oak_mesh() -> Mesh {
 }
 
 /// A birch: a slender 7 m trunk under two narrow crowns, about 12 m tall (≈2,650 triangles).
-fn birch_mesh() -> Mesh {
+pub(crate) fn birch_mesh() -> Mesh {
     let mut mesh = named_mesh("birch");
     add_trunk(&mut mesh, 0.18, 0.08, 7.0);
     let sphere = icosphere("", CROWN_SUBDIVISIONS);

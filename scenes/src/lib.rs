@@ -9,6 +9,7 @@
 //! | `color_bleed`     | indirect light that follows a moving spot light (probe update speed)   |
 //! | `cathedral`       | ≈73,000 static triangles, a closed interior lit through its windows    |
 //! | `forest`          | ≈21.6 million instanced triangles over a hilly terrain                 |
+//! | `open_world`      | a house in a yard amid a 1 km² forest: camera-following cascades       |
 //!
 //! [`ALL`] is the one table of them: each [`SceneEntry`] holds a scene's name, builder, probe
 //! volume bounds and openings, so adding a scene is adding one entry. Look one up by name with
@@ -16,6 +17,7 @@
 //! the cathedral's window list is built once, on first use, and kept).
 
 pub mod large;
+pub mod open;
 pub mod rooms;
 
 use engine::scene::{Camera, NodeContent, SceneDescription, Transform};
@@ -76,6 +78,13 @@ pub static ALL: &[SceneEntry] = &[
     },
     SceneEntry { name: "cathedral", build: large::cathedral, gi_bounds: || None, openings: large::cathedral_openings },
     SceneEntry { name: "forest", build: large::forest, gi_bounds: || None, openings: || &[] },
+    SceneEntry {
+        name: "open_world",
+        build: open::open_world,
+        // A single volume over the house, its yard and the forest's edge (cascades reach further).
+        gi_bounds: || Some((Vec3::new(-60.0, -2.0, -60.0), Vec3::new(60.0, 18.0, 60.0))),
+        openings: || &[],
+    },
 ];
 
 /// The entry of the built-in scene called `name`, or `None` when no scene has that name.
@@ -111,7 +120,10 @@ mod tests {
 
     #[test]
     fn every_listed_scene_exists_and_only_those() {
-        assert_eq!(names().collect::<Vec<_>>(), ["cornell", "ceiling_opening", "door_room", "color_bleed", "cathedral", "forest"]);
+        assert_eq!(
+            names().collect::<Vec<_>>(),
+            ["cornell", "ceiling_opening", "door_room", "color_bleed", "cathedral", "forest", "open_world"]
+        );
         for entry in ALL {
             let desc = (entry.build)();
             assert_eq!(desc.name, entry.name);

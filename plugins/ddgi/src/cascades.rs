@@ -68,31 +68,27 @@ impl Default for DdgiCascades {
 impl DdgiCascades {
     /// Checks the settings; the first problem is returned with its field and value.
     pub fn validate(&self) -> Result<(), crate::DdgiSettingsError> {
-        let invalid = |field, value: String, reason| crate::DdgiSettingsError::Invalid { field, value, reason };
+        let invalid = |field, value: String, reason| crate::DdgiSettingsError::InvalidCascades { field, value, reason };
         if let Some(n) = self.count
             && !(1..=MAX_CASCADES).contains(&n)
         {
-            return Err(invalid("DdgiCascades.count", n.to_string(), "must be between 1 and 8"));
+            return Err(invalid("count", n.to_string(), "must be between 1 and 8"));
         }
         if !(self.spacing.is_finite() && self.spacing > 0.0) {
-            return Err(invalid("DdgiCascades.spacing", format!("{:?}", self.spacing), "must be finite and positive"));
+            return Err(invalid("spacing", format!("{:?}", self.spacing), "must be finite and positive"));
         }
         if !(self.blend_cells.is_finite() && self.blend_cells > 0.0) {
-            return Err(invalid("DdgiCascades.blend_cells", format!("{:?}", self.blend_cells), "must be finite and positive"));
+            return Err(invalid("blend_cells", format!("{:?}", self.blend_cells), "must be finite and positive"));
         }
         let c = self.probe_counts;
         if c.min_element() < 2 || u64::from(c.x) * u64::from(c.y) * u64::from(c.z) > u64::from(MAX_PROBES) {
-            return Err(invalid("DdgiCascades.probe_counts", format!("{c:?}"), "needs at least 2 probes per axis"));
+            return Err(invalid("probe_counts", format!("{c:?}"), "needs at least 2 probes per axis"));
         }
         if f64::from(self.blend_cells) * 2.0 >= f64::from(c.min_element() - 1) {
-            return Err(invalid(
-                "DdgiCascades.blend_cells",
-                format!("{:?}", self.blend_cells),
-                "must be under half the probes of the shortest axis",
-            ));
+            return Err(invalid("blend_cells", format!("{:?}", self.blend_cells), "must be under half the probes of the shortest axis"));
         }
         if self.max_update_period == 0 {
-            return Err(invalid("DdgiCascades.max_update_period", "0".into(), "must be at least 1"));
+            return Err(invalid("max_update_period", "0".into(), "must be at least 1"));
         }
         self.volume.validate()
     }

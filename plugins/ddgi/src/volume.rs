@@ -273,6 +273,8 @@ pub const MAX_MAP_TEXELS: u32 = 64;
 pub enum DdgiSettingsError {
     #[error("DdgiVolume.{field} = {value}: {reason}")]
     Invalid { field: &'static str, value: String, reason: &'static str },
+    #[error("DdgiCascades.{field} = {value}: {reason}")]
+    InvalidCascades { field: &'static str, value: String, reason: &'static str },
     #[error("DdgiVolume: the {what} needs {needed} {unit}, over the adapter's limit of {limit}")]
     OverLimit { what: &'static str, needed: u64, limit: u64, unit: &'static str },
     #[error("DdgiVolume.bounds = None and the scene has no geometry to take bounds from")]

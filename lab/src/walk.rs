@@ -1,0 +1,161 @@
+//! `game_demo bench walk`: DDGI's GPU time, frame by frame, while the camera walks the open world's
+//! tour ([`scenes::open::tour_at`]) — with camera-following cascades or one fixed volume — and
+//! where the cascades scrolled and the render origin rebased, so that a spike can be traced to
+//! what caused it.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use engine::gpu::GpuContext;
+use engine::headless::{HeadlessSettings, run_frames, scene_app};
+use engine::render::{FrameTimings, RenderSize};
+use engine::scene::{Camera, RenderOrigin, SceneDescription, Transform};
+use glam::{DVec3, Vec3};
+
+/// What the walk renders.
+#[derive(Clone, Debug)]
+pub struct WalkOptions {
+    pub size: RenderSize,
+    /// Frames of the walk (at 60 per second of the tour).
+    pub frames: u32,
+    /// Walking speed in metres per second (the tour advances `speed / 60` metres a frame).
+    pub speed: f32,
+    /// Frames before the walk starts (the camera stands at the door while the probes converge).
+    pub warmup: u32,
+    /// The cascades, or `None` for `volume`.
+    pub cascades: Option<ddgi::DdgiCascades>,
+    pub volume: ddgi::DdgiVolume,
+    /// The scene's placement in the world ([`SceneDescription::origin`]).
+    pub offset: DVec3,
+}
+
+/// One frame of the walk.
+#[derive(Clone, Debug, Default)]
+pub struct WalkFrame {
+    pub frame: u32,
+    /// Metres walked.
+    pub distance: f32,
+    /// GPU ms of every DDGI pass, and of each volume's own passes (budget, trace, probe update,
+    /// gather) by volume index.
+    pub ddgi_ms: f64,
+    pub volume_ms: Vec<f64>,
+    /// GPU ms of every pass of the frame.
+    pub frame_ms: f64,
+    /// Volumes that scrolled in this frame, and whether the render origin rebased.
+    pub scrolled: u32,
+    pub rebased: bool,
+}
+
+/// The walk's frames and their summary.
+#[derive(Clone, Debug, Default)]
+pub struct WalkReport {
+    pub frames: Vec<WalkFrame>,
+    pub volumes: usize,
+}
+
+impl WalkReport {
+    fn ddgi(&self) -> Vec<f64> {
+        self.frames.iter().map(|f| f.ddgi_ms).collect()
+    }
+
+    /// Median DDGI ms per frame.
+    pub fn median_ddgi_ms(&self) -> f64 {
+        crate::median(&mut self.ddgi()).unwrap_or(0.0)
+    }
+
+    /// The slowest frame's DDGI ms.
+    pub fn max_ddgi_ms(&self) -> f64 {
+        self.ddgi().into_iter().fold(0.0, f64::max)
+    }
+
+    /// Frames whose DDGI time is over `factor` × the median.
+    pub fn frames_over(&self, factor: f64) -> usize {
+        let limit = factor * self.median_ddgi_ms();
+        self.frames.iter().filter(|f| f.ddgi_ms > limit).count()
+    }
+
+    /// Median ms of volume `k`'s passes.
+    pub fn median_volume_ms(&self, k: usize) -> f64 {
+        crate::median(&mut self.frames.iter().filter_map(|f| f.volume_ms.get(k).copied()).collect::<Vec<_>>()).unwrap_or(0.0)
+    }
+
+    /// Every frame as CSV.
+    pub fn csv(&self) -> String {
+        let mut out = String::from("frame,distance_m,ddgi_ms,frame_ms,scrolled_volumes,rebased");
+        for k in 0..self.volumes {
+            let _ = write!(out, ",volume_{k}_ms");
+        }
+        out.push('\n');
+        for f in &self.frames {
+            let _ = write!(out, "{},{:.2},{:.4},{:.4},{},{}", f.frame, f.distance, f.ddgi_ms, f.frame_ms, f.scrolled, u8::from(f.rebased));
+            for ms in &f.volume_ms {
+                let _ = write!(out, ",{ms:.4}");
+            }
+            out.push('\n');
+        }
+        out
+    }
+}
+
+/// Whether a pass label belongs to volume `k` of `n` (its suffix `_k` when there are several).
+fn of_volume(label: &str, k: usize, n: usize) -> bool {
+    let base = ["ddgi_budget", "ddgi_trace", "ddgi_probe_update", "ddgi_gather"];
+    base.iter().any(|b| if n > 1 { label == format!("{b}_{k}") } else { label == *b })
+}
+
+/// Walks `scene`'s camera along the open world's tour and measures every frame.
+pub fn walk(gpu: &GpuContext, mut scene: SceneDescription, options: &WalkOptions, out: Option<&Path>) -> Result<WalkReport, String> {
+    scene.origin = options.offset;
+    let settings = HeadlessSettings { width: options.size.width, height: options.size.height, frames: 1, ..Default::default() };
+    let mut app = scene_app(gpu, scene, &settings, |app| match &options.cascades {
+        Some(c) => ddgi::use_ddgi_cascades(app, c.clone(), ddgi::DdgiOutput::Full),
+        None => ddgi::use_ddgi(app, options.volume.clone(), ddgi::DdgiOutput::Full),
+    })
+    .map_err(|e| e.to_string())?;
+    let total = options.warmup + options.frames;
+    let bar = indicatif::ProgressBar::new(u64::from(total));
+    let mut report = WalkReport::default();
+    let mut scrolls_before: Vec<u64> = Vec::new();
+    let mut rebases_before = 0;
+    let step = options.speed / 60.0;
+    run_frames(&mut app, total, |frame, world| {
+        bar.inc(1);
+        let walked = frame.saturating_sub(options.warmup);
+        let volumes = world.resource::<ddgi::DdgiGpuVolumes>();
+        let scrolls: Vec<u64> = volumes.volumes.iter().map(|(_, v)| v.scrolls).collect();
+        let n = scrolls.len();
+        let scrolled = scrolls.iter().enumerate().filter(|(k, s)| scrolls_before.get(*k).is_some_and(|b| *s > b)).count() as u32;
+        scrolls_before = scrolls;
+        let rebases = world.resource::<RenderOrigin>().rebases;
+        let rebased = rebases > rebases_before;
+        rebases_before = rebases;
+        if frame >= options.warmup
+            && let Some(timing) = world.resource::<FrameTimings>().frames.last()
+        {
+            let ms = |f: &dyn Fn(&str) -> bool| timing.passes.iter().filter(|p| f(&p.label)).filter_map(|p| p.gpu_ms).sum::<f64>();
+            report.frames.push(WalkFrame {
+                frame: walked,
+                distance: walked as f32 * step,
+                ddgi_ms: ms(&|l| l.starts_with("ddgi_")),
+                volume_ms: (0..n).map(|k| ms(&|l| of_volume(l, k, n))).collect(),
+                frame_ms: ms(&|_| true),
+                scrolled,
+                rebased,
+            });
+            report.volumes = n;
+        }
+        // The camera for the next frame: on the tour, looking ahead and a little down.
+        let (eye, forward) = scenes::open::tour_at((walked + 1) as f32 * step);
+        let mut cameras = world.query_filtered::<&mut Transform, engine::bevy_ecs::query::With<Camera>>();
+        for mut t in cameras.iter_mut(world) {
+            *t = Transform::from_translation(eye).looking_at(eye + forward * 10.0 - Vec3::Y, Vec3::Y);
+        }
+    });
+    bar.finish_and_clear();
+    if let Some(dir) = out {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        let path = dir.join("walk.csv");
+        std::fs::write(&path, report.csv()).map_err(|e| format!("{}: {e}", path.display()))?;
+    }
+    Ok(report)
+}
