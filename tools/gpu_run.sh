@@ -17,6 +17,8 @@ R=$OUT/r$TAG
 mkdir -p "$R"
 nvidia-smi --query-gpu=name,driver_version --format=csv > "$R/gpu.txt" 2>&1
 date -u > "$R/date.txt"
+# Viewpoints along the open world's tour (scenes::open::tour_at at D metres, looking ahead and down).
+declare -A VIEWS=([20]="6.75,1.70,19.69 11.74,0.70,28.36" [80]="37.28,1.14,71.33 42.69,0.14,79.74" [300]="155.99,1.18,256.55 161.36,0.18,264.99")
 run() { # name, command...
     local name=$1
     shift
@@ -39,6 +41,15 @@ for step in "$@"; do
     classify_*) scene=${step#classify_}; run "$step" $B bench classify --scene "$scene" ;;
     classifyfine_*) scene=${step#classifyfine_}; run "$step" $B bench classify --scene "$scene" --grid 32,16,32 ;;
     reference_*) scene=${step#reference_}; run "$step" $B render --scene "$scene" --mode pathtrace --spp 4096 --width 96 --height 96 --out "$R/$step" ;;
+    # walk-CASCADES-X,Y,Z: the open world's tour at 1920x1080, adaptive budgets; CASCADES 0 is one
+    # volume over the scene's GI bounds with X,Y,Z probes. WALK_ARGS: more bench walk options.
+    walk-*) IFS=- read -r _ cascades grid <<< "$step"; run "$step" $B bench walk --cascades "$cascades" --probes "$grid" --out "$R/$step" ${WALK_ARGS:-} ;;
+    # offset-SCENE-X,Y,Z: the still evaluation of SCENE placed at X,Y,Z (the reference is the
+    # scene's at the origin: the cache key leaves the placement out).
+    offset-*) IFS=- read -r _ scene at <<< "$step"; run "$step" $B eval --scene "$scene" --width 256 --height 256 --reference-spp 4096 --offset "$at" --out "$R/$step" --cache /tmp/cache ;;
+    # view-D: the open world seen from the tour at D metres (positions in tools' VIEWS), one
+    # volume of 32x8x32 probes against 4 cascades of 16x8x16 (the same rays per frame).
+    view-*) d=${step#view-}; read -r eye target <<< "${VIEWS[$d]}"; run "$step" $B eval --scene open_world --width 256 --height 256 --reference-spp 4096 --probes 32,8,32 --cascades 4 --cascade-probes 16,8,16 --cascade-spacing 1.5 --camera-position "$eye" --camera-target "$target" --fov 70 --out "$R/$step" --cache /tmp/cache ;;
     esac
 done
 # Reports, tables and plots only (the per-configuration strips would pass the 16 MiB a file that

@@ -96,10 +96,25 @@ enum Command {
         /// 1e5,0,0): large-world coordinates keep every method's error as at the origin.
         #[arg(long, value_parser = parse_dvec3)]
         offset: Option<glam::DVec3>,
-        /// Also DDGI with N camera-following cascades (0: none) of --probes probes each (default
-        /// 16,8,16), the coarsest as wide as the scene, at the fixed configuration's rays per probe.
+        /// Also DDGI with N camera-following cascades (0: none) of --cascade-probes probes each,
+        /// at the fixed configuration's rays per probe.
         #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=8))]
         cascades: u32,
+        /// Probes of each cascade.
+        #[arg(long, value_parser = parse_uvec3, default_value = "16,8,16")]
+        cascade_probes: glam::UVec3,
+        /// Probe spacing of the finest cascade (default: the coarsest as wide as the scene).
+        #[arg(long)]
+        cascade_spacing: Option<f32>,
+        /// Replace the scene's camera: its position `x,y,z` (needs --camera-target).
+        #[arg(long, value_parser = parse_vec3, requires = "camera_target")]
+        camera_position: Option<glam::Vec3>,
+        /// The point the replacement camera looks at `x,y,z`.
+        #[arg(long, value_parser = parse_vec3, requires = "camera_position")]
+        camera_target: Option<glam::Vec3>,
+        /// Vertical field of view of the replacement camera, in degrees.
+        #[arg(long, default_value_t = 50.0)]
+        fov: f32,
     },
     /// Benchmarks (results as Markdown tables on standard output).
     #[command(subcommand)]
@@ -167,11 +182,36 @@ struct PlayArgs {
     #[arg(long, requires = "soak")]
     warmup: Option<u32>,
     /// Show this scene in a window instead of the level (a built-in name or a scene file).
-    #[arg(long, conflicts_with_all = ["headless", "script"])]
+    /// `open_world`: its tour, out of the house and into the forest and back, walked by the camera
+    /// with --cascades (default 4) camera-following cascades, in a window or --headless.
+    #[arg(long, conflicts_with_all = ["script", "soak"])]
     scene: Option<String>,
 }
 
 fn play(args: PlayArgs) -> Result<(), String> {
+    if args.scene.as_deref() == Some("open_world") {
+        let scene = load("open_world")?;
+        let cascades = play::tour::tour_cascades(if args.cascades == 0 { 4 } else { args.cascades }, args.rays, !args.no_adaptive);
+        cascades.validate().map_err(|e| e.to_string())?;
+        if args.headless {
+            let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
+            let size = engine::render::RenderSize { width: args.width, height: args.height };
+            let report = play::tour::run_tour_headless(&gpu, scene, cascades, size, args.frames, args.every, &args.out)?;
+            println!(
+                "open world tour: {} frames ({:.0} m walked), DDGI median {:.3} ms per frame on {}; frames and walk.csv in {}",
+                report.frames.len(),
+                report.frames.last().map_or(0.0, |f| f.distance),
+                report.median_ddgi_ms(),
+                gpu.adapter_name(),
+                args.out.display()
+            );
+            return Ok(());
+        }
+        return engine::window::run_window(play::tour::TourWindow { scene, cascades }).map_err(|e| e.to_string());
+    }
+    if args.headless && args.scene.is_some() {
+        return Err("--headless with --scene: only the open world (--scene open_world) has a scripted tour".into());
+    }
     if let Some(scene) = &args.scene {
         return load(scene).and_then(|s| engine::window::run_windowed(s).map_err(|e| e.to_string()));
     }
@@ -469,6 +509,26 @@ fn load(scene: &str) -> Result<SceneDescription, String> {
     engine::import::load_scene(path).map_err(|e| e.to_string())
 }
 
+/// Replaces the scene's camera by one at `position` looking at `target` (`--camera-position`,
+/// `--camera-target`, `--fov` in degrees).
+fn replace_camera(scene: &mut SceneDescription, position: glam::Vec3, target: glam::Vec3, fov: f32) -> Result<(), String> {
+    if !(fov > 0.0 && fov < 180.0) {
+        return Err(format!("--fov must be between 0 and 180 degrees, got {fov}"));
+    }
+    for node in &mut scene.nodes {
+        node.content.retain(|c| !matches!(c, NodeContent::Camera(_)));
+    }
+    let up = if (target - position).normalize_or_zero().y.abs() > 0.99 { glam::Vec3::Z } else { glam::Vec3::Y };
+    let camera = Camera { yfov: fov.to_radians(), ..Default::default() };
+    scene.add_node(
+        "command_line_camera",
+        Transform::from_translation(position).looking_at(target, up),
+        None,
+        vec![NodeContent::Camera(camera)],
+    );
+    Ok(())
+}
+
 fn render(args: RenderArgs) -> Result<(), String> {
     if args.list_scenes {
         for name in scenes::names().chain([LEVEL_SCENE]) {
@@ -479,20 +539,7 @@ fn render(args: RenderArgs) -> Result<(), String> {
     let mut scene = load(&args.scene)?;
     scene.origin = args.offset.unwrap_or_default();
     if let (Some(position), Some(target)) = (args.camera_position, args.camera_target) {
-        if !(args.fov > 0.0 && args.fov < 180.0) {
-            return Err(format!("--fov must be between 0 and 180 degrees, got {}", args.fov));
-        }
-        for node in &mut scene.nodes {
-            node.content.retain(|c| !matches!(c, NodeContent::Camera(_)));
-        }
-        let up = if (target - position).normalize_or_zero().y.abs() > 0.99 { glam::Vec3::Z } else { glam::Vec3::Y };
-        let camera = Camera { yfov: args.fov.to_radians(), ..Default::default() };
-        scene.add_node(
-            "command_line_camera",
-            Transform::from_translation(position).looking_at(target, up),
-            None,
-            vec![NodeContent::Camera(camera)],
-        );
+        replace_camera(&mut scene, position, target, args.fov)?;
     }
     let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
     let ddgi_mode = matches!(args.mode.as_str(), "ddgi" | "indirect");
@@ -652,6 +699,8 @@ fn bench_walk(
         cascades,
         volume,
         offset: offset.unwrap_or_default(),
+        sky: if name == "open_world" { play::tour::OPEN_SKY } else { glam::Vec3::ZERO },
+        every: None,
     };
     let report = lab::walk::walk(&gpu, scene, &options, Some(out))?;
     println!(
@@ -791,12 +840,24 @@ fn main() -> ExitCode {
             cache,
             offset,
             cascades,
+            cascade_probes,
+            cascade_spacing,
+            camera_position,
+            camera_target,
+            fov,
         } => load(&scene).and_then(|mut description| {
             description.origin = offset.unwrap_or_default();
+            if let (Some(position), Some(target)) = (camera_position, camera_target) {
+                replace_camera(&mut description, position, target, fov)?;
+            }
             let extent = description.bounds().map_or(1.0, |(lo, hi)| (hi - lo).x.max((hi - lo).z));
-            let probes_per_cascade = probes.unwrap_or(glam::UVec3::new(16, 8, 16));
-            let cascades =
-                (cascades > 0).then(|| ddgi::DdgiCascades::fitted(cascades, probes_per_cascade, extent, ddgi::DdgiVolume::default()));
+            let cascades = (cascades > 0).then(|| {
+                let fitted = ddgi::DdgiCascades::fitted(cascades, cascade_probes, extent, ddgi::DdgiVolume::default());
+                ddgi::DdgiCascades { spacing: cascade_spacing.unwrap_or(fitted.spacing), ..fitted }
+            });
+            if let Some(c) = &cascades {
+                c.validate().map_err(|e| e.to_string())?;
+            }
             let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
             let default_out = PathBuf::from("out/eval").join(scene.replace(['/', '\\', '.'], "_"));
             let out = out.unwrap_or_else(|| if time_series { default_out.join("time_series") } else { default_out });

@@ -27,6 +27,10 @@ pub struct WalkOptions {
     pub volume: ddgi::DdgiVolume,
     /// The scene's placement in the world ([`SceneDescription::origin`]).
     pub offset: DVec3,
+    /// The sky's radiance ([`engine::render::SkyRadiance`]).
+    pub sky: Vec3,
+    /// Write the frame as `frame_NNNNN.png` into the output folder every this many frames.
+    pub every: Option<u32>,
 }
 
 /// One frame of the walk.
@@ -107,11 +111,18 @@ fn of_volume(label: &str, k: usize, n: usize) -> bool {
 pub fn walk(gpu: &GpuContext, mut scene: SceneDescription, options: &WalkOptions, out: Option<&Path>) -> Result<WalkReport, String> {
     scene.origin = options.offset;
     let settings = HeadlessSettings { width: options.size.width, height: options.size.height, frames: 1, ..Default::default() };
-    let mut app = scene_app(gpu, scene, &settings, |app| match &options.cascades {
-        Some(c) => ddgi::use_ddgi_cascades(app, c.clone(), ddgi::DdgiOutput::Full),
-        None => ddgi::use_ddgi(app, options.volume.clone(), ddgi::DdgiOutput::Full),
+    let mut app = scene_app(gpu, scene, &settings, |app| {
+        app.insert_resource(engine::render::SkyRadiance(options.sky));
+        match &options.cascades {
+            Some(c) => ddgi::use_ddgi_cascades(app, c.clone(), ddgi::DdgiOutput::Full),
+            None => ddgi::use_ddgi(app, options.volume.clone(), ddgi::DdgiOutput::Full),
+        }
     })
     .map_err(|e| e.to_string())?;
+    if let Some(dir) = out {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    }
+    let mut written: Result<(), String> = Ok(());
     let total = options.warmup + options.frames;
     let bar = indicatif::ProgressBar::new(u64::from(total));
     let mut report = WalkReport::default();
@@ -144,6 +155,17 @@ pub fn walk(gpu: &GpuContext, mut scene: SceneDescription, options: &WalkOptions
             });
             report.volumes = n;
         }
+        if let (Some(every), Some(dir)) = (options.every, out)
+            && frame >= options.warmup
+            && walked % every.max(1) == 0
+            && written.is_ok()
+        {
+            let pixels = engine::headless::read_ldr(gpu, world);
+            let path = dir.join(format!("frame_{walked:05}.png"));
+            let (w, h) = (options.size.width, options.size.height);
+            written =
+                image::save_buffer(&path, &pixels, w, h, image::ExtendedColorType::Rgba8).map_err(|e| format!("{}: {e}", path.display()));
+        }
         // The camera for the next frame: on the tour, looking ahead and a little down.
         let (eye, forward) = scenes::open::tour_at((walked + 1) as f32 * step);
         let mut cameras = world.query_filtered::<&mut Transform, engine::bevy_ecs::query::With<Camera>>();
@@ -152,8 +174,8 @@ pub fn walk(gpu: &GpuContext, mut scene: SceneDescription, options: &WalkOptions
         }
     });
     bar.finish_and_clear();
+    written?;
     if let Some(dir) = out {
-        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
         let path = dir.join("walk.csv");
         std::fs::write(&path, report.csv()).map_err(|e| format!("{}: {e}", path.display()))?;
     }

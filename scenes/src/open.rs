@@ -193,3 +193,37 @@ fn near_path(p: Vec2) -> bool {
         p.distance(a + ab * t) < 3.0
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_open_world_is_a_kilometre_of_forest_around_a_house_and_its_tour_is_clear() {
+        let desc = open_world();
+        let trees: Vec<_> = desc.nodes.iter().filter(|n| n.name.starts_with(['p', 'o', 'b']) && n.parent.is_some()).collect();
+        let triangles = desc.instanced_triangle_count();
+        assert!(trees.len() > 5_000, "{} trees", trees.len());
+        assert!((15_000_000..40_000_000).contains(&triangles), "{triangles} instanced triangles");
+        let (lo, hi) = desc.bounds().expect("geometry");
+        assert!((hi - lo).x > 990.0 && (hi - lo).z > 990.0, "{lo}..{hi}");
+        let length = tour_length();
+        assert!((1000.0..1300.0).contains(&length), "tour {length} m");
+        for tree in &trees {
+            let p = tree.transform.translation;
+            // Every tree stands on the ground, none in the yard or on the tour's path.
+            assert!((p.y - open_world_height(p.x, p.z)).abs() < 1e-3, "{} floats", tree.name);
+            assert!(Vec2::new(p.x, p.z).length() > YARD_RADIUS, "{} stands in the yard", tree.name);
+            assert!(!near_path(Vec2::new(p.x, p.z)), "{} stands on the path", tree.name);
+        }
+        // The tour starts and ends at the door and stays at eye height over the ground.
+        for k in 0..=100 {
+            let (eye, forward) = tour_at(length * k as f32 / 100.0);
+            assert!((eye.y - open_world_height(eye.x, eye.z) - EYE_HEIGHT).abs() < 1e-3);
+            assert!((forward.length() - 1.0).abs() < 1e-4);
+        }
+        assert!(tour_at(length).0.distance(tour_at(0.0).0) < 10.0, "the tour comes back to the door");
+        assert_eq!(open_world_height(3.0, -4.0), 0.0, "the yard is flat");
+        assert_eq!(open_world(), desc, "deterministic");
+    }
+}

@@ -6,7 +6,7 @@
 //! - [`controller`]: the first-person controller and the scripted tour;
 //! - [`overlay`]: the egui overlay; [`window`]: its hooks into the engine's windowed runner; [`headless`]: the scripted
 //!   walk without a window; [`soak`]: thousands of frames checked for NaN, memory growth and
-//!   timing drift.
+//!   timing drift; [`tour`]: the open world's tour with camera-following cascades.
 
 pub mod controller;
 pub mod headless;
@@ -14,6 +14,7 @@ pub mod level;
 pub mod navmesh;
 pub mod overlay;
 pub mod soak;
+pub mod tour;
 pub mod window;
 
 use std::path::Path;

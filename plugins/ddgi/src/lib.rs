@@ -41,6 +41,17 @@
 //! opt-in, once a slower average of that error, which keeps less of the noise, has settled), and
 //! the per-probe passes run only for the probes traced that frame; dark probes are switched off.
 //!
+//! **Open worlds.** [`DdgiCascades`] keeps nested volumes centred on a camera, each twice as
+//! coarse as the one inside it (RTXGI's scrolling volumes, G3D's and Flax's cascades): a volume
+//! whose bounds move by whole cells *scrolls* — its probe indices shift toroidally, the probes that
+//! stay keep their maps, the planes that enter restart and converge as a running mean
+//! ([`DdgiVolume::warm_up`]) — and far cascades update only every few frames
+//! ([`DdgiVolume::update_period`]). The gather takes the finest cascade that covers a point and
+//! blends into the next across a band; where no volume reaches, [`DdgiSkyLight`] lights a point by
+//! the sky times a short-range visibility. Probes near an instance that moves wake at once, the
+//! others keep resting. Volumes live in world space in double precision and follow the engine's
+//! render origin (large-world coordinates, [`engine::scene::RenderOrigin`]).
+//!
 //! ## In the ECS
 //!
 //! Add [`DdgiPlugin`], spawn an entity with a [`DdgiVolume`] (its settings), and select the

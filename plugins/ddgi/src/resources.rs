@@ -195,7 +195,8 @@ impl VolumeGpu {
         }
         let bounds = ((self.world_bounds.0 - origin).as_vec3(), (self.world_bounds.1 - origin).as_vec3());
         match DdgiLayout::new(&self.settings, bounds, limits) {
-            Ok(layout) => self.layout = layout,
+            // The same probes in the same storage: a scrolled volume keeps its shift.
+            Ok(layout) => self.layout = DdgiLayout { scroll: self.layout.scroll, ..layout },
             Err(e) => log::error!("DDGI volume after the render origin moved: {e}"),
         }
         self.render_origin = origin;

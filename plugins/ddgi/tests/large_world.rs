@@ -1,6 +1,6 @@
 //! Large-world coordinates: the Cornell box placed 1e3, 1e4 and 1e5 units from the world's origin
 //! renders as it does at the origin in every mode (direct light, DDGI, DDGI's indirect light alone,
-//! the path tracer), with a still camera and with one that moves while the render origin rebases
+//! the path tracer, DDGI's camera-following cascades), with a still camera and with one that moves while the render origin rebases
 //! under it; and the same box at 1e5 without rebasing (single-precision world coordinates) does not,
 //! which shows that the comparison can fail and that rebasing is what passes it.
 
@@ -25,9 +25,12 @@ enum Mode {
     Ddgi,
     Indirect,
     PathTrace,
+    /// DDGI with camera-following cascades (they scroll as the camera walks, and shift with every
+    /// rebase without losing their probes).
+    Cascades,
 }
 
-const MODES: [Mode; 4] = [Mode::Direct, Mode::Ddgi, Mode::Indirect, Mode::PathTrace];
+const MODES: [Mode; 5] = [Mode::Direct, Mode::Ddgi, Mode::Indirect, Mode::PathTrace, Mode::Cascades];
 
 fn cornell(offset: DVec3) -> SceneDescription {
     let mut scene = (scenes::find("cornell").expect("cornell").build)();

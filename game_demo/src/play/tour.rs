@@ -1,0 +1,88 @@
+//! `play --scene open_world`: the open world's tour (`scenes::open::tour_at`) — out of the house,
+//! across the yard, 500 m into the forest and back — walked by the camera at a steady pace, lit by
+//! DDGI's camera-following cascades; in a window, or headless (`--headless`: PNGs every `--every`
+//! frames and the GPU time of every frame in `walk.csv`, through `lab::walk`).
+
+use bevy_app::{App, Update};
+use bevy_ecs::prelude::*;
+use engine::app::Time;
+use engine::gpu::GpuContext;
+use engine::render::{RenderSize, SkyRadiance};
+use engine::scene::{Camera, SceneDescription, Transform};
+use engine::window::{WindowContext, WindowHooks};
+use glam::{UVec3, Vec3};
+
+/// Walking pace of the tour, metres per second.
+pub const TOUR_SPEED: f32 = 1.5;
+/// The sky's radiance over the open world (a pale blue, W/(m²·sr)).
+pub const OPEN_SKY: Vec3 = Vec3::new(0.35, 0.45, 0.6);
+
+/// The cascades of the tour: `count` of 16×8×16 probes, the finest 1.5 m apart.
+pub fn tour_cascades(count: u32, rays: u32, adaptive: bool) -> ddgi::DdgiCascades {
+    let volume = ddgi::DdgiVolume {
+        rays_per_probe: rays,
+        warm_up: true,
+        adaptive: ddgi::DdgiAdaptive {
+            enabled: adaptive,
+            min_rays: ddgi::DdgiAdaptive::default().min_rays.min(rays),
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    ddgi::DdgiCascades { count: Some(count.max(1)), probe_counts: UVec3::new(16, 8, 16), spacing: 1.5, volume, ..Default::default() }
+}
+
+/// Puts the camera on the tour, `TOUR_SPEED` × the time walked so far.
+fn walk_the_tour(time: Res<Time>, mut cameras: Query<&mut Transform, With<Camera>>) {
+    let (eye, forward) = scenes::open::tour_at(time.elapsed_seconds as f32 * TOUR_SPEED);
+    for mut t in &mut cameras {
+        *t = Transform::from_translation(eye).looking_at(eye + forward * 10.0 - Vec3::Y, Vec3::Y);
+    }
+}
+
+/// Sets `app` up for the tour: the sky, the cascades and the walking camera (the scene is spawned
+/// by the caller).
+pub fn setup_tour(app: &mut App, cascades: ddgi::DdgiCascades) {
+    app.insert_resource(SkyRadiance(OPEN_SKY));
+    ddgi::use_ddgi_cascades(app, cascades, ddgi::DdgiOutput::Full);
+    app.add_systems(Update, walk_the_tour);
+}
+
+/// The tour in a window.
+pub struct TourWindow {
+    pub scene: SceneDescription,
+    pub cascades: ddgi::DdgiCascades,
+}
+
+impl WindowHooks for TourWindow {
+    fn build(&mut self, window: &mut WindowContext) -> Result<(), String> {
+        setup_tour(&mut window.app, self.cascades.clone());
+        self.scene.clone().spawn(window.app.world_mut());
+        Ok(())
+    }
+}
+
+/// The tour headless: `frames` frames at 60 per second, a PNG every `every` frames into `out`,
+/// and walk.csv. Returns the mean DDGI GPU ms per frame.
+pub fn run_tour_headless(
+    gpu: &GpuContext,
+    scene: SceneDescription,
+    cascades: ddgi::DdgiCascades,
+    size: RenderSize,
+    frames: u32,
+    every: u32,
+    out: &std::path::Path,
+) -> Result<lab::walk::WalkReport, String> {
+    let options = lab::walk::WalkOptions {
+        size,
+        frames,
+        speed: TOUR_SPEED,
+        warmup: 0,
+        cascades: Some(cascades),
+        volume: ddgi::DdgiVolume::default(),
+        offset: glam::DVec3::ZERO,
+        sky: OPEN_SKY,
+        every: (every > 0).then_some(every),
+    };
+    lab::walk::walk(gpu, scene, &options, Some(out))
+}
