@@ -377,6 +377,25 @@ pub struct EvalOptions {
 }
 
 impl Config {
+    /// This configuration for the scene placed at `origin` ([`SceneDescription::origin`]): a DDGI
+    /// volume's bounds (world coordinates, from [`SceneFacts::gi_bounds`] at the origin) move with
+    /// the scene.
+    pub fn placed_at(self, origin: glam::DVec3) -> Config {
+        match self {
+            Config::Ddgi { name, volume } if origin != glam::DVec3::ZERO => {
+                let shift = |p: glam::Vec3| (p.as_dvec3() + origin).as_vec3();
+                let bounds = volume.bounds.map(|(lo, hi)| (shift(lo), shift(hi)));
+                Config::Ddgi { name, volume: Box::new(ddgi::DdgiVolume { bounds, ..*volume }) }
+            }
+            other => other,
+        }
+    }
+
+    /// The configurations of `list` for `scene` (placed where it is), with `cascades` added.
+    pub fn for_scene(list: Vec<Config>, scene: &SceneDescription, cascades: Option<&ddgi::DdgiCascades>) -> Vec<Config> {
+        list.into_iter().chain(cascades.map(Config::ddgi_cascades)).map(|c| c.placed_at(scene.origin)).collect()
+    }
+
     /// The cascaded configuration of `cascades`, named by its count and grid.
     pub fn ddgi_cascades(cascades: &ddgi::DdgiCascades) -> Config {
         let (n, c) = (cascades.count.unwrap_or(0), cascades.probe_counts);
@@ -395,8 +414,7 @@ pub fn run(gpu: &GpuContext, facts: &SceneFacts, scene: SceneDescription, option
     let reference_ldr = tonemap_to_srgb8(&reference, EXPOSURE);
     let mut rows = Vec::new();
     let mut direct_ldr: Option<Vec<u8>> = None;
-    let mut list = Config::still_list(facts, experiments, grid, adaptive);
-    list.extend(options.cascades.iter().map(Config::ddgi_cascades));
+    let list = Config::for_scene(Config::still_list(facts, experiments, grid, adaptive), &scene, options.cascades.as_ref());
     for config in list {
         let frame = render(gpu, &scene, &config, width, height, pathtrace::PathTraceSettings::default().seed)?;
         let error = compare(&reference, &frame.hdr, width, height, EXPOSURE);

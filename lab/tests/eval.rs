@@ -75,6 +75,22 @@ fn eval_writes_a_report_whose_path_tracer_errors_fall_with_more_samples() {
     // The second run reads the reference from the cache (it does not write it again).
     run();
     assert_eq!(cached(&cache), first);
+    // The same scene 1e5 units from the origin (`eval --offset`): judged against the same
+    // reference (the cache key leaves the placement out), every configuration — DDGI's volume
+    // moved with the scene — within FLIP 0.01 of its error at the origin.
+    let far = lab::eval::EvalOptions { out: dir.join("far"), cascades: None, ..self::options(48, 256, out.clone(), cache.clone()) };
+    let offset = engine::scene::SceneDescription { origin: glam::DVec3::new(1e5, -1e5, 1e5), ..cornell() };
+    let far_rows = lab::eval::run(&gpu, &SceneFacts::named("cornell"), offset, &far).expect("eval at an offset");
+    assert_eq!(cached(&cache), first, "the offset scene reuses the origin's reference");
+    for row in &far_rows {
+        let at_origin = flip(&row.config);
+        assert!(
+            (f64::from(row.error.mean_flip) - at_origin).abs() <= 0.01,
+            "{}: FLIP {} at 1e5, {at_origin} at the origin",
+            row.config,
+            row.error.mean_flip
+        );
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -314,8 +314,7 @@ pub fn run(
     let changed = before.nodes[change.node].name.clone();
     let seed = pathtrace::PathTraceSettings::default().seed;
     let mut runs = Vec::new();
-    let mut list = Config::time_series_list(facts, grid, adaptive);
-    list.extend(options.cascades.iter().map(Config::ddgi_cascades));
+    let list = Config::for_scene(Config::time_series_list(facts, grid, adaptive), &before, options.cascades.as_ref());
     for config in list {
         let settle = settle_frames_of(&config, settle_frames);
         let settings = HeadlessSettings { width, height, frames: settle + frames, ..Default::default() };
@@ -474,8 +473,11 @@ fn write_report(
     plot_note: &str,
 ) -> Result<(), String> {
     let name = facts.name.as_str();
-    let mut list = Config::time_series_list(facts, options.grid, &options.adaptive);
-    list.extend(options.cascades.iter().map(Config::ddgi_cascades));
+    let list = Config::for_scene(
+        Config::time_series_list(facts, options.grid, &options.adaptive),
+        &SceneDescription::default(),
+        options.cascades.as_ref(),
+    );
     let settle: Vec<String> = list.iter().map(|c| format!("{} {}", c.name(), settle_frames_of(c, options.settle_frames))).collect();
     let mut md = format!(
         "# Time series: {name}\n\nBefore frame 0, {}.\n\n{}×{} on {adapter}, {frames} frames after the change. Reference: the scene after the change, \
