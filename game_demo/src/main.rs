@@ -301,6 +301,12 @@ enum BenchCommand {
         /// Output folder of walk.csv.
         #[arg(long, default_value = "out/walk")]
         out: PathBuf,
+        /// Visibility rays of the sky light per pixel no volume covers (DdgiSkyLight::rays; 0: off).
+        #[arg(long, default_value_t = ddgi::DdgiSkyLight::default().rays)]
+        sky_rays: u32,
+        /// Reach of those rays in metres (default: a tenth of the scene's extent).
+        #[arg(long)]
+        sky_reach: Option<f32>,
     },
     /// Closest-hit throughput of probe-like rays (grids 16×8×16 … 32×32×32, 32 … 256 rays per probe;
     /// GPU timestamps of the trace pass alone) and the CPU cost of TLAS updates when instances move.
@@ -662,6 +668,7 @@ fn bench_walk(
     speed: f32,
     (width, height): (u32, u32),
     offset: Option<glam::DVec3>,
+    sky_light: ddgi::DdgiSkyLight,
     out: &std::path::Path,
 ) -> Result<(), String> {
     let scene = load(name)?;
@@ -701,6 +708,7 @@ fn bench_walk(
         offset: offset.unwrap_or_default(),
         sky: if name == "open_world" { play::tour::OPEN_SKY } else { glam::Vec3::ZERO },
         every: None,
+        sky_light,
     };
     let report = lab::walk::walk(&gpu, scene, &options, Some(out))?;
     println!(
@@ -716,6 +724,11 @@ fn bench_walk(
     for k in 0..report.volumes {
         println!("  volume {k}: median {:.3} ms (its budget, trace, probe update and gather)", report.median_volume_ms(k));
     }
+    println!(
+        "  all gathers: median {:.3} ms; composite (with the sky light): median {:.3} ms",
+        report.median_of(|f| f.gather_ms),
+        report.median_of(|f| f.composite_ms)
+    );
     let scrolls = report.frames.iter().filter(|f| f.scrolled > 0).count();
     let over: Vec<u32> = report.frames.iter().filter(|f| f.ddgi_ms > 2.0 * report.median_ddgi_ms()).map(|f| f.frame).collect();
     println!("frames with a scroll: {scrolls}; frames over 2× the median: {over:?}");
@@ -752,8 +765,39 @@ fn bench(command: BenchCommand) -> Result<(), String> {
             }
             return Ok(());
         }
-        BenchCommand::Walk { scene, cascades, probes, spacing, rays, no_adaptive, frames, warmup, speed, width, height, offset, out } => {
-            return bench_walk(&scene, cascades, probes, spacing, rays, !no_adaptive, frames, warmup, speed, (width, height), offset, &out);
+        BenchCommand::Walk {
+            scene,
+            cascades,
+            probes,
+            spacing,
+            rays,
+            no_adaptive,
+            frames,
+            warmup,
+            speed,
+            width,
+            height,
+            offset,
+            out,
+            sky_rays,
+            sky_reach,
+        } => {
+            let sky = ddgi::DdgiSkyLight { rays: sky_rays, max_distance: sky_reach };
+            return bench_walk(
+                &scene,
+                cascades,
+                probes,
+                spacing,
+                rays,
+                !no_adaptive,
+                frames,
+                warmup,
+                speed,
+                (width, height),
+                offset,
+                sky,
+                &out,
+            );
         }
         BenchCommand::Ddgi { scene, iterations, width, height, grid, rays } => {
             return bench_ddgi(&scene, iterations, engine::render::RenderSize { width, height }, &grid, &rays);

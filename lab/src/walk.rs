@@ -31,6 +31,8 @@ pub struct WalkOptions {
     pub sky: Vec3,
     /// Write the frame as `frame_NNNNN.png` into the output folder every this many frames.
     pub every: Option<u32>,
+    /// The sky light beyond the volumes.
+    pub sky_light: ddgi::DdgiSkyLight,
 }
 
 /// One frame of the walk.
@@ -45,6 +47,9 @@ pub struct WalkFrame {
     pub volume_ms: Vec<f64>,
     /// GPU ms of every pass of the frame.
     pub frame_ms: f64,
+    /// GPU ms of the gathers (every volume's) and of the composite (with the sky light).
+    pub gather_ms: f64,
+    pub composite_ms: f64,
     /// Volumes that scrolled in this frame, and whether the render origin rebased.
     pub scrolled: u32,
     pub rebased: bool,
@@ -78,6 +83,11 @@ impl WalkReport {
         self.frames.iter().filter(|f| f.ddgi_ms > limit).count()
     }
 
+    /// Median of `f` over the frames.
+    pub fn median_of(&self, f: impl Fn(&WalkFrame) -> f64) -> f64 {
+        crate::median(&mut self.frames.iter().map(f).collect::<Vec<_>>()).unwrap_or(0.0)
+    }
+
     /// Median ms of volume `k`'s passes.
     pub fn median_volume_ms(&self, k: usize) -> f64 {
         crate::median(&mut self.frames.iter().filter_map(|f| f.volume_ms.get(k).copied()).collect::<Vec<_>>()).unwrap_or(0.0)
@@ -85,13 +95,24 @@ impl WalkReport {
 
     /// Every frame as CSV.
     pub fn csv(&self) -> String {
-        let mut out = String::from("frame,distance_m,ddgi_ms,frame_ms,scrolled_volumes,rebased");
+        let mut out = String::from("frame,distance_m,ddgi_ms,frame_ms,gather_ms,composite_ms,scrolled_volumes,rebased");
         for k in 0..self.volumes {
             let _ = write!(out, ",volume_{k}_ms");
         }
         out.push('\n');
         for f in &self.frames {
-            let _ = write!(out, "{},{:.2},{:.4},{:.4},{},{}", f.frame, f.distance, f.ddgi_ms, f.frame_ms, f.scrolled, u8::from(f.rebased));
+            let _ = write!(
+                out,
+                "{},{:.2},{:.4},{:.4},{:.4},{:.4},{},{}",
+                f.frame,
+                f.distance,
+                f.ddgi_ms,
+                f.frame_ms,
+                f.gather_ms,
+                f.composite_ms,
+                f.scrolled,
+                u8::from(f.rebased)
+            );
             for ms in &f.volume_ms {
                 let _ = write!(out, ",{ms:.4}");
             }
@@ -112,7 +133,7 @@ pub fn walk(gpu: &GpuContext, mut scene: SceneDescription, options: &WalkOptions
     scene.origin = options.offset;
     let settings = HeadlessSettings { width: options.size.width, height: options.size.height, frames: 1, ..Default::default() };
     let mut app = scene_app(gpu, scene, &settings, |app| {
-        app.insert_resource(engine::render::SkyRadiance(options.sky));
+        app.insert_resource(engine::render::SkyRadiance(options.sky)).insert_resource(options.sky_light);
         match &options.cascades {
             Some(c) => ddgi::use_ddgi_cascades(app, c.clone(), ddgi::DdgiOutput::Full),
             None => ddgi::use_ddgi(app, options.volume.clone(), ddgi::DdgiOutput::Full),
@@ -150,6 +171,8 @@ pub fn walk(gpu: &GpuContext, mut scene: SceneDescription, options: &WalkOptions
                 ddgi_ms: ms(&|l| l.starts_with("ddgi_")),
                 volume_ms: (0..n).map(|k| ms(&|l| of_volume(l, k, n))).collect(),
                 frame_ms: ms(&|_| true),
+                gather_ms: ms(&|l| l.starts_with("ddgi_gather")),
+                composite_ms: ms(&|l| l == "ddgi_composite"),
                 scrolled,
                 rebased,
             });

@@ -83,6 +83,7 @@ pub fn run_tour_headless(
         offset: glam::DVec3::ZERO,
         sky: OPEN_SKY,
         every: (every > 0).then_some(every),
+        sky_light: ddgi::DdgiSkyLight::default(),
     };
     lab::walk::walk(gpu, scene, &options, Some(out))
 }
