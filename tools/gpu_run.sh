@@ -49,7 +49,8 @@ for step in "$@"; do
     offset-*) IFS=- read -r _ scene at <<< "$step"; run "$step" $B eval --scene "$scene" --width 256 --height 256 --reference-spp 4096 --offset "$at" --out "$R/$step" --cache /tmp/cache ;;
     # view-D: the open world seen from the tour at D metres (positions in tools' VIEWS), one
     # volume of 32x8x32 probes against 4 cascades of 16x8x16 (the same rays per frame).
-    view-*) d=${step#view-}; read -r eye target <<< "${VIEWS[$d]}"; run "$step" $B eval --scene open_world --width 256 --height 256 --reference-spp 4096 --probes 32,8,32 --cascades 4 --cascade-probes 16,8,16 --cascade-spacing 1.5 --camera-position "$eye" --camera-target "$target" --fov 70 --out "$R/$step" --cache /tmp/cache ;;
+    # VIEW_CASCADES: other cascade options (e.g. "--cascades 8 --cascade-probes 16,4,16 --cascade-blend 1").
+    view-*) d=${step#view-}; read -r eye target <<< "${VIEWS[$d]}"; run "$step" $B eval --scene open_world --width 256 --height 256 --reference-spp 4096 --probes 32,8,32 --cascade-spacing 1.5 ${VIEW_CASCADES:---cascades 4 --cascade-probes 16,8,16} --camera-position "$eye" --camera-target "$target" --fov 70 --out "$R/$step" --cache /tmp/cache ;;
     esac
 done
 # Reports, tables and plots only (the per-configuration strips would pass the 16 MiB a file that

@@ -106,6 +106,9 @@ enum Command {
         /// Probe spacing of the finest cascade (default: the coarsest as wide as the scene).
         #[arg(long)]
         cascade_spacing: Option<f32>,
+        /// Width of the cascades' blend bands, in cells (DdgiCascades::blend_cells).
+        #[arg(long, default_value_t = ddgi::DdgiCascades::default().blend_cells)]
+        cascade_blend: f32,
         /// Replace the scene's camera: its position `x,y,z` (needs --camera-target).
         #[arg(long, value_parser = parse_vec3, requires = "camera_target")]
         camera_position: Option<glam::Vec3>,
@@ -276,6 +279,9 @@ enum BenchCommand {
         /// Probe spacing of the finest cascade (metres).
         #[arg(long, default_value_t = 1.5)]
         spacing: f32,
+        /// Width of the cascades' blend bands, in cells.
+        #[arg(long, default_value_t = ddgi::DdgiCascades::default().blend_cells)]
+        blend: f32,
         /// Rays per probe per frame.
         #[arg(long, default_value_t = ddgi::DdgiVolume::default().rays_per_probe)]
         rays: u32,
@@ -658,9 +664,7 @@ fn bench_ddgi(name: &str, iterations: u32, size: engine::render::RenderSize, gri
 #[allow(clippy::too_many_arguments)]
 fn bench_walk(
     name: &str,
-    cascades: u32,
-    probes: glam::UVec3,
-    spacing: f32,
+    (cascades, probes, spacing, blend): (u32, glam::UVec3, f32, f32),
     rays: u32,
     adaptive: bool,
     frames: u32,
@@ -689,6 +693,7 @@ fn bench_walk(
         count: Some(cascades),
         probe_counts: probes,
         spacing,
+        blend_cells: blend,
         volume: ddgi::DdgiVolume { bounds: None, warm_up: true, ..volume.clone() },
         ..Default::default()
     });
@@ -770,6 +775,7 @@ fn bench(command: BenchCommand) -> Result<(), String> {
             cascades,
             probes,
             spacing,
+            blend,
             rays,
             no_adaptive,
             frames,
@@ -783,21 +789,8 @@ fn bench(command: BenchCommand) -> Result<(), String> {
             sky_reach,
         } => {
             let sky = ddgi::DdgiSkyLight { rays: sky_rays, max_distance: sky_reach };
-            return bench_walk(
-                &scene,
-                cascades,
-                probes,
-                spacing,
-                rays,
-                !no_adaptive,
-                frames,
-                warmup,
-                speed,
-                (width, height),
-                offset,
-                sky,
-                &out,
-            );
+            let grid = (cascades, probes, spacing, blend);
+            return bench_walk(&scene, grid, rays, !no_adaptive, frames, warmup, speed, (width, height), offset, sky, &out);
         }
         BenchCommand::Ddgi { scene, iterations, width, height, grid, rays } => {
             return bench_ddgi(&scene, iterations, engine::render::RenderSize { width, height }, &grid, &rays);
@@ -886,6 +879,7 @@ fn main() -> ExitCode {
             cascades,
             cascade_probes,
             cascade_spacing,
+            cascade_blend,
             camera_position,
             camera_target,
             fov,
@@ -897,7 +891,7 @@ fn main() -> ExitCode {
             let extent = description.bounds().map_or(1.0, |(lo, hi)| (hi - lo).x.max((hi - lo).z));
             let cascades = (cascades > 0).then(|| {
                 let fitted = ddgi::DdgiCascades::fitted(cascades, cascade_probes, extent, ddgi::DdgiVolume::default());
-                ddgi::DdgiCascades { spacing: cascade_spacing.unwrap_or(fitted.spacing), ..fitted }
+                ddgi::DdgiCascades { spacing: cascade_spacing.unwrap_or(fitted.spacing), blend_cells: cascade_blend, ..fitted }
             });
             if let Some(c) = &cascades {
                 c.validate().map_err(|e| e.to_string())?;
