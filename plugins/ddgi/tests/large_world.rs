@@ -58,6 +58,17 @@ fn render(
             Mode::PathTrace => {
                 pathtrace::use_path_tracer(app, pathtrace::PathTraceSettings { samples_per_frame: 16, ..Default::default() })
             }
+            Mode::Cascades => {
+                let cascades = ddgi::DdgiCascades {
+                    count: Some(2),
+                    probe_counts: UVec3::new(6, 4, 6),
+                    spacing: 0.5,
+                    blend_cells: 1.0,
+                    volume: DdgiVolume { warm_up: true, ..volume },
+                    ..Default::default()
+                };
+                ddgi::use_ddgi_cascades(app, cascades, DdgiOutput::Full)
+            }
         }
     })
     .expect("app");
