@@ -313,6 +313,13 @@ enum BenchCommand {
         /// Reach of those rays in metres (default: a tenth of the scene's extent).
         #[arg(long)]
         sky_reach: Option<f32>,
+        /// Every N frames, the frame's mean FLIP against a path-traced reference of its view
+        /// (walk.csv's `flip`), and the mean change of that error from one measured frame to the next.
+        #[arg(long)]
+        error_every: Option<u32>,
+        /// Paths per pixel of those references.
+        #[arg(long, default_value_t = 1024)]
+        reference_spp: u32,
     },
     /// Closest-hit throughput of probe-like rays (grids 16×8×16 … 32×32×32, 32 … 256 rays per probe;
     /// GPU timestamps of the trace pass alone) and the CPU cost of TLAS updates when instances move.
@@ -667,12 +674,11 @@ fn bench_walk(
     (cascades, probes, spacing, blend): (u32, glam::UVec3, f32, f32),
     rays: u32,
     adaptive: bool,
-    frames: u32,
-    warmup: u32,
-    speed: f32,
+    (frames, warmup, speed): (u32, u32, f32),
     (width, height): (u32, u32),
     offset: Option<glam::DVec3>,
     sky_light: ddgi::DdgiSkyLight,
+    (error_every, reference_spp): (Option<u32>, u32),
     out: &std::path::Path,
 ) -> Result<(), String> {
     let scene = load(name)?;
@@ -714,6 +720,8 @@ fn bench_walk(
         sky: if name == "open_world" { play::tour::OPEN_SKY } else { glam::Vec3::ZERO },
         every: None,
         sky_light,
+        error_every,
+        reference_spp,
     };
     let report = lab::walk::walk(&gpu, scene, &options, Some(out))?;
     println!(
@@ -737,6 +745,12 @@ fn bench_walk(
     let scrolls = report.frames.iter().filter(|f| f.scrolled > 0).count();
     let over: Vec<u32> = report.frames.iter().filter(|f| f.ddgi_ms > 2.0 * report.median_ddgi_ms()).map(|f| f.frame).collect();
     println!("frames with a scroll: {scrolls}; frames over 2× the median: {over:?}");
+    if let Some((mean, change)) = report.flip_summary() {
+        println!(
+            "FLIP against path-traced references ({reference_spp} spp) of every {}th frame: mean {mean:.4}, mean change between them {change:.4}",
+            error_every.unwrap_or(0)
+        );
+    }
     println!("rebases: {}; every frame in {}", report.frames.iter().filter(|f| f.rebased).count(), out.join("walk.csv").display());
     Ok(())
 }
@@ -787,10 +801,13 @@ fn bench(command: BenchCommand) -> Result<(), String> {
             out,
             sky_rays,
             sky_reach,
+            error_every,
+            reference_spp,
         } => {
             let sky = ddgi::DdgiSkyLight { rays: sky_rays, max_distance: sky_reach };
+            let measure = (error_every, reference_spp);
             let grid = (cascades, probes, spacing, blend);
-            return bench_walk(&scene, grid, rays, !no_adaptive, frames, warmup, speed, (width, height), offset, sky, &out);
+            return bench_walk(&scene, grid, rays, !no_adaptive, (frames, warmup, speed), (width, height), offset, sky, measure, &out);
         }
         BenchCommand::Ddgi { scene, iterations, width, height, grid, rays } => {
             return bench_ddgi(&scene, iterations, engine::render::RenderSize { width, height }, &grid, &rays);

@@ -33,6 +33,11 @@ pub struct WalkOptions {
     pub every: Option<u32>,
     /// The sky light beyond the volumes.
     pub sky_light: ddgi::DdgiSkyLight,
+    /// Every this many frames, measure the frame against a path-traced reference of the same view
+    /// (`reference_spp` paths per pixel) and against the previous measured frame's error (the
+    /// error's change: flicker, where the view moves).
+    pub error_every: Option<u32>,
+    pub reference_spp: u32,
 }
 
 /// One frame of the walk.
@@ -53,6 +58,8 @@ pub struct WalkFrame {
     /// Volumes that scrolled in this frame, and whether the render origin rebased.
     pub scrolled: u32,
     pub rebased: bool,
+    /// Mean FLIP against the path-traced reference of the frame's view (frames measured only).
+    pub flip: Option<f32>,
 }
 
 /// The walk's frames and their summary.
@@ -88,6 +95,18 @@ impl WalkReport {
         crate::median(&mut self.frames.iter().map(f).collect::<Vec<_>>()).unwrap_or(0.0)
     }
 
+    /// The measured frames' FLIP against their references: mean, and the mean change from one
+    /// measured frame to the next.
+    pub fn flip_summary(&self) -> Option<(f64, f64)> {
+        let flips: Vec<f64> = self.frames.iter().filter_map(|f| f.flip).map(f64::from).collect();
+        if flips.is_empty() {
+            return None;
+        }
+        let mean = flips.iter().sum::<f64>() / flips.len() as f64;
+        let change = flips.windows(2).map(|w| (w[1] - w[0]).abs()).sum::<f64>() / (flips.len().max(2) - 1) as f64;
+        Some((mean, change))
+    }
+
     /// Median ms of volume `k`'s passes.
     pub fn median_volume_ms(&self, k: usize) -> f64 {
         crate::median(&mut self.frames.iter().filter_map(|f| f.volume_ms.get(k).copied()).collect::<Vec<_>>()).unwrap_or(0.0)
@@ -95,7 +114,7 @@ impl WalkReport {
 
     /// Every frame as CSV.
     pub fn csv(&self) -> String {
-        let mut out = String::from("frame,distance_m,ddgi_ms,frame_ms,gather_ms,composite_ms,scrolled_volumes,rebased");
+        let mut out = String::from("frame,distance_m,ddgi_ms,frame_ms,gather_ms,composite_ms,scrolled_volumes,rebased,flip");
         for k in 0..self.volumes {
             let _ = write!(out, ",volume_{k}_ms");
         }
@@ -103,7 +122,7 @@ impl WalkReport {
         for f in &self.frames {
             let _ = write!(
                 out,
-                "{},{:.2},{:.4},{:.4},{:.4},{:.4},{},{}",
+                "{},{:.2},{:.4},{:.4},{:.4},{:.4},{},{},{}",
                 f.frame,
                 f.distance,
                 f.ddgi_ms,
@@ -111,7 +130,8 @@ impl WalkReport {
                 f.gather_ms,
                 f.composite_ms,
                 f.scrolled,
-                u8::from(f.rebased)
+                u8::from(f.rebased),
+                f.flip.map_or(String::new(), |v| format!("{v:.5}"))
             );
             for ms in &f.volume_ms {
                 let _ = write!(out, ",{ms:.4}");
@@ -128,9 +148,32 @@ fn of_volume(label: &str, k: usize, n: usize) -> bool {
     base.iter().any(|b| if n > 1 { label == format!("{b}_{k}") } else { label == *b })
 }
 
+/// The path-traced image of `scene` seen from `camera` (linear RGBA), `spp` paths per pixel.
+fn reference_view(gpu: &GpuContext, scene: &SceneDescription, camera: Transform, options: &WalkOptions) -> Result<Vec<f32>, String> {
+    let mut scene = scene.clone();
+    for node in &mut scene.nodes {
+        if node.content.iter().any(|c| matches!(c, engine::scene::NodeContent::Camera(_))) {
+            node.transform = camera;
+        }
+    }
+    let per_frame = options.reference_spp.clamp(1, 16);
+    let frames = options.reference_spp.max(1).div_ceil(per_frame);
+    let settings = HeadlessSettings { width: options.size.width, height: options.size.height, frames, ..Default::default() };
+    let frame = engine::headless::render_scene_with(gpu, scene, &settings, |app| {
+        app.insert_resource(engine::render::SkyRadiance(options.sky));
+        pathtrace::use_path_tracer(app, pathtrace::PathTraceSettings { samples_per_frame: per_frame, ..Default::default() });
+    })
+    .map_err(|e| e.to_string())?;
+    Ok(frame.hdr)
+}
+
 /// Walks `scene`'s camera along the open world's tour and measures every frame.
 pub fn walk(gpu: &GpuContext, mut scene: SceneDescription, options: &WalkOptions, out: Option<&Path>) -> Result<WalkReport, String> {
     scene.origin = options.offset;
+    let described = scene.clone();
+    let camera_node = described.nodes.iter().find(|n| n.content.iter().any(|c| matches!(c, engine::scene::NodeContent::Camera(_))));
+    let mut camera_now = camera_node.map_or(Transform::IDENTITY, |n| n.transform);
+    let mut measured: Result<(), String> = Ok(());
     let settings = HeadlessSettings { width: options.size.width, height: options.size.height, frames: 1, ..Default::default() };
     let mut app = scene_app(gpu, scene, &settings, |app| {
         app.insert_resource(engine::render::SkyRadiance(options.sky)).insert_resource(options.sky_light);
@@ -175,8 +218,25 @@ pub fn walk(gpu: &GpuContext, mut scene: SceneDescription, options: &WalkOptions
                 composite_ms: ms(&|l| l == "ddgi_composite"),
                 scrolled,
                 rebased,
+                flip: None,
             });
             report.volumes = n;
+            if let Some(every) = options.error_every
+                && walked % every.max(1) == 0
+                && measured.is_ok()
+            {
+                let image = engine::headless::read_hdr(gpu, world);
+                match reference_view(gpu, &described, camera_now, options) {
+                    Ok(reference) => {
+                        let (w, h) = (options.size.width, options.size.height);
+                        let error = crate::metrics::compare(&reference, &image, w, h, 1.0);
+                        if let Some(last) = report.frames.last_mut() {
+                            last.flip = Some(error.mean_flip);
+                        }
+                    }
+                    Err(e) => measured = Err(e),
+                }
+            }
         }
         if let (Some(every), Some(dir)) = (options.every, out)
             && frame >= options.warmup
@@ -192,12 +252,14 @@ pub fn walk(gpu: &GpuContext, mut scene: SceneDescription, options: &WalkOptions
         // The camera for the next frame: on the tour, looking ahead and a little down.
         let (eye, forward) = scenes::open::tour_at((walked + 1) as f32 * step);
         let mut cameras = world.query_filtered::<&mut Transform, engine::bevy_ecs::query::With<Camera>>();
+        camera_now = Transform::from_translation(eye).looking_at(eye + forward * 10.0 - Vec3::Y, Vec3::Y);
         for mut t in cameras.iter_mut(world) {
-            *t = Transform::from_translation(eye).looking_at(eye + forward * 10.0 - Vec3::Y, Vec3::Y);
+            *t = camera_now;
         }
     });
     bar.finish_and_clear();
     written?;
+    measured?;
     if let Some(dir) = out {
         let path = dir.join("walk.csv");
         std::fs::write(&path, report.csv()).map_err(|e| format!("{}: {e}", path.display()))?;

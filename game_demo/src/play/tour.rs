@@ -84,6 +84,8 @@ pub fn run_tour_headless(
         sky: OPEN_SKY,
         every: (every > 0).then_some(every),
         sky_light: ddgi::DdgiSkyLight::default(),
+        error_every: None,
+        reference_spp: 0,
     };
     lab::walk::walk(gpu, scene, &options, Some(out))
 }
