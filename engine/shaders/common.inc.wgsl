@@ -34,3 +34,14 @@ fn srgb_encode(c: vec3<f32>) -> vec3<f32> {
     let hi = 1.055 * pow(max(c, vec3<f32>(0.0031308)), vec3<f32>(1.0 / 2.4)) - 0.055;
     return select(hi, lo, c <= vec3<f32>(0.0031308));
 }
+
+// A 32-bit integer hash (lowbias32, Chris Wellons): decorrelates neighbouring inputs.
+fn hash_lowbias32(x_in: u32) -> u32 {
+    var x = x_in;
+    x ^= x >> 16u;
+    x *= 0x7feb352du;
+    x ^= x >> 15u;
+    x *= 0x846ca68bu;
+    x ^= x >> 16u;
+    return x;
+}

@@ -109,15 +109,8 @@ enum Command {
         /// Width of the cascades' blend bands, in cells (DdgiCascades::blend_cells).
         #[arg(long, default_value_t = ddgi::DdgiCascades::default().blend_cells)]
         cascade_blend: f32,
-        /// Replace the scene's camera: its position `x,y,z` (needs --camera-target).
-        #[arg(long, value_parser = parse_vec3, requires = "camera_target")]
-        camera_position: Option<glam::Vec3>,
-        /// The point the replacement camera looks at `x,y,z`.
-        #[arg(long, value_parser = parse_vec3, requires = "camera_position")]
-        camera_target: Option<glam::Vec3>,
-        /// Vertical field of view of the replacement camera, in degrees.
-        #[arg(long, default_value_t = 50.0)]
-        fov: f32,
+        #[command(flatten)]
+        camera: CameraArgs,
     },
     /// Benchmarks (results as Markdown tables on standard output).
     #[command(subcommand)]
@@ -400,6 +393,20 @@ struct RenderArgs {
     /// Output folder.
     #[arg(long, default_value = "out/render")]
     out: PathBuf,
+    #[command(flatten)]
+    camera: CameraArgs,
+    /// Print the built-in scene names and exit.
+    #[arg(long)]
+    list_scenes: bool,
+    /// Place the scene (and its camera) this far from the world's origin, `x,y,z` (double
+    /// precision; e.g. 1e5,0,0): large-world coordinates render it as at the origin.
+    #[arg(long, value_parser = parse_dvec3)]
+    offset: Option<glam::DVec3>,
+}
+
+/// A camera that replaces the scene's (`render` and `eval`).
+#[derive(clap::Args, Clone, Debug)]
+struct CameraArgs {
     /// Replace the scene's camera: its position `x,y,z` (needs --camera-target).
     #[arg(long, value_parser = parse_vec3, requires = "camera_target")]
     camera_position: Option<glam::Vec3>,
@@ -409,13 +416,16 @@ struct RenderArgs {
     /// Vertical field of view of the replacement camera, in degrees.
     #[arg(long, default_value_t = 50.0)]
     fov: f32,
-    /// Print the built-in scene names and exit.
-    #[arg(long)]
-    list_scenes: bool,
-    /// Place the scene (and its camera) this far from the world's origin, `x,y,z` (double
-    /// precision; e.g. 1e5,0,0): large-world coordinates render it as at the origin.
-    #[arg(long, value_parser = parse_dvec3)]
-    offset: Option<glam::DVec3>,
+}
+
+impl CameraArgs {
+    /// Replaces `scene`'s camera when a position and a target were given.
+    fn apply(&self, scene: &mut SceneDescription) -> Result<(), String> {
+        match (self.camera_position, self.camera_target) {
+            (Some(position), Some(target)) => replace_camera(scene, position, target, self.fov),
+            _ => Ok(()),
+        }
+    }
 }
 
 /// DDGI volume settings from the command line (the volume fills the scene's bounds).
@@ -557,9 +567,7 @@ fn render(args: RenderArgs) -> Result<(), String> {
     }
     let mut scene = load(&args.scene)?;
     scene.origin = args.offset.unwrap_or_default();
-    if let (Some(position), Some(target)) = (args.camera_position, args.camera_target) {
-        replace_camera(&mut scene, position, target, args.fov)?;
-    }
+    args.camera.apply(&mut scene)?;
     let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
     let ddgi_mode = matches!(args.mode.as_str(), "ddgi" | "indirect");
     let frames = args.frames.unwrap_or(if ddgi_mode { 120 } else { 1 });
@@ -897,14 +905,10 @@ fn main() -> ExitCode {
             cascade_probes,
             cascade_spacing,
             cascade_blend,
-            camera_position,
-            camera_target,
-            fov,
+            camera,
         } => load(&scene).and_then(|mut description| {
             description.origin = offset.unwrap_or_default();
-            if let (Some(position), Some(target)) = (camera_position, camera_target) {
-                replace_camera(&mut description, position, target, fov)?;
-            }
+            camera.apply(&mut description)?;
             let extent = description.bounds().map_or(1.0, |(lo, hi)| (hi - lo).x.max((hi - lo).z));
             let cascades = (cascades > 0).then(|| {
                 let fitted = ddgi::DdgiCascades::fitted(cascades, cascade_probes, extent, ddgi::DdgiVolume::default());

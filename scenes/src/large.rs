@@ -768,22 +768,38 @@ fn forest_terrain_gradient(x: f32, z: f32) -> Vec2 {
 /// The terrain: a `TERRAIN_CELLS`² grid over the square, heights from [`forest_terrain_height`],
 /// analytic normals, texture coordinates tiling every `TERRAIN_UV_TILE` metres.
 fn terrain_mesh() -> Mesh {
-    let n = TERRAIN_CELLS + 1;
-    let coordinate = |i: usize| -0.5 * FOREST_SIZE + FOREST_SIZE * i as f32 / TERRAIN_CELLS as f32;
-    let mut mesh = named_mesh("terrain");
+    heightfield("terrain", FOREST_SIZE, TERRAIN_CELLS, TERRAIN_UV_TILE, forest_terrain_height, |x, z| {
+        let g = forest_terrain_gradient(x, z);
+        Vec3::new(-g.x, 1.0, -g.y).normalize()
+    })
+}
+
+/// A `cells`² grid of quads over the square of side `size` centred on the origin: heights from
+/// `height(x, z)`, normals from `normal(x, z)`, texture coordinates tiling every `uv_tile` metres;
+/// two triangles per quad, counter-clockwise seen from above.
+pub(crate) fn heightfield(
+    name: &str,
+    size: f32,
+    cells: usize,
+    uv_tile: f32,
+    height: impl Fn(f32, f32) -> f32,
+    normal: impl Fn(f32, f32) -> Vec3,
+) -> Mesh {
+    let n = cells + 1;
+    let coordinate = |i: usize| -0.5 * size + size * i as f32 / cells as f32;
+    let mut mesh = named_mesh(name);
     mesh.positions.reserve(n * n);
     for j in 0..n {
         for i in 0..n {
             let (x, z) = (coordinate(i), coordinate(j));
-            let g = forest_terrain_gradient(x, z);
-            mesh.positions.push(Vec3::new(x, forest_terrain_height(x, z), z));
-            mesh.normals.push(Vec3::new(-g.x, 1.0, -g.y).normalize());
-            mesh.uvs.push(Vec2::new(x, z) / TERRAIN_UV_TILE);
+            mesh.positions.push(Vec3::new(x, height(x, z), z));
+            mesh.normals.push(normal(x, z));
+            mesh.uvs.push(Vec2::new(x, z) / uv_tile);
         }
     }
-    mesh.indices.reserve(TERRAIN_CELLS * TERRAIN_CELLS * 6);
-    for j in 0..TERRAIN_CELLS {
-        for i in 0..TERRAIN_CELLS {
+    mesh.indices.reserve(cells * cells * 6);
+    for j in 0..cells {
+        for i in 0..cells {
             let a = (j * n + i) as u32;
             let (b, c, d) = (a + 1, a + 1 + n as u32, a + n as u32);
             // Counter-clockwise seen from above (+Y): a → d → c, a → c → b.

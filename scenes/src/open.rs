@@ -14,7 +14,9 @@ use engine::shapes::{Shell, box_part, merge};
 use glam::{Quat, Vec2, Vec3};
 
 use crate::add_camera;
-use crate::large::{BIRCH_ALBEDO, GROUND_ALBEDO, OAK_ALBEDO, PINE_ALBEDO, add_sun, birch_mesh, oak_mesh, pine_mesh, sun_direction};
+use crate::large::{
+    BIRCH_ALBEDO, GROUND_ALBEDO, OAK_ALBEDO, PINE_ALBEDO, add_sun, birch_mesh, heightfield, oak_mesh, pine_mesh, sun_direction,
+};
 
 /// Side of the square terrain (metres).
 pub const OPEN_WORLD_SIZE: f32 = 1000.0;
@@ -96,28 +98,13 @@ pub fn tour_length() -> f32 {
 }
 
 fn terrain() -> Mesh {
-    let n = TERRAIN_CELLS + 1;
-    let coordinate = |i: usize| -0.5 * OPEN_WORLD_SIZE + OPEN_WORLD_SIZE * i as f32 / TERRAIN_CELLS as f32;
-    let mut mesh = Mesh { name: "open_terrain".into(), ..Default::default() };
     let h = 0.5;
-    for j in 0..n {
-        for i in 0..n {
-            let (x, z) = (coordinate(i), coordinate(j));
-            let gx = (open_world_height(x + h, z) - open_world_height(x - h, z)) / (2.0 * h);
-            let gz = (open_world_height(x, z + h) - open_world_height(x, z - h)) / (2.0 * h);
-            mesh.positions.push(Vec3::new(x, open_world_height(x, z), z));
-            mesh.normals.push(Vec3::new(-gx, 1.0, -gz).normalize());
-            mesh.uvs.push(Vec2::new(x, z) / 4.0);
-        }
-    }
-    for j in 0..TERRAIN_CELLS {
-        for i in 0..TERRAIN_CELLS {
-            let a = (j * n + i) as u32;
-            let (b, c, d) = (a + 1, a + 1 + n as u32, a + n as u32);
-            mesh.indices.extend([a, d, c, a, c, b]);
-        }
-    }
-    mesh
+    let normal = |x: f32, z: f32| {
+        let gx = (open_world_height(x + h, z) - open_world_height(x - h, z)) / (2.0 * h);
+        let gz = (open_world_height(x, z + h) - open_world_height(x, z - h)) / (2.0 * h);
+        Vec3::new(-gx, 1.0, -gz).normalize()
+    };
+    heightfield("open_terrain", OPEN_WORLD_SIZE, TERRAIN_CELLS, 4.0, open_world_height, normal)
 }
 
 /// The house's walls (with the door and window holes) and its roof, closed solids.

@@ -112,7 +112,7 @@ fn ddgi_rest(p: u32, data: DdgiProbeData, rays: u32) -> vec2<u32> {
     // update on the same frames afterwards.
     var wait = next - 1u;
     if next > period {
-        wait = ddgi_hash(p ^ (next * 0x9e3779b9u)) % next;
+        wait = hash_lowbias32(p ^ (next * 0x9e3779b9u)) % next;
     }
     return vec2<u32>(rays, next | (wait << 16u));
 }
@@ -129,17 +129,6 @@ fn ddgi_neighbour_changing(p: u32) -> bool {
         }
     }
     return false;
-}
-
-// A 32-bit integer hash (lowbias32, Chris Wellons).
-fn ddgi_hash(x_in: u32) -> u32 {
-    var x = x_in;
-    x ^= x >> 16u;
-    x *= 0x7feb352du;
-    x ^= x >> 15u;
-    x *= 0x846ca68bu;
-    x ^= x >> 16u;
-    return x;
 }
 
 // The budget pass, in three dispatches (a prefix sum over blocks of 256 probes), five under a

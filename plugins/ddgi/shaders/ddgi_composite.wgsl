@@ -4,16 +4,6 @@
 #include "ddgi_camera.inc.wgsl"
 #include "ray_tracing.inc.wgsl"
 
-fn ddgi_hash(x_in: u32) -> u32 {
-    var x = x_in;
-    x ^= x >> 16u;
-    x *= 0x7feb352du;
-    x ^= x >> 15u;
-    x *= 0x846ca68bu;
-    x ^= x >> 16u;
-    return x;
-}
-
 // The sky's irradiance at surface point p (normal n) times its visibility: the cosine-weighted
 // share of `sky_rays` stratified rays (spherical Fibonacci over the hemisphere, turned by a
 // per-pixel angle) that travel sky_distance without a hit.
@@ -27,7 +17,7 @@ fn ddgi_sky_irradiance(pixel: vec2<u32>, p: vec3<f32>, n: vec3<f32>) -> vec3<f32
     let origin = offset_ray_origin(p + n * (1e-4 * view_distance), n);
     let tangent = safe_normalize(cross(select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.9), n), vec3<f32>(1.0, 0.0, 0.0));
     let bitangent = cross(n, tangent);
-    let turn = f32(ddgi_hash(pixel.x * 7919u + pixel.y * 104729u)) / 4294967296.0;
+    let turn = f32(hash_lowbias32(pixel.x * 7919u + pixel.y * 104729u)) / 4294967296.0;
     var open = 0u;
     for (var k = 0u; k < count; k++) {
         // Cosine-distributed: uniform over the unit disc, lifted onto the hemisphere.
