@@ -28,6 +28,8 @@ fn every_ddgi_module_is_registered_parses_and_validates() {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
     engine::shader::check_shader_folder(&dir, ddgi::SHADERS).unwrap_or_else(|e| panic!("{e}"));
     ddgi::register_shaders().expect("register");
+    // The self-test kernels too (whichever test runs first registers them; registering again is a no-op).
+    engine::shader::register(SELFTEST_SHADERS).expect("register the self-test kernels");
     for (name, _) in ddgi::SHADERS.iter().chain(SELFTEST_SHADERS) {
         let parsed = engine::shader::parse(name).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(!parsed.module.entry_points.is_empty(), !name.ends_with(".inc.wgsl"), "{name}: entry points only outside libraries");
