@@ -59,10 +59,11 @@ fn render(
                 pathtrace::use_path_tracer(app, pathtrace::PathTraceSettings { samples_per_frame: 16, ..Default::default() })
             }
             Mode::Cascades => {
+                // Wide enough for the coarse one to reach the box from the camera 4.3 units in front.
                 let cascades = ddgi::DdgiCascades {
                     count: Some(2),
-                    probe_counts: UVec3::new(6, 4, 6),
-                    spacing: 0.5,
+                    probe_counts: UVec3::new(8, 6, 8),
+                    spacing: 1.0,
                     blend_cells: 1.0,
                     volume: DdgiVolume { warm_up: true, ..volume },
                     ..Default::default()
@@ -93,9 +94,17 @@ fn last(frames: &[Vec<u8>]) -> &[u8] {
 #[test]
 fn a_scene_far_from_the_origin_renders_as_at_the_origin_in_every_mode() {
     let Some(gpu) = gpu("a_scene_far_from_the_origin_renders_as_at_the_origin_in_every_mode") else { return };
+    let mean = |image: &[u8]| image.iter().map(|&b| f64::from(b)).sum::<f64>() / image.len() as f64;
+    let mut direct = 0.0;
     for mode in MODES {
         let (at_origin, o) = render(&gpu, cornell(DVec3::ZERO), mode, RenderOrigin::default(), |_, _| {});
         assert_eq!(o.rebases, 0, "{mode:?}: a scene at the origin does not rebase");
+        // The DDGI modes add indirect light: their images are brighter than direct light alone.
+        match mode {
+            Mode::Direct => direct = mean(last(&at_origin)),
+            Mode::Ddgi | Mode::Cascades => assert!(mean(last(&at_origin)) > 1.1 * direct, "{mode:?} adds no indirect light"),
+            _ => {}
+        }
         for offset in [DVec3::new(1e3, 0.0, 0.0), DVec3::new(-1e4, 1e4, 0.0), DVec3::new(1e5, -1e5, 1e5)] {
             let (far, o) = render(&gpu, cornell(offset), mode, RenderOrigin::default(), |_, _| {});
             assert_eq!(o.rebases, 1, "{mode:?} at {offset}: one rebase, at the first frame");
