@@ -146,43 +146,49 @@ fn to_double(a: &Affine3A) -> DAffine3 {
 ///
 /// Roots are entities with a `Transform` and no `ChildOf`; the walk goes down through `Children`, so
 /// each entity is visited once per frame, after its parent.
-#[allow(clippy::type_complexity)]
+#[allow(clippy::type_complexity, clippy::too_many_arguments)]
 pub fn propagate_transforms(
     roots: Query<Entity, (With<Transform>, Without<ChildOf>)>,
     children: Query<&Children>,
+    parents: Query<&ChildOf>,
     anchors: Query<&WorldAnchor>,
     cameras: Query<Entity, With<Camera>>,
     mut transforms: Query<(&Transform, &mut GlobalTransform)>,
     origin: Option<ResMut<RenderOrigin>>,
     time: Option<Res<crate::app::Time>>,
 ) {
-    let mut stack: Vec<(Entity, DAffine3)> = roots.iter().map(|e| (e, DAffine3::IDENTITY)).collect();
-    let mut world: Vec<(Entity, DAffine3)> = Vec::with_capacity(stack.len());
-    while let Some((entity, parent)) = stack.pop() {
-        let Ok((local, _)) = transforms.get(entity) else { continue };
+    let anchored = |entity: Entity, local: &Transform| {
         let anchor = anchors.get(entity).map_or(DVec3::ZERO, |a| a.0);
-        let placed = parent * DAffine3::from_translation(anchor) * to_double(&local.to_affine());
-        world.push((entity, placed));
-        if let Ok(kids) = children.get(entity) {
-            stack.extend(kids.iter().map(|c| (c, placed)));
-        }
-    }
+        DAffine3::from_translation(anchor) * to_double(&local.to_affine())
+    };
+    // The render origin first, from the first camera's world placement (its chain of parents).
     let mut render_origin = DVec3::ZERO;
     if let Some(mut origin) = origin {
-        let camera = cameras.iter().next().and_then(|c| world.iter().find(|(e, _)| *e == c)).map(|(_, w)| w.translation);
-        if let Some(new) = camera.and_then(|c| origin.rebased_for(c)) {
+        let camera = cameras.iter().next().and_then(|camera| {
+            let mut chain = vec![camera];
+            while let Ok(parent) = parents.get(chain[chain.len() - 1]) {
+                chain.push(parent.parent());
+            }
+            chain.iter().rev().try_fold(DAffine3::IDENTITY, |world, &e| transforms.get(e).ok().map(|(local, _)| world * anchored(e, local)))
+        });
+        if let Some(new) = camera.and_then(|c| origin.rebased_for(c.translation)) {
             origin.origin = new;
             origin.rebases += 1;
             origin.last_rebase_frame = time.map(|t| t.frame);
         }
         render_origin = origin.origin;
     }
-    for (entity, mut placed) in world {
-        placed.translation -= render_origin;
-        let render = Affine3A { matrix3: placed.matrix3.as_mat3().into(), translation: placed.translation.as_vec3().into() };
-        let Ok((_, mut global)) = transforms.get_mut(entity) else { continue };
+    let mut stack: Vec<(Entity, DAffine3)> = roots.iter().map(|e| (e, DAffine3::IDENTITY)).collect();
+    while let Some((entity, parent)) = stack.pop() {
+        let Ok((local, mut global)) = transforms.get_mut(entity) else { continue };
+        let placed = parent * anchored(entity, local);
+        let render =
+            Affine3A { matrix3: placed.matrix3.as_mat3().into(), translation: (placed.translation - render_origin).as_vec3().into() };
         if global.0 != render {
             global.0 = render;
+        }
+        if let Ok(kids) = children.get(entity) {
+            stack.extend(kids.iter().map(|c| (c, placed)));
         }
     }
 }
