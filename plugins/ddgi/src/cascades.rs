@@ -181,6 +181,8 @@ pub fn follow_ddgi_cascades(
     {
         followed.push((e, shared.0.clone(), origin + t.translation().as_dvec3()));
     }
+    // The scene's extent, only for cascades whose count comes from it: prepare keeps it up to date
+    // (computed here on the first frame, before prepare has).
     let mut extent: Option<Option<f32>> = None;
     for (camera, cascades, position) in followed {
         if let Err(e) = cascades.validate() {
@@ -196,8 +198,15 @@ pub fn follow_ddgi_cascades(
             }
             continue;
         }
-        let scene_extent = *extent.get_or_insert_with(|| state.scene_bounds(&scene, &meshes).map(|(lo, hi)| (hi - lo).max_element()));
-        let count = cascades.resolved_count(scene_extent);
+        let count = match cascades.count {
+            Some(_) => cascades.resolved_count(None),
+            None => {
+                let scene_extent = *extent.get_or_insert_with(|| {
+                    state.scene_extent().or_else(|| state.scene_bounds(&scene, &meshes).map(|(lo, hi)| (hi - lo).max_element()))
+                });
+                cascades.resolved_count(scene_extent)
+            }
+        };
         let mine: Vec<Entity> = volumes.iter().filter(|(_, c, _)| c.camera == camera).map(|(e, _, _)| e).collect();
         let template = |level: u32| DdgiVolume {
             probe_counts: cascades.probe_counts,

@@ -144,11 +144,7 @@ impl VolumeGpu {
         let shift = cells.as_dvec3() * spacing;
         self.world_bounds = (self.world_bounds.0 + shift, self.world_bounds.1 + shift);
         let scroll = (self.layout.scroll.as_ivec3() + cells).rem_euclid(counts).as_uvec3();
-        let bounds = ((self.world_bounds.0 - self.render_origin).as_vec3(), (self.world_bounds.1 - self.render_origin).as_vec3());
-        match DdgiLayout::new(&self.settings, bounds, limits) {
-            Ok(layout) => self.layout = DdgiLayout { scroll, ..layout },
-            Err(e) => log::error!("DDGI volume after scrolling: {e}"),
-        }
+        self.relayout(scroll, limits);
         // The probes whose grid coordinates entered: on an axis moved by k > 0, the last k planes;
         // by k < 0, the first −k.
         let entered = |g: glam::IVec3| {
@@ -193,13 +189,19 @@ impl VolumeGpu {
         if origin == self.render_origin {
             return;
         }
-        let bounds = ((self.world_bounds.0 - origin).as_vec3(), (self.world_bounds.1 - origin).as_vec3());
-        match DdgiLayout::new(&self.settings, bounds, limits) {
-            // The same probes in the same storage: a scrolled volume keeps its shift.
-            Ok(layout) => self.layout = DdgiLayout { scroll: self.layout.scroll, ..layout },
-            Err(e) => log::error!("DDGI volume after the render origin moved: {e}"),
-        }
         self.render_origin = origin;
+        // The same probes in the same storage: a scrolled volume keeps its shift.
+        self.relayout(self.layout.scroll, limits);
+    }
+
+    /// The layout of `world_bounds` in render space (less `render_origin`), with the toroidal
+    /// shift `scroll`; the buffers stay (the grid's size does not change).
+    fn relayout(&mut self, scroll: glam::UVec3, limits: DdgiLimits) {
+        let bounds = ((self.world_bounds.0 - self.render_origin).as_vec3(), (self.world_bounds.1 - self.render_origin).as_vec3());
+        match DdgiLayout::new(&self.settings, bounds, limits) {
+            Ok(layout) => self.layout = DdgiLayout { scroll, ..layout },
+            Err(e) => log::error!("DDGI volume moved: {e}"),
+        }
     }
 
     pub fn probe_state(&self, index: usize) -> DdgiProbeState {
@@ -322,6 +324,7 @@ impl DdgiGpuVolumes {
     /// instance's box for its next move.
     fn mover_boxes(&mut self, scene: &GpuScene, meshes: &Assets<Mesh>) -> Vec<(Vec3, Vec3)> {
         let changes = scene.instance_changes();
+        let moved: std::collections::HashSet<u32> = changes.moved.iter().copied().collect();
         let mut boxes = Vec::new();
         for &slot in &changes.dirty {
             let now = scene.instance_placement(slot).and_then(|(mesh, xf)| self.instance_box(mesh, &xf, meshes));
@@ -329,7 +332,7 @@ impl DdgiGpuVolumes {
                 Some(b) => self.instance_boxes.insert(slot, b),
                 None => self.instance_boxes.remove(&slot),
             };
-            if changes.moved.contains(&slot) {
+            if moved.contains(&slot) {
                 boxes.extend(now.into_iter().chain(before));
             }
         }
