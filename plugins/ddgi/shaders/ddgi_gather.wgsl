@@ -63,22 +63,33 @@ fn gather_irradiance(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let index = id.y * view.size.x + id.x;
+    let first = ddgi_gather_params.first_volume != 0u;
     var acc = vec4<f32>(0.0);
-    if ddgi_gather_params.first_volume == 0u {
+    if !first {
         acc = ddgi_indirect[index];
+        // A point the volumes gathered before this cascade already cover takes nothing from it:
+        // the pixel is left as it is (no depth read, no write), so that a cascade costs the
+        // camera little more than one read per pixel beyond the ones it lights — most pixels
+        // belong to one cascade, and 8 cascades' gathers would otherwise each pay for the frame.
+        if ddgi_volume.cascade_blend > 0.0 && acc.w >= 1.0 {
+            return;
+        }
     }
     let depth = textureLoad(gbuffer_depth, id.xy, 0);
+    var lit = false;
     if depth > 0.0 {
         let p = view_world_position(id.xy, depth);
         let w = ddgi_volume_weight(p);
-        // A point the volumes gathered before this cascade already cover takes nothing from it.
-        let covered = ddgi_volume.cascade_blend > 0.0 && acc.w >= 1.0;
-        if w > 0.0 && !covered {
+        if w > 0.0 {
             let n = safe_normalize(textureLoad(gbuffer_normal, id.xy, 0).xyz, vec3<f32>(0.0, 1.0, 0.0));
             let to_viewer = safe_normalize(view.camera_position - p, n);
             acc = ddgi_accumulate(acc, ddgi_sample_irradiance(p, n, to_viewer), w);
             ddgi_mark_seen_probes(p, n);
+            lit = true;
         }
     }
-    ddgi_indirect[index] = acc;
+    // The first volume starts every pixel's accumulation; the others write only what they added.
+    if first || lit {
+        ddgi_indirect[index] = acc;
+    }
 }

@@ -1,7 +1,7 @@
 //! The DDGI passes as functions any frame script calls, and the `"ddgi"` frame script built from them.
 //!
 //! ```text
-//! per volume:  ddgi_budget ─▶ ddgi_trace ─▶ ddgi_probe_update      (DdgiFrame::add_volume_updates)
+//! all volumes: ddgi_budget ─▶ ddgi_trace ─▶ ddgi_probe_update       (DdgiFrame::add_volume_updates)
 //! per camera:  ddgi_gather (each volume) ─▶ ddgi_composite         (add_gather, add_composite)
 //! debug:       ddgi_probe_spheres                                  (add_probe_spheres)
 //! ```
@@ -185,26 +185,37 @@ impl DdgiFrame<'_> {
     /// Adds every volume's probe update to `graph`: budget → trace (ray generation and shading
     /// included) → probe update (maps, atlas tiles, relocation, classification). Returns each
     /// volume's handles, for the gather and for the app's own passes that sample the probes.
+    ///
+    /// Each stage is one pass over every volume that updates this frame, its dispatches
+    /// interleaved step by step (every volume's first step, then every volume's second, …): the
+    /// volumes share no buffer, so the GPU runs one volume's dispatch beside the others' instead of
+    /// one after the other. That matters for cascades: a cascade's trace is a few tens of
+    /// thousands of long rays, too few to fill a large GPU, and its time is the slowest ray's
+    /// latency whatever the count, so several cascades traced one after the other cost that
+    /// latency several times over.
     pub fn add_volume_updates(&mut self, graph: &mut RenderGraph, frame: &CameraFrame) -> Vec<VolumeHandles> {
         let specialization = Specialization { spot_lights: frame.scene.has_spot_lights, emissive: frame.scene.has_emissive };
         let several = self.volumes.volumes.len() > 1;
-        let mut out = Vec::new();
+        let mut handles: Vec<VolumeHandles> = Vec::new();
+        let mut updating = Vec::new();
         for (k, (_, volume)) in self.volumes.volumes.iter().enumerate() {
             let suffix = if several { format!("_{k}") } else { String::new() };
-            let mut handles = VolumeHandles::import(graph, k, suffix, volume, &self.pipelines.sampler);
-            if !volume.updates_this_frame {
-                for pass in ["ddgi_budget", "ddgi_trace", "ddgi_probe_update"] {
-                    graph.leave_out(&format!("{pass}{}", handles.suffix), "the volume's update period skips this frame");
-                }
-                out.push(handles);
-                continue;
-            }
-            match add_volume_update(graph, frame, &mut self.pipelines, specialization, volume, &mut handles) {
-                Ok(()) => out.push(handles),
-                Err(e) => log::error!("DDGI pipelines failed, the volume is off: {e}"),
+            handles.push(VolumeHandles::import(graph, k, suffix, volume, &self.pipelines.sampler));
+            if volume.updates_this_frame {
+                updating.push(k);
             }
         }
-        out
+        if updating.is_empty() {
+            for pass in ["ddgi_budget", "ddgi_trace", "ddgi_probe_update"] {
+                graph.leave_out(pass, "no volume's update period falls on this frame");
+            }
+            return handles;
+        }
+        let volumes: Vec<&VolumeGpu> = self.volumes.volumes.iter().map(|(_, v)| v).collect();
+        if let Err(e) = add_volume_update_passes(graph, frame, &mut self.pipelines, specialization, &volumes, &mut handles, &updating) {
+            log::error!("DDGI pipelines failed, the volumes are off: {e}");
+        }
+        handles
     }
 
     /// Adds the gather of every volume for the camera: each pixel's irradiance from the probes,
@@ -371,87 +382,165 @@ fn workgroups(frame: &CameraFrame) -> (u32, u32) {
     (size.width.div_ceil(8), size.height.div_ceil(8))
 }
 
-/// Adds the probe update of one volume: budget → trace → probe update.
-fn add_volume_update(
+/// One dispatch of a stage: the program, its bind groups 0 (the scene) and 1 (the volume) as the
+/// pass declared them, and its size — workgroups, or the volume's counters at an offset (an
+/// indirect dispatch from the budget pass's results).
+struct Dispatch {
+    program: ComputeProgram,
+    group0: Vec<(&'static str, Bind)>,
+    group1: Vec<(&'static str, Bind)>,
+    size: DispatchSize,
+}
+
+enum DispatchSize {
+    Workgroups(u32),
+    Indirect(engine::graph::Read<GraphBuffer>, u64),
+}
+
+/// Records `dispatches` in one compute pass, in their order.
+fn record_dispatches(dispatches: Vec<Dispatch>) -> impl FnOnce(&mut engine::graph::PassContext<'_>) {
+    move |ctx: &mut engine::graph::PassContext<'_>| {
+        let groups: Vec<[wgpu::BindGroup; 2]> =
+            dispatches.iter().map(|d| [ctx.bind_group(&*d.program, 0, &d.group0), ctx.bind_group(&*d.program, 1, &d.group1)]).collect();
+        let indirect: Vec<Option<(&wgpu::Buffer, u64)>> = dispatches
+            .iter()
+            .map(|d| match d.size {
+                DispatchSize::Indirect(args, offset) => Some((ctx.buffer(args), offset)),
+                DispatchSize::Workgroups(_) => None,
+            })
+            .collect();
+        let mut cp = ctx.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(ctx.label), timestamp_writes: None });
+        for ((d, [group0, group1]), args) in dispatches.iter().zip(&groups).zip(indirect) {
+            cp.set_pipeline(&d.program.pipeline);
+            cp.set_bind_group(0, group0, &[]);
+            cp.set_bind_group(1, group1, &[]);
+            match (args, &d.size) {
+                (Some((buffer, offset)), _) => cp.dispatch_workgroups_indirect(buffer, offset),
+                (None, DispatchSize::Workgroups(n)) => cp.dispatch_workgroups(*n, 1, 1),
+                (None, DispatchSize::Indirect(..)) => {}
+            }
+        }
+    }
+}
+
+/// Adds the probe update of the volumes in `updating` (indices into `volumes` and `handles`):
+/// one `ddgi_budget`, one `ddgi_trace` and one `ddgi_probe_update` pass, each holding every
+/// updating volume's dispatches of that stage, step by step.
+fn add_volume_update_passes(
     graph: &mut RenderGraph,
     frame: &CameraFrame,
     pipelines: &mut DdgiPipelines,
     specialization: Specialization,
-    volume: &VolumeGpu,
-    h: &mut VolumeHandles,
+    volumes: &[&VolumeGpu],
+    handles: &mut [VolumeHandles],
+    updating: &[usize],
 ) -> Result<(), ShaderError> {
     let trace = pipelines.trace_program(&frame.gpu, specialization)?;
-    let suffix = h.suffix.clone();
-    let label = |name: &str| format!("{name}{suffix}");
-    // The trace runs as many threads as the budget pass packed rays, the probe update one workgroup
-    // per probe it gave rays (indirect dispatches, from `DdgiCounters`).
-    type Steps = Vec<(ComputeProgram, u32)>;
-    let steps = |programs: &[(&ComputeProgram, u32)]| -> Steps { programs.iter().map(|&(p, n)| (p.clone(), n)).collect() };
-    // Each pass binds group 0 (the scene, as `read_named` declared it) and group 1 (the volume, as
-    // `declare` did) for each of its pipelines.
-    type Binds = Vec<(&'static str, Bind)>;
-    let record = |steps: Steps, group0: Binds, group1: Binds, indirect: Option<(engine::graph::Read<GraphBuffer>, u64)>| {
-        move |ctx: &mut engine::graph::PassContext<'_>| {
-            let groups: Vec<[wgpu::BindGroup; 2]> =
-                steps.iter().map(|(p, _)| [ctx.bind_group(&**p, 0, &group0), ctx.bind_group(&**p, 1, &group1)]).collect();
-            let args = indirect.map(|(a, offset)| (ctx.buffer(a), offset));
-            let mut cp = ctx.encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(ctx.label), timestamp_writes: None });
-            for ((program, n), [group0, group1]) in steps.iter().zip(&groups) {
-                cp.set_pipeline(&program.pipeline);
-                cp.set_bind_group(0, group0, &[]);
-                cp.set_bind_group(1, group1, &[]);
-                match args {
-                    Some((buffer, offset)) => cp.dispatch_workgroups_indirect(buffer, offset),
-                    None => cp.dispatch_workgroups(*n, 1, 1),
-                }
-            }
+    let skipped = volumes.len() - updating.len();
+    let note_skipped = |pass: &mut PassBuilder<'_>| {
+        if skipped > 0 {
+            pass.note(&format!("{skipped} of {} volumes skip this frame (their update period)", volumes.len()));
         }
     };
-
     {
-        let mut pass = graph.add_pass(&label("ddgi_budget"));
-        if volume.settings.adaptive.enabled {
+        let mut pass = graph.add_pass("ddgi_budget");
+        note_skipped(&mut pass);
+        if updating.iter().any(|&k| volumes[k].settings.adaptive.enabled) {
             pass.note("adaptive: rays by each probe's temporal error");
         }
-        let blocks = volume.layout.probe_count.div_ceil(crate::gpu::BUDGET_BLOCK);
-        // Without a frame budget the planned rays stand: the two scaling steps are left out.
-        let frame_budget = volume.settings.adaptive.enabled && volume.settings.adaptive.frame_budget.is_some();
-        let mut plan = vec![(&pipelines.plan, blocks)];
-        if frame_budget {
-            plan.extend([(&pipelines.plan_scale, 1), (&pipelines.scale, blocks)]);
+        // Each volume's steps: plan, (with a frame budget: the two scaling steps), then the
+        // blocks' offsets and the placing of the rays. Without a frame budget the planned rays stand.
+        let steps: Vec<Vec<(&ComputeProgram, u32)>> = updating
+            .iter()
+            .map(|&k| {
+                let volume = volumes[k];
+                let blocks = volume.layout.probe_count.div_ceil(crate::gpu::BUDGET_BLOCK);
+                let frame_budget = volume.settings.adaptive.enabled && volume.settings.adaptive.frame_budget.is_some();
+                let mut plan = vec![(&pipelines.plan, blocks)];
+                if frame_budget {
+                    plan.extend([(&pipelines.plan_scale, 1), (&pipelines.scale, blocks)]);
+                }
+                plan.extend([(&pipelines.plan_blocks, 1), (&pipelines.place, blocks)]);
+                plan
+            })
+            .collect();
+        let mut per_volume: Vec<std::collections::VecDeque<Dispatch>> = Vec::new();
+        for (&k, plan) in updating.iter().zip(&steps) {
+            let bindings = merged(&plan.iter().map(|(p, _)| *p).collect::<Vec<_>>());
+            let (group0, group1) = (pass.read_named(&bindings, 0), handles[k].declare(&mut pass, &bindings, 1));
+            per_volume.push(
+                plan.iter()
+                    .map(|&(p, n)| Dispatch {
+                        program: p.clone(),
+                        group0: group0.clone(),
+                        group1: group1.clone(),
+                        size: DispatchSize::Workgroups(n),
+                    })
+                    .collect(),
+            );
         }
-        plan.extend([(&pipelines.plan_blocks, 1), (&pipelines.place, blocks)]);
-        let bindings = merged(&plan.iter().map(|(p, _)| *p).collect::<Vec<_>>());
-        let (group0, group1) = (pass.read_named(&bindings, 0), h.declare(&mut pass, &bindings, 1));
-        pass.render(record(steps(&plan), group0, group1, None));
+        pass.render(record_dispatches(interleaved(per_volume)));
     }
     {
-        // Shading reads the previous frame's atlases, which the probe update then overwrites.
-        let mut pass = graph.add_pass(&label("ddgi_trace"));
-        let (group0, group1) = (pass.read_named(&trace.bindings, 0), h.declare(&mut pass, &trace.bindings, 1));
-        let args = pass.read(&h.counters);
+        // Shading reads the previous frame's atlases, which the probe update then overwrites. The
+        // trace runs as many threads as the budget pass packed rays (an indirect dispatch).
+        let mut pass = graph.add_pass("ddgi_trace");
+        note_skipped(&mut pass);
         pass.note(&specialization.note());
-        pass.render(record(steps(&[(&trace, 0)]), group0, group1, Some((args, RAY_DISPATCH_OFFSET))));
+        let mut dispatches = Vec::new();
+        for &k in updating {
+            let (group0, group1) = (pass.read_named(&trace.bindings, 0), handles[k].declare(&mut pass, &trace.bindings, 1));
+            let args = pass.read(&handles[k].counters);
+            dispatches.push(Dispatch { program: trace.clone(), group0, group1, size: DispatchSize::Indirect(args, RAY_DISPATCH_OFFSET) });
+        }
+        pass.render(record_dispatches(dispatches));
     }
     {
-        let mut pass = graph.add_pass(&label("ddgi_probe_update"));
-        // Each atlas is read (the trace's shading) and written (here) in one frame but never in one
-        // dispatch, so a single copy of each suffices.
-        let programs = [(&pipelines.update_irradiance, 0), (&pipelines.update, 0)];
+        let mut pass = graph.add_pass("ddgi_probe_update");
+        note_skipped(&mut pass);
+        if updating.iter().any(|&k| !volumes[k].settings.relocation) {
+            pass.note("relocation off in a volume's settings");
+        }
+        if updating.iter().any(|&k| !volumes[k].settings.classification) {
+            pass.note("classification off in a volume's settings: only clears the fresh-probe flags");
+        }
+        // Two dispatches a volume, one workgroup per probe the budget gave rays: the irradiance maps
+        // (and each probe's error), then the rest. Each atlas is read (the trace's shading) and
+        // written (here) in one frame but never in one dispatch, so a single copy of each suffices.
         let bindings = merged(&[&pipelines.update_irradiance, &pipelines.update]);
-        let (group0, group1) = (pass.read_named(&bindings, 0), h.declare(&mut pass, &bindings, 1));
-        let args = pass.read(&h.counters);
-        if !volume.settings.relocation {
-            pass.note("relocation off in the volume's settings");
+        let mut per_volume = Vec::new();
+        for &k in updating {
+            let (group0, group1) = (pass.read_named(&bindings, 0), handles[k].declare(&mut pass, &bindings, 1));
+            let args = pass.read(&handles[k].counters);
+            let dispatch = |p: &ComputeProgram| Dispatch {
+                program: p.clone(),
+                group0: group0.clone(),
+                group1: group1.clone(),
+                size: DispatchSize::Indirect(args, PROBE_DISPATCH_OFFSET),
+            };
+            per_volume.push(std::collections::VecDeque::from([dispatch(&pipelines.update_irradiance), dispatch(&pipelines.update)]));
         }
-        if !volume.settings.classification {
-            pass.note("classification off: only clears the fresh-probe flags");
-        }
-        // Two dispatches: the irradiance maps (and each probe's error), then the rest.
-        pass.render(record(steps(&programs), group0, group1, Some((args, PROBE_DISPATCH_OFFSET))));
+        pass.render(record_dispatches(interleaved(per_volume)));
     }
-    h.export(graph);
+    for &k in updating {
+        handles[k].export(graph);
+    }
     Ok(())
+}
+
+/// The volumes' dispatches step by step: every volume's first, then every volume's second, and so
+/// on (a volume with fewer steps drops out), so that consecutive dispatches belong to different
+/// volumes and need no barrier between them.
+fn interleaved(mut per_volume: Vec<std::collections::VecDeque<Dispatch>>) -> Vec<Dispatch> {
+    let mut out = Vec::new();
+    while per_volume.iter().any(|q| !q.is_empty()) {
+        for q in &mut per_volume {
+            if let Some(d) = q.pop_front() {
+                out.push(d);
+            }
+        }
+    }
+    out
 }
 
 /// Render stage: the `"ddgi"` frame script — G-buffer, direct light, each volume's probe update,

@@ -538,7 +538,12 @@ fn two_volumes_light_the_scene_like_one() {
     )
     .expect("render");
     let flip = mean_flip(&one.ldr, &two.ldr, 48, 48);
-    assert!(two.timings.last().expect("timings").passes.iter().any(|p| p.label == "ddgi_trace_1" && p.ran));
+    // Both volumes trace in the one trace pass (their rays counted apart).
+    assert!(two.timings.last().expect("timings").passes.iter().any(|p| p.label == "ddgi_trace" && p.ran));
+    for k in 0..2 {
+        let name = format!("ddgi_rays_{k}");
+        assert!(two.timings.iter().any(|t| t.counters.iter().any(|(n, v)| *n == name && *v > 0.0)), "volume {k} traced no rays");
+    }
     assert!(flip < 0.12, "two half volumes differ from one whole volume by FLIP {flip}");
 }
 
