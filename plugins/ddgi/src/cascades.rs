@@ -42,8 +42,13 @@ pub struct DdgiCascades {
     /// Longest update period of a cascade, in frames: cascade k ≥ 1 updates every
     /// `min(2^(k−1), max_update_period)` frames (the first two every frame). 1: all every frame.
     pub max_update_period: u32,
-    /// Rays per frame over every cascade that updates in that frame (adaptive budgets), shared in
-    /// proportion to their probes. `None`: each cascade's `volume.adaptive.frame_budget`.
+    /// Rays per frame over every cascade that updates in that frame (adaptive budgets): one pool,
+    /// divided among those cascades in proportion to the rays their probes' errors asked for at
+    /// their last update (read back from the GPU, a frame or two late; evenly until it has come
+    /// back), so that when the total asked for exceeds the pool every cascade is cut by the same
+    /// factor and a cascade whose light changes takes rays from the quiet ones. `None`: each
+    /// cascade's `volume.adaptive.frame_budget`. Cost: the trace time of at most this many rays a
+    /// frame; fewer rays than asked for converge more slowly.
     pub frame_budget: Option<u32>,
     /// The settings every cascade's volume starts from (rays, hysteresis, weights, adaptive
     /// budgets, relocation, classification); its `bounds`, `probe_counts` and update period are
@@ -235,14 +240,22 @@ pub fn follow_ddgi_cascades(
             }
             continue;
         }
-        // The cascades that update this frame share the frame budget in proportion to their probes
-        // (every cascade has the same number).
-        let updating = (0..count).filter(|&k| (frame + u64::from(k)).is_multiple_of(u64::from(cascades.update_period(k)))).count().max(1);
-        let budget = cascades.frame_budget.map(|total| (total / updating as u32).max(1)).or(cascades.volume.adaptive.frame_budget);
+        // The cascades that update this frame share the frame budget in proportion to the rays
+        // each asked for at its last update.
+        let updates = |k: u32| (frame + u64::from(k)).is_multiple_of(u64::from(cascades.update_period(k)));
+        let demands: Vec<(u32, Option<f64>)> = volumes
+            .iter()
+            .filter(|(_, c, _)| c.camera == camera && updates(c.level))
+            .map(|(e, c, _)| (c.level, state.volumes.iter().find(|(v, _)| *v == e).and_then(|(_, g)| g.demanded_rays)))
+            .collect();
         for (_, c, mut volume) in volumes.iter_mut().filter(|(_, c, _)| c.camera == camera) {
             let current = volume.bounds.map(|(lo, _)| lo.as_dvec3());
             let (lo, hi) = cascades.level_bounds(c.level, position, current);
             let t = template(c.level);
+            let budget = match cascades.frame_budget {
+                Some(total) if updates(c.level) => Some(budget_share(total, c.level, &demands)),
+                _ => cascades.volume.adaptive.frame_budget,
+            };
             let next = DdgiVolume {
                 bounds: Some((lo.as_vec3(), hi.as_vec3())),
                 adaptive: crate::DdgiAdaptive { frame_budget: budget, ..t.adaptive.clone() },
@@ -252,5 +265,49 @@ pub fn follow_ddgi_cascades(
                 *volume = next;
             }
         }
+    }
+}
+
+/// Cascade `level`'s share of a frame budget of `total` rays, given what every cascade that updates
+/// this frame asked for at its last update (`(level, rays)`; `None` where nothing has come back
+/// yet): in proportion to those rays, so that one factor scales all of them when together they ask
+/// for more than `total`; evenly while any of them has no figure yet. Never below a quarter of the
+/// even share, so that a cascade that rested at its last update but has just scrolled (its demand
+/// is a frame or two old) is not starved; the shares may then add up to a little over `total`.
+pub fn budget_share(total: u32, level: u32, demands: &[(u32, Option<f64>)]) -> u32 {
+    let n = demands.len().max(1) as f64;
+    let even = f64::from(total) / n;
+    let known: Option<Vec<(u32, f64)>> = demands.iter().map(|&(k, d)| d.filter(|d| d.is_finite() && *d >= 0.0).map(|d| (k, d))).collect();
+    let share = match known {
+        Some(known) => {
+            let sum: f64 = known.iter().map(|(_, d)| d).sum();
+            let mine = known.iter().find(|(k, _)| *k == level).map_or(0.0, |(_, d)| *d);
+            // Nobody asked for anything (all resting): the pool stays evenly split.
+            if sum > 0.0 { (f64::from(total) * mine / sum).max(0.25 * even) } else { even }
+        }
+        None => even,
+    };
+    share.round().clamp(1.0, f64::from(total.max(1))) as u32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_frame_budget_follows_what_each_cascade_asked_for() {
+        // Nothing read back yet: even.
+        assert_eq!(budget_share(900, 0, &[(0, None), (1, Some(10.0)), (2, None)]), 300);
+        // Together they ask for 2× the pool: each is cut to half of what it asked for.
+        let demands = [(0, Some(1200.0)), (1, Some(600.0))];
+        assert_eq!(budget_share(900, 0, &demands), 600);
+        assert_eq!(budget_share(900, 1, &demands), 300);
+        // A resting cascade keeps a quarter of the even share; all resting: even.
+        assert_eq!(budget_share(1000, 1, &[(0, Some(5000.0)), (1, Some(0.0))]), 125);
+        assert_eq!(budget_share(1000, 1, &[(0, Some(0.0)), (1, Some(0.0))]), 500);
+        // Nonsense read back (NaN) counts as unknown; the share is never 0 nor over the pool.
+        assert_eq!(budget_share(10, 0, &[(0, Some(f64::NAN)), (1, Some(1.0))]), 5);
+        assert_eq!(budget_share(1, 3, &[(0, Some(1e9)), (3, Some(0.0))]), 1);
+        assert_eq!(budget_share(100, 0, &[(0, Some(1.0))]), 100);
     }
 }

@@ -74,6 +74,10 @@ pub struct VolumeGpu {
     /// finest out ([`crate::DdgiCascade`]), and its blend band in cells (0 for a fixed volume).
     pub order: (u32, Entity),
     pub cascade_blend: f32,
+    /// The rays the budget pass asked for at the volume's last update that has come back from the
+    /// GPU, before a frame budget scaled them down (its counters' `total_rays / budget_scale`):
+    /// what the cascades' shared budget is divided by ([`crate::DdgiCascades::frame_budget`]).
+    pub demanded_rays: Option<f64>,
 }
 
 impl VolumeGpu {
@@ -129,6 +133,7 @@ impl VolumeGpu {
             last_scroll: None,
             order: (0, Entity::PLACEHOLDER),
             cascade_blend: 0.0,
+            demanded_rays: None,
             layout,
         }
     }

@@ -26,6 +26,9 @@ pub fn read_back_ddgi_probes(
                 let name = |base: &str| if several { format!("{base}_{k}") } else { base.to_string() };
                 timings.record_counter(frame, &name("ddgi_rays"), f64::from(c.total_rays));
                 timings.record_counter(frame, &name("ddgi_probes_updated"), f64::from(c.updated_probes));
+                // Without a frame budget the scale is never written (and 1 when nothing was cut).
+                let scale = if c.budget_scale.is_finite() && c.budget_scale > 0.0 && c.budget_scale < 1.0 { c.budget_scale } else { 1.0 };
+                v.demanded_rays = Some(f64::from(c.total_rays) / f64::from(scale));
             }
         }
         let Some((_, bytes)) = v.readback.poll(&gpu).pop() else { continue };
