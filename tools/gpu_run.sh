@@ -12,6 +12,8 @@ export WGPU_BACKEND=vulkan RUST_LOG=warn
 # B: the binary (default dist/game_demo); TAG: a suffix for the results of this call, so that
 # several binaries can be compared in one session.
 B=${B:-dist/game_demo}
+# Binaries may travel gzipped (dist/NAME.gz): unpacked here once.
+for z in dist/*.gz; do [ -e "$z" ] && [ ! -e "${z%.gz}" ] && gunzip -k "$z" && chmod +x "${z%.gz}"; done
 TAG=${TAG:-}
 R=$OUT/r$TAG
 mkdir -p "$R"
@@ -51,8 +53,14 @@ for step in "$@"; do
     # volume of 32x8x32 probes against 4 cascades of 16x8x16 (the same rays per frame).
     # VIEW_CASCADES: other cascade options (e.g. "--cascades 8 --cascade-probes 16,4,16 --cascade-blend 1").
     view-*) d=${step#view-}; read -r eye target <<< "${VIEWS[$d]}"; run "$step" $B eval --scene open_world --width 256 --height 256 --reference-spp 4096 --probes 32,8,32 --cascade-spacing 1.5 ${VIEW_CASCADES:---cascades 4 --cascade-probes 16,8,16} --camera-position "$eye" --camera-target "$target" --fov 70 --out "$R/$step" --cache /tmp/cache ;;
+    # walkseries-FROM-SPEED-FRAMES: eval --time-series --walk on the open world's tour from FROM
+    # metres at SPEED m/s for FRAMES frames, 256x256, every frame against a 256-spp reference of
+    # its view, under the pale sky; one volume of 32x8x32 (fixed and adaptive) and 8 cascades of
+    # 16x4x16 (SERIES_CASCADES: other cascade options).
+    walkseries-*) IFS=- read -r _ from speed frames <<< "$step"; run "$step" $B eval --scene open_world --time-series --walk --walk-from "$from" --walk-speed "$speed" --frames "$frames" --settle-frames 120 --width 256 --height 256 --reference-spp 256 --probes 32,8,32 --cascade-spacing 1.5 ${SERIES_CASCADES:---cascades 8 --cascade-probes 16,4,16 --cascade-blend 1} --sky 0.35,0.45,0.6 --out "$R/$step" --cache /tmp/cache ;;
     esac
 done
 # Reports, tables and plots only (the per-configuration strips would pass the 16 MiB a file that
 # comes back).
-(cd "$OUT" && find "r$TAG" -name '*.md' -o -name '*.txt' -o -name '*.csv' -o -name '*.json' -o -name 'error_vs_time.png' -o -name 'time_series.png' -o -name 'image.png' | tar czf "results$TAG.tgz" -T -) && rm -rf "$R"
+# STRIPS=1: the views' strips too (direct | method | reference | FLIP map, 256 px high).
+(cd "$OUT" && { find "r$TAG" -name '*.md' -o -name '*.txt' -o -name '*.csv' -o -name '*.json' -o -name 'error_vs_time.png' -o -name 'time_series.png' -o -name 'image.png'; [ -n "${STRIPS:-}" ] && find "r$TAG" -path '*view-*' -name 'ddgi*.png'; } | tar czf "results$TAG.tgz" -T -) && rm -rf "$R"

@@ -109,6 +109,29 @@ enum Command {
         /// Width of the cascades' blend bands, in cells (DdgiCascades::blend_cells).
         #[arg(long, default_value_t = ddgi::DdgiCascades::default().blend_cells)]
         cascade_blend: f32,
+        /// Longest update period of a cascade in frames (DdgiCascades::max_update_period; 1: every
+        /// cascade updates every frame, as many rays per frame as one volume of all their probes).
+        #[arg(long, default_value_t = ddgi::DdgiCascades::default().max_update_period, value_parser = clap::value_parser!(u32).range(1..))]
+        cascade_period: u32,
+        /// Rays per frame shared by the cascades that update in a frame, in proportion to what their
+        /// probes ask for (DdgiCascades::frame_budget; default: no shared budget).
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+        frame_budget: Option<u32>,
+        /// With --time-series: walk the camera through the scene instead of changing it (the
+        /// built-in scene's tour, e.g. open_world's out of the house and into the forest; otherwise
+        /// the scene's camera carried sideways), measuring every frame's error and flicker against
+        /// a path-traced reference of its view, with the frames where a cascade scrolled marked.
+        #[arg(long, requires = "time_series")]
+        walk: bool,
+        /// Where on the tour the walk starts (scene units along it).
+        #[arg(long, default_value_t = 0.0, requires = "walk")]
+        walk_from: f32,
+        /// Walking speed (scene units per second, 60 frames a second).
+        #[arg(long, default_value_t = 1.5, requires = "walk")]
+        walk_speed: f32,
+        /// Sky radiance `r,g,b` of the walk (W/(m²·sr); default black, as the still images').
+        #[arg(long, value_parser = parse_vec3, requires = "walk")]
+        sky: Option<glam::Vec3>,
         #[command(flatten)]
         camera: CameraArgs,
     },
@@ -275,6 +298,13 @@ enum BenchCommand {
         /// Width of the cascades' blend bands, in cells.
         #[arg(long, default_value_t = ddgi::DdgiCascades::default().blend_cells)]
         blend: f32,
+        /// Longest update period of a cascade in frames (DdgiCascades::max_update_period).
+        #[arg(long, default_value_t = ddgi::DdgiCascades::default().max_update_period, value_parser = clap::value_parser!(u32).range(1..))]
+        cascade_period: u32,
+        /// Rays per frame shared by the cascades that update in a frame, in proportion to what their
+        /// probes ask for (DdgiCascades::frame_budget; default: no shared budget).
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+        frame_budget: Option<u32>,
         /// Rays per probe per frame.
         #[arg(long, default_value_t = ddgi::DdgiVolume::default().rays_per_probe)]
         rays: u32,
@@ -679,7 +709,7 @@ fn bench_ddgi(name: &str, iterations: u32, size: engine::render::RenderSize, gri
 #[allow(clippy::too_many_arguments)]
 fn bench_walk(
     name: &str,
-    (cascades, probes, spacing, blend): (u32, glam::UVec3, f32, f32),
+    (cascades, probes, spacing, blend, cascade_period, frame_budget): (u32, glam::UVec3, f32, f32, u32, Option<u32>),
     rays: u32,
     adaptive: bool,
     (frames, warmup, speed): (u32, u32, f32),
@@ -708,8 +738,9 @@ fn bench_walk(
         probe_counts: probes,
         spacing,
         blend_cells: blend,
+        max_update_period: cascade_period,
+        frame_budget,
         volume: ddgi::DdgiVolume { bounds: None, warm_up: true, ..volume.clone() },
-        ..Default::default()
     });
     if let Some(c) = &cascades {
         c.validate().map_err(|e| e.to_string())?;
@@ -717,19 +748,20 @@ fn bench_walk(
     let what = cascades
         .as_ref()
         .map_or(format!("one volume of {probes}"), |c| format!("{} cascades of {probes}, finest {spacing} m", c.count.unwrap_or(0)));
+    let config = match &cascades {
+        Some(c) => lab::eval::Config::ddgi_cascades(c),
+        None => lab::eval::Config::Ddgi { name: "ddgi".into(), volume: Box::new(volume) },
+    };
+    let path = lab::walk::WalkPath::for_scene(name, &scene);
     let options = lab::walk::WalkOptions {
-        size: engine::render::RenderSize { width, height },
-        frames,
         speed,
         warmup,
-        cascades,
-        volume,
         offset: offset.unwrap_or_default(),
         sky: if name == "open_world" { play::tour::OPEN_SKY } else { glam::Vec3::ZERO },
-        every: None,
         sky_light,
         error_every,
         reference_spp,
+        ..lab::walk::WalkOptions::new(config, path, engine::render::RenderSize { width, height }, frames)
     };
     let report = lab::walk::walk(&gpu, scene, &options, Some(out))?;
     println!(
@@ -743,7 +775,7 @@ fn bench_walk(
         report.frames_over(2.0)
     );
     for k in 0..report.volumes {
-        println!("  volume {k}: median {:.3} ms (its budget, trace, probe update and gather)", report.median_volume_ms(k));
+        println!("  volume {k}: gather median {:.3} ms", report.median_volume_ms(k));
     }
     println!(
         "  all gathers: median {:.3} ms; composite (with the sky light): median {:.3} ms",
@@ -758,6 +790,13 @@ fn bench_walk(
             "FLIP against path-traced references ({reference_spp} spp) of every {}th frame: mean {mean:.4}, mean change between them {change:.4}",
             error_every.unwrap_or(0)
         );
+    }
+    println!("median GPU ms of each pass (over the frames it ran in):");
+    for (label, ms, frames) in report.pass_medians() {
+        println!("  {label}: {ms:.4} ({frames} frames)");
+    }
+    if let Some(rays) = report.mean_rays() {
+        println!("rays traced per frame (every volume): mean {rays:.0}");
     }
     println!("rebases: {}; every frame in {}", report.frames.iter().filter(|f| f.rebased).count(), out.join("walk.csv").display());
     Ok(())
@@ -798,6 +837,8 @@ fn bench(command: BenchCommand) -> Result<(), String> {
             probes,
             spacing,
             blend,
+            cascade_period,
+            frame_budget,
             rays,
             no_adaptive,
             frames,
@@ -814,7 +855,7 @@ fn bench(command: BenchCommand) -> Result<(), String> {
         } => {
             let sky = ddgi::DdgiSkyLight { rays: sky_rays, max_distance: sky_reach };
             let measure = (error_every, reference_spp);
-            let grid = (cascades, probes, spacing, blend);
+            let grid = (cascades, probes, spacing, blend, cascade_period, frame_budget);
             return bench_walk(&scene, grid, rays, !no_adaptive, (frames, warmup, speed), (width, height), offset, sky, measure, &out);
         }
         BenchCommand::Ddgi { scene, iterations, width, height, grid, rays } => {
@@ -905,6 +946,12 @@ fn main() -> ExitCode {
             cascade_probes,
             cascade_spacing,
             cascade_blend,
+            cascade_period,
+            frame_budget,
+            walk,
+            walk_from,
+            walk_speed,
+            sky,
             camera,
         } => load(&scene).and_then(|mut description| {
             description.origin = offset.unwrap_or_default();
@@ -912,7 +959,13 @@ fn main() -> ExitCode {
             let extent = description.bounds().map_or(1.0, |(lo, hi)| (hi - lo).x.max((hi - lo).z));
             let cascades = (cascades > 0).then(|| {
                 let fitted = ddgi::DdgiCascades::fitted(cascades, cascade_probes, extent, ddgi::DdgiVolume::default());
-                ddgi::DdgiCascades { spacing: cascade_spacing.unwrap_or(fitted.spacing), blend_cells: cascade_blend, ..fitted }
+                ddgi::DdgiCascades {
+                    spacing: cascade_spacing.unwrap_or(fitted.spacing),
+                    blend_cells: cascade_blend,
+                    max_update_period: cascade_period,
+                    frame_budget,
+                    ..fitted
+                }
             });
             if let Some(c) = &cascades {
                 c.validate().map_err(|e| e.to_string())?;
@@ -941,7 +994,10 @@ fn main() -> ExitCode {
                 grid: probes.map(|g| g.to_array()),
                 cascades,
             };
-            if time_series {
+            if walk {
+                let series = eval::walk_series::WalkSeries { start: walk_from, speed: walk_speed, sky: sky.unwrap_or_default() };
+                eval::walk_series::run(&gpu, &eval_scenes::scene_facts(&scene), description, &options, frames, series)?;
+            } else if time_series {
                 eval::time_series::run(&gpu, &eval_scenes::scene_facts(&scene), description, &options, frames)?;
             } else {
                 eval::run(&gpu, &eval_scenes::scene_facts(&scene), description, &options)?;

@@ -1,11 +1,13 @@
 //! `game_demo eval`: error against a path-traced reference and GPU time, for every configuration of
 //! a list. Writes `report.md`, `results.json`, `error_vs_time.png` and, per configuration, a strip
 //! of four panels: direct only | the method | the reference | the FLIP error map (magma).
-//! `--time-series` measures instead every frame after a change in the scene ([`time_series`]).
+//! `--time-series` measures instead every frame after a change in the scene ([`time_series`]), and
+//! `--time-series --walk` every frame of a walk through it ([`walk_series`]).
 //!
 //! The configurations and how each one renders are all in [`Config`].
 
 pub mod time_series;
+pub mod walk_series;
 
 use std::path::{Path, PathBuf};
 
@@ -243,6 +245,9 @@ pub struct EvalRow {
     pub gpu_ms_per_frame: Option<f64>,
     /// GPU milliseconds for the whole image (all frames).
     pub gpu_ms_total: Option<f64>,
+    /// DDGI's rays traced per frame, every volume together: the mean over the frames whose count
+    /// came back (absent for the other methods).
+    pub rays_per_frame: Option<f64>,
     pub error: ErrorMetrics,
 }
 
@@ -261,6 +266,20 @@ fn render(
 /// GPU milliseconds of one frame: the sum over the passes that ran; `None` without timestamps.
 fn frame_gpu_ms(frame: &FrameTiming) -> Option<f64> {
     frame.passes.iter().filter(|p| p.ran).map(|p| p.gpu_ms).sum()
+}
+
+/// DDGI's mean rays per frame over `frame`'s timings (the `ddgi_rays*` counters, summed over the
+/// volumes of a frame), or `None` when no frame has one.
+fn rays_per_frame(frame: &RenderedFrame) -> Option<f64> {
+    let per_frame: Vec<f64> = frame
+        .timings
+        .iter()
+        .filter_map(|t| {
+            let rays: Vec<f64> = t.counters.iter().filter(|(n, _)| n.starts_with("ddgi_rays")).map(|(_, v)| *v).collect();
+            (!rays.is_empty()).then(|| rays.iter().sum())
+        })
+        .collect();
+    (!per_frame.is_empty()).then(|| per_frame.iter().sum::<f64>() / per_frame.len() as f64)
 }
 
 fn gpu_ms(frame: &RenderedFrame) -> (Option<f64>, Option<f64>) {
@@ -430,6 +449,7 @@ pub fn run(gpu: &GpuContext, facts: &SceneFacts, scene: SceneDescription, option
             frames: frame.timings.len() as u32,
             gpu_ms_per_frame: per_frame,
             gpu_ms_total: total,
+            rays_per_frame: rays_per_frame(&frame),
             error,
         });
     }
@@ -492,15 +512,16 @@ fn write_report(
         "# Evaluation: {name}\n\n{width}×{height} on {adapter}; reference: the path tracer at {reference_spp} paths per pixel (another seed).\n\
          FLIP on sRGB tonemapped at exposure 1; RMSE and relative MSE on linear radiance.\n\
          Each strip `<configuration>.png`: direct only | the configuration | the reference | FLIP map (magma).\n\n\
-         | configuration | frames | GPU ms per frame | GPU ms total | mean FLIP | RMSE | relative MSE |\n|---|---:|---:|---:|---:|---:|---:|\n"
+         | configuration | frames | GPU ms per frame | GPU ms total | DDGI rays per frame | mean FLIP | RMSE | relative MSE |\n|---|---:|---:|---:|---:|---:|---:|---:|\n"
     );
     for r in rows {
         md += &format!(
-            "| {} | {} | {} | {} | {:.4} | {:.4} | {:.5} |\n",
+            "| {} | {} | {} | {} | {} | {:.4} | {:.4} | {:.5} |\n",
             r.config,
             r.frames,
             ms(r.gpu_ms_per_frame),
             ms(r.gpu_ms_total),
+            r.rays_per_frame.map_or("-".to_string(), |v| format!("{v:.0}")),
             r.error.mean_flip,
             r.error.rmse,
             r.error.relative_mse

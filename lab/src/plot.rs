@@ -13,6 +13,8 @@ use plotters::prelude::*;
 pub const ERROR_VS_TIME_SIZE: (u32, u32) = (1200, 520);
 /// Size of `time_series.png`.
 pub const TIME_SERIES_SIZE: (u32, u32) = (900, 520);
+/// Size of a walk's `time_series.png`: error and flicker, one panel above the other.
+pub const WALK_SERIES_SIZE: (u32, u32) = (1000, 820);
 /// Smallest value drawn on a log axis: zeros (an error of exactly 0, a pass too fast for the
 /// timer) are drawn here instead; [`floored`] counts them so that the report can say so.
 pub const LOG_FLOOR: f64 = 1e-5;
@@ -41,9 +43,18 @@ pub fn error_vs_time(path: &Path, per_frame: &[Series], total: &[Series]) -> Res
         let y = log_range(per_frame.iter().chain(total).flat_map(|s| s.points.iter().map(|p| p.1)));
         let x = log_range(per_frame.iter().flat_map(|s| s.points.iter().map(|p| p.0)));
         let desc = "mean FLIP against the reference (log)";
-        draw_chart(&panels[0], "Error against cost per frame", x.log_scale(), "GPU ms per frame (log)", y.clone(), desc, per_frame)?;
+        draw_chart(&panels[0], "Error against cost per frame", x.log_scale(), "GPU ms per frame (log)", y.clone(), desc, per_frame, &[])?;
         let x = log_range(total.iter().flat_map(|s| s.points.iter().map(|p| p.0)));
-        draw_chart(&panels[1], "Error against time to the image", x.log_scale(), "GPU ms for the image, all frames (log)", y, desc, total)
+        draw_chart(
+            &panels[1],
+            "Error against time to the image",
+            x.log_scale(),
+            "GPU ms for the image, all frames (log)",
+            y,
+            desc,
+            total,
+            &[],
+        )
     })
 }
 
@@ -54,7 +65,23 @@ pub fn time_series(path: &Path, caption: &str, series: &[Series]) -> Result<(), 
         let (first, last) = frames.fold((0.0f64, 1.0f64), |(lo, hi), f| (lo.min(f), hi.max(f)));
         let y = log_range(series.iter().flat_map(|s| s.points.iter().map(|p| p.1)));
         let x_desc = "frame (the change comes before frame 0)";
-        draw_chart(root, caption, first - 0.5..last + 0.5, x_desc, y, "mean FLIP against the changed scene's reference (log)", series)
+        draw_chart(root, caption, first - 0.5..last + 0.5, x_desc, y, "mean FLIP against the changed scene's reference (log)", series, &[])
+    })
+}
+
+/// A walk frame by frame: mean FLIP (above) and flicker (below) against the frame, one series per
+/// method, with a thin vertical line at each frame in `marks` (where a cascade scrolled).
+pub fn walk_series(path: &Path, caption: &str, flips: &[Series], flickers: &[Series], marks: &[f64]) -> Result<(), String> {
+    draw_png(path, WALK_SERIES_SIZE, |root| {
+        let panels = root.split_evenly((2, 1));
+        let frames = flips.iter().chain(flickers).flat_map(|s| s.points.iter().map(|p| p.0));
+        let (first, last) = frames.fold((0.0f64, 1.0f64), |(lo, hi), f| (lo.min(f), hi.max(f)));
+        let x = first - 0.5..last + 0.5;
+        let x_desc = "frame of the walk (grey lines: a cascade scrolled)";
+        let y = log_range(flips.iter().flat_map(|s| s.points.iter().map(|p| p.1)));
+        draw_chart(&panels[0], caption, x.clone(), x_desc, y, "mean FLIP against the view's reference (log)", flips, marks)?;
+        let y = log_range(flickers.iter().flat_map(|s| s.points.iter().map(|p| p.1)));
+        draw_chart(&panels[1], "Flicker: change beyond the reference's, per frame", x, x_desc, y, "flicker (log)", flickers, marks)
     })
 }
 
@@ -107,6 +134,7 @@ fn draw_png(
         .map_err(|e| format!("{}: {e}", path.display()))
 }
 
+#[allow(clippy::too_many_arguments)]
 fn draw_chart<X>(
     area: &DrawingArea<BitMapBackend<'_>, Shift>,
     caption: &str,
@@ -115,11 +143,13 @@ fn draw_chart<X>(
     y: Range<f64>,
     y_desc: &str,
     series: &[Series],
+    marks: &[f64],
 ) -> Result<(), String>
 where
     X: AsRangedCoord<Value = f64>,
     X::CoordDescType: ValueFormatter<f64>,
 {
+    let y_range = y.clone();
     let e = |e: DrawingAreaErrorKind<_>| e.to_string();
     let mut chart = ChartBuilder::on(area)
         .caption(caption, ("sans-serif", 20))
@@ -136,6 +166,10 @@ where
         .y_label_formatter(&tick)
         .label_style(("sans-serif", 13))
         .draw()
+        .map_err(e)?;
+    let (y_lo, y_hi) = (y_range.start, y_range.end);
+    chart
+        .draw_series(marks.iter().map(|&m| PathElement::new([(m, y_lo), (m, y_hi)], RGBColor(190, 190, 190).stroke_width(1))))
         .map_err(e)?;
     for (i, s) in series.iter().enumerate() {
         let color = Palette99::pick(i).to_rgba();

@@ -156,3 +156,58 @@ fn time_series_measures_every_frame_and_the_path_tracer_converges_after_the_chan
     assert!(report.contains("| ddgi_trace |"), "per-pass GPU times of the static phase: {report}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_walk_measures_every_frame_against_its_own_view_with_the_scrolls_marked() {
+    let Some(gpu) = GpuContext::for_tests("a_walk_measures_every_frame") else { return };
+    let dir = std::env::temp_dir().join(format!("lab_walk_series_test_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let (out, cache) = (dir.join("report"), dir.join("cache"));
+    let frames = 6;
+    let scene = cornell();
+    let extent = scene.bounds().map(|(lo, hi)| (hi - lo).max_element()).expect("bounds");
+    // Two cascades of 8×6×8, the coarse one wide enough to reach the box from the camera 4.3 units
+    // in front of it; carried sideways a tenth of the box a frame, the camera crosses cells of both.
+    let cascades = ddgi::DdgiCascades {
+        count: Some(2),
+        probe_counts: glam::UVec3::new(8, 6, 8),
+        spacing: 0.75,
+        blend_cells: 1.0,
+        ..Default::default()
+    };
+    let options = EvalOptions { settle_frames: 30, cascades: Some(cascades), ..options(32, 64, out.clone(), cache.clone()) };
+    let series = lab::eval::walk_series::WalkSeries { start: 0.0, speed: 6.0 * extent, sky: glam::Vec3::ZERO };
+    let runs = lab::eval::walk_series::run(&gpu, &SceneFacts::named("cornell"), scene, &options, frames, series).expect("walk");
+
+    let names: Vec<&str> = runs.iter().map(|(n, _)| n.as_str()).collect();
+    assert_eq!(names, ["direct", "ddgi_8x8x8", "ddgi_8x8x8_adaptive", "ddgi_cascades_2x8x6x8"]);
+    // Every view's reference is path traced once and shared by the methods.
+    assert_eq!(cached(&cache).len(), frames as usize, "one reference per view of the walk");
+    let mean_flip = |r: &lab::walk::WalkReport| r.frames.iter().filter_map(|f| f.flip).map(f64::from).sum::<f64>() / r.frames.len() as f64;
+    for (name, report) in &runs {
+        assert_eq!(report.frames.iter().map(|f| f.frame).collect::<Vec<_>>(), (0..frames).collect::<Vec<_>>(), "{name}");
+        for f in &report.frames {
+            let flip = f.flip.unwrap_or_else(|| panic!("{name}: frame {} unmeasured", f.frame));
+            assert!(flip.is_finite() && flip > 0.0 && flip < 1.0, "{name}: FLIP {flip}");
+            // Flicker from the second frame on (it needs the frame before).
+            assert_eq!(f.flicker.is_some(), f.frame > 0, "{name}: frame {}", f.frame);
+            assert!(f.flicker.is_none_or(|v| v.is_finite() && v >= 0.0), "{name}: {:?}", f.flicker);
+        }
+    }
+    // The views move: each frame's reference is its own, so DDGI's light stays better than direct
+    // light's along the whole walk.
+    let direct = mean_flip(&runs[0].1);
+    for (name, report) in &runs[1..] {
+        assert!(mean_flip(report) < direct, "{name}: {} against direct light's {direct}", mean_flip(report));
+    }
+    let scrolled = runs[3].1.frames.iter().filter(|f| f.scrolled > 0).count();
+    assert!(scrolled > 0, "the cascades must scroll as the camera walks");
+
+    let csv = std::fs::read_to_string(out.join("time_series.csv")).expect("time_series.csv");
+    assert_eq!(csv.lines().next(), Some("config,frame,distance,flip,flicker,scrolled_volumes,rebased,ddgi_ms"));
+    assert_eq!(csv.lines().count(), 1 + 4 * frames as usize);
+    assert_plot(&out.join("time_series.png"), lab::plot::WALK_SERIES_SIZE);
+    let report = std::fs::read_to_string(out.join("report.md")).expect("report");
+    assert!(report.contains("| ddgi_cascades_2x8x6x8 |") && report.contains("](time_series.png)"), "{report}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

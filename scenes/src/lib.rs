@@ -36,6 +36,10 @@ pub struct SceneEntry {
     /// The holes designed into the scene's closed geometry: a ray from inside that leaves the
     /// scene's rooms must pass through one of them. Empty for a fully closed or an open scene.
     pub openings: fn() -> &'static [Opening],
+    /// The scene's walk, for a camera that moves through it (`eval --time-series --walk`, `bench
+    /// walk`): where it stands after walking a distance (world units along it; clamped to its
+    /// end) and the direction it walks in. `None`: the scene has no tour.
+    pub tour: Option<fn(f32) -> (Vec3, Vec3)>,
 }
 
 /// A hole designed into the closed geometry of a built-in scene: the world-space box that the hole
@@ -56,12 +60,14 @@ pub static ALL: &[SceneEntry] = &[
         // face away from the light, have probes that see their dark side.
         gi_bounds: || Some((rooms::CORNELL_MIN - Vec3::splat(0.2), rooms::CORNELL_MAX + Vec3::new(0.2, 0.2, 0.6))),
         openings: || &[rooms::CORNELL_FRONT],
+        tour: None,
     },
     SceneEntry {
         name: "ceiling_opening",
         build: rooms::ceiling_opening,
         gi_bounds: || Some((rooms::SKY_ROOM_MIN, rooms::SKY_ROOM_MAX)),
         openings: || &[rooms::SKYLIGHT],
+        tour: None,
     },
     SceneEntry {
         name: "door_room",
@@ -69,21 +75,25 @@ pub static ALL: &[SceneEntry] = &[
         // The room and the ground in front of its door, where the camera stands.
         gi_bounds: || Some((Vec3::new(-3.5, 0.0, -3.0), Vec3::new(4.5, 4.0, 6.0))),
         openings: || &[rooms::DOOR],
+        tour: None,
     },
     SceneEntry {
         name: "color_bleed",
         build: rooms::color_bleed,
         gi_bounds: || Some((rooms::BLEED_ROOM_MIN, rooms::BLEED_ROOM_MAX)),
         openings: || &[],
+        tour: None,
     },
-    SceneEntry { name: "cathedral", build: large::cathedral, gi_bounds: || None, openings: large::cathedral_openings },
-    SceneEntry { name: "forest", build: large::forest, gi_bounds: || None, openings: || &[] },
+    SceneEntry { name: "cathedral", build: large::cathedral, gi_bounds: || None, openings: large::cathedral_openings, tour: None },
+    SceneEntry { name: "forest", build: large::forest, gi_bounds: || None, openings: || &[], tour: None },
     SceneEntry {
         name: "open_world",
         build: open::open_world,
         // One volume over the whole world (the alternative that cascades are measured against).
         gi_bounds: || None,
         openings: || &[],
+        // Out of the house's door, across the yard, 500 m into the forest and back.
+        tour: Some(open::tour_at),
     },
 ];
 

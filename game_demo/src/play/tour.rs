@@ -73,19 +73,13 @@ pub fn run_tour_headless(
     every: u32,
     out: &std::path::Path,
 ) -> Result<lab::walk::WalkReport, String> {
+    let config = lab::eval::Config::ddgi_cascades(&cascades);
     let options = lab::walk::WalkOptions {
-        size,
-        frames,
         speed: TOUR_SPEED,
         warmup: 0,
-        cascades: Some(cascades),
-        volume: ddgi::DdgiVolume::default(),
-        offset: glam::DVec3::ZERO,
         sky: OPEN_SKY,
         every: (every > 0).then_some(every),
-        sky_light: ddgi::DdgiSkyLight::default(),
-        error_every: None,
-        reference_spp: 0,
+        ..lab::walk::WalkOptions::new(config, lab::walk::WalkPath::Tour(scenes::open::tour_at), size, frames)
     };
     lab::walk::walk(gpu, scene, &options, Some(out))
 }
