@@ -287,7 +287,7 @@ enum BenchCommand {
         #[arg(long, default_value = "open_world")]
         scene: String,
         /// Camera-following cascades (0: one volume over the scene's GI bounds with --probes).
-        #[arg(long, default_value_t = 4, value_parser = clap::value_parser!(u32).range(0..=8))]
+        #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(0..=8))]
         cascades: u32,
         /// Probes of each cascade (or of the fixed volume).
         #[arg(long, value_parser = parse_uvec3, default_value = "16,8,16")]
@@ -775,7 +775,8 @@ fn bench_walk(
         report.frames_over(2.0)
     );
     for k in 0..report.volumes {
-        println!("  volume {k}: gather median {:.3} ms", report.median_volume_ms(k));
+        let rays = report.mean_volume_rays(k).map_or("n/a".to_string(), |r| format!("{r:.0}"));
+        println!("  volume {k}: gather median {:.3} ms, rays per frame mean {rays}", report.median_volume_ms(k));
     }
     println!(
         "  all gathers: median {:.3} ms; composite (with the sky light): median {:.3} ms",

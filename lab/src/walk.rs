@@ -141,8 +141,9 @@ pub struct WalkFrame {
     /// noise in the probes, a popping cascade or a lagging update raise it.
     pub flicker: Option<f32>,
     /// Rays DDGI traced in the frame, over every volume (read back from the GPU; `None` where it
-    /// had not come back when the walk ended).
+    /// had not come back when the walk ended), and by volume (`None`: it did not update).
     pub rays: Option<f64>,
+    pub volume_rays: Vec<Option<f64>>,
 }
 
 /// The walk's frames and their summary.
@@ -178,6 +179,14 @@ impl WalkReport {
     /// Median of `f` over the frames.
     pub fn median_of(&self, f: impl Fn(&WalkFrame) -> f64) -> f64 {
         crate::median(&mut self.frames.iter().map(f).collect::<Vec<_>>()).unwrap_or(0.0)
+    }
+
+    /// Volume `k`'s mean rays per frame over the frames whose counts came back (0 for a frame in
+    /// which it did not update).
+    pub fn mean_volume_rays(&self, k: usize) -> Option<f64> {
+        let counted: Vec<&WalkFrame> = self.frames.iter().filter(|f| f.rays.is_some()).collect();
+        (!counted.is_empty())
+            .then(|| counted.iter().map(|f| f.volume_rays.get(k).copied().flatten().unwrap_or(0.0)).sum::<f64>() / counted.len() as f64)
     }
 
     /// Each pass's median GPU ms over the frames in which it ran, and in how many it ran.
@@ -383,6 +392,7 @@ pub fn walk(gpu: &GpuContext, mut scene: SceneDescription, options: &WalkOptions
                 flip: None,
                 flicker: None,
                 rays: None,
+                volume_rays: Vec::new(),
             });
             app_frames.push(timing.frame);
             for p in &timing.passes {
@@ -436,10 +446,15 @@ pub fn walk(gpu: &GpuContext, mut scene: SceneDescription, options: &WalkOptions
     });
     bar.finish_and_clear();
     let timings = app.world().resource::<FrameTimings>();
+    let n = report.volumes;
     for (f, app_frame) in report.frames.iter_mut().zip(&app_frames) {
         let counters = timings.frames.iter().rev().find(|t| t.frame == *app_frame).map(|t| &t.counters);
         let rays: Vec<f64> = counters.into_iter().flatten().filter(|(name, _)| name.starts_with("ddgi_rays")).map(|(_, v)| *v).collect();
         f.rays = (!rays.is_empty()).then(|| rays.iter().sum());
+        // The counters' names: `ddgi_rays` for one volume, `ddgi_rays_k` for several.
+        let name = |k: usize| if n > 1 { format!("ddgi_rays_{k}") } else { "ddgi_rays".to_string() };
+        f.volume_rays =
+            (0..n).map(|k| counters.and_then(|c| c.iter().find(|(label, _)| *label == name(k))).map(|(_, v)| *v)).collect();
     }
     written?;
     measured?;

@@ -58,8 +58,10 @@
 //! `"ddgi"` frame script ([`use_ddgi`] does both). Each probe becomes an entity with a
 //! [`DdgiProbe`] mirroring its GPU state. The passes, each with its own timing span:
 //! `ddgi_budget → ddgi_trace → ddgi_probe_update` (maps, atlas tiles, relocation
-//! and classification in one pass), then per camera
-//! `ddgi_gather → ddgi_composite`. Shaders: `plugins/ddgi/shaders/`, one file per pass ([`SHADERS`]).
+//! and classification in one pass) — each one pass over every volume that updates in the frame,
+//! the volumes' dispatches side by side so that the GPU overlaps them — then per camera
+//! `ddgi_gather` (one per volume) `→ ddgi_composite`. Shaders: `plugins/ddgi/shaders/`, one file
+//! per pass ([`SHADERS`]).
 
 pub mod atlas;
 pub mod cascades;
