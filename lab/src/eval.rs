@@ -337,22 +337,40 @@ fn reference(
     cache: &Path,
 ) -> Result<Vec<f32>, String> {
     let key = reference_path(cache, label, scene, width, height, spp);
-    if let Ok(img) = image::open(&key) {
+    let (image, cached) = cached_image(&key, width, height, || {
+        println!("reference: path tracing {spp} paths per pixel…");
+        Ok(render(gpu, scene, &Config::PathTrace { spp }, width, height, REFERENCE_SEED)?.hdr)
+    })?;
+    if cached {
+        println!("reference: cached {}", key.display());
+    }
+    Ok(image)
+}
+
+/// The linear RGBA image cached at `key` (an EXR of `width` × `height`) and `true`, or `render`'s,
+/// which is then cached there, and `false`.
+pub(crate) fn cached_image(
+    key: &Path,
+    width: u32,
+    height: u32,
+    render: impl FnOnce() -> Result<Vec<f32>, String>,
+) -> Result<(Vec<f32>, bool), String> {
+    if let Ok(img) = image::open(key) {
         let rgb = img.to_rgb32f();
         if (rgb.width(), rgb.height()) == (width, height) {
-            println!("reference: cached {}", key.display());
-            return Ok(rgb.pixels().flat_map(|p| [p[0], p[1], p[2], 1.0]).collect());
+            return Ok((rgb.pixels().flat_map(|p| [p[0], p[1], p[2], 1.0]).collect(), true));
         }
     }
-    println!("reference: path tracing {spp} paths per pixel…");
-    let frame = render(gpu, scene, &Config::PathTrace { spp }, width, height, REFERENCE_SEED)?;
-    std::fs::create_dir_all(cache).map_err(|e| format!("{}: {e}", cache.display()))?;
-    let rgb: Vec<f32> = frame.hdr.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
+    let hdr = render()?;
+    if let Some(dir) = key.parent() {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    }
+    let rgb: Vec<f32> = hdr.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
     image::Rgb32FImage::from_raw(width, height, rgb)
         .ok_or("reference size mismatch")?
-        .save(&key)
+        .save(key)
         .map_err(|e| format!("{}: {e}", key.display()))?;
-    Ok(frame.hdr)
+    Ok((hdr, false))
 }
 
 fn save_strip(path: &Path, panels: &[Vec<u8>], width: u32, height: u32) -> Result<(), String> {

@@ -292,37 +292,26 @@ fn reference_view(gpu: &GpuContext, scene: &SceneDescription, camera: Transform,
         }
     }
     let (width, height) = (options.size.width, options.size.height);
-    let sky = options.sky.to_array().map(|c| format!("{c:.4}")).join("_");
-    let key = options.cache.as_ref().map(|cache| {
-        crate::eval::reference_path(cache, &format!("{}-walk-sky{sky}", scene.name), &scene, width, height, options.reference_spp)
-    });
-    if let Some(key) = &key
-        && let Ok(img) = image::open(key)
-    {
-        let rgb = img.to_rgb32f();
-        if (rgb.width(), rgb.height()) == (width, height) {
-            return Ok(rgb.pixels().flat_map(|p| [p[0], p[1], p[2], 1.0]).collect());
+    let render = || -> Result<Vec<f32>, String> {
+        let per_frame = options.reference_spp.clamp(1, 16);
+        let frames = options.reference_spp.max(1).div_ceil(per_frame);
+        let settings = HeadlessSettings { width, height, frames, ..Default::default() };
+        let frame = engine::headless::render_scene_with(gpu, scene.clone(), &settings, |app| {
+            app.insert_resource(engine::render::SkyRadiance(options.sky));
+            pathtrace::use_path_tracer(app, pathtrace::PathTraceSettings { samples_per_frame: per_frame, ..Default::default() });
+        })
+        .map_err(|e| e.to_string())?;
+        Ok(frame.hdr)
+    };
+    match &options.cache {
+        Some(cache) => {
+            let sky = options.sky.to_array().map(|c| format!("{c:.4}")).join("_");
+            let key =
+                crate::eval::reference_path(cache, &format!("{}-walk-sky{sky}", scene.name), &scene, width, height, options.reference_spp);
+            Ok(crate::eval::cached_image(&key, width, height, render)?.0)
         }
+        None => render(),
     }
-    let per_frame = options.reference_spp.clamp(1, 16);
-    let frames = options.reference_spp.max(1).div_ceil(per_frame);
-    let settings = HeadlessSettings { width, height, frames, ..Default::default() };
-    let frame = engine::headless::render_scene_with(gpu, scene, &settings, |app| {
-        app.insert_resource(engine::render::SkyRadiance(options.sky));
-        pathtrace::use_path_tracer(app, pathtrace::PathTraceSettings { samples_per_frame: per_frame, ..Default::default() });
-    })
-    .map_err(|e| e.to_string())?;
-    if let Some(key) = &key {
-        if let Some(dir) = key.parent() {
-            std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-        }
-        let rgb: Vec<f32> = frame.hdr.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
-        image::Rgb32FImage::from_raw(width, height, rgb)
-            .ok_or("reference size mismatch")?
-            .save(key)
-            .map_err(|e| format!("{}: {e}", key.display()))?;
-    }
-    Ok(frame.hdr)
 }
 
 /// Walks `scene`'s camera along `options.path` and measures every frame.
@@ -453,8 +442,7 @@ pub fn walk(gpu: &GpuContext, mut scene: SceneDescription, options: &WalkOptions
         f.rays = (!rays.is_empty()).then(|| rays.iter().sum());
         // The counters' names: `ddgi_rays` for one volume, `ddgi_rays_k` for several.
         let name = |k: usize| if n > 1 { format!("ddgi_rays_{k}") } else { "ddgi_rays".to_string() };
-        f.volume_rays =
-            (0..n).map(|k| counters.and_then(|c| c.iter().find(|(label, _)| *label == name(k))).map(|(_, v)| *v)).collect();
+        f.volume_rays = (0..n).map(|k| counters.and_then(|c| c.iter().find(|(label, _)| *label == name(k))).map(|(_, v)| *v)).collect();
     }
     written?;
     measured?;
