@@ -80,6 +80,40 @@ fn cornell_box_direct_light_matches_its_golden_image() {
 }
 
 #[test]
+fn the_agx_display_transform_matches_its_cpu_mirror_and_keeps_highlights() {
+    let Some(gpu) = testkit::gpu("the_agx_display_transform_matches_its_cpu_mirror") else { return };
+    let scene = (scenes::find("cornell").expect("built-in cornell").build)();
+    let settings = HeadlessSettings { width: 64, height: 64, ..Default::default() };
+    let render = |display| {
+        engine::headless::render_scene_with(&gpu, scene.clone(), &settings, |app| {
+            app.insert_resource(display);
+        })
+        .expect("render")
+    };
+    let (clamped, agx) = (render(engine::render::DisplayTransform::Clamp), render(engine::render::DisplayTransform::AgX));
+    assert_eq!(clamped.hdr, agx.hdr, "the display transform leaves the linear radiance alone");
+    // Every pixel of the GPU's AgX within two 8-bit codes of the CPU's (the cornell camera's
+    // exposure is 1).
+    let mut worst = 0;
+    for (hdr, ldr) in agx.hdr.chunks_exact(4).zip(agx.ldr.chunks_exact(4)) {
+        let display = engine::color::agx(Vec3::new(hdr[0], hdr[1], hdr[2]));
+        for (c, &got) in display.to_array().into_iter().zip(ldr) {
+            worst = worst.max((i32::from(engine::color::srgb8(c)) - i32::from(got)).abs());
+        }
+    }
+    assert!(worst <= 2, "GPU AgX differs from the CPU mirror by {worst} codes");
+    // The lamp and the lit ceiling burn to white under the clamp; AgX keeps them below it.
+    let white = |ldr: &[u8]| ldr.chunks_exact(4).filter(|p| p[..3] == [255, 255, 255]).count();
+    assert!(white(&clamped.ldr) > 0, "the cornell lamp saturates the clamp");
+    assert!(
+        white(&agx.ldr) < white(&clamped.ldr),
+        "AgX rolls highlights off: {} white pixels against {}",
+        white(&agx.ldr),
+        white(&clamped.ldr)
+    );
+}
+
+#[test]
 fn kenney_model_renders_with_its_texture() {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/assets/kenney_fps");
     if !dir.exists() {

@@ -10,7 +10,7 @@ mod play;
 
 use clap::{Parser, Subcommand};
 use engine::gpu::{GpuContext, GpuOptions};
-use engine::headless::{HeadlessSettings, render_scene};
+use engine::headless::HeadlessSettings;
 use engine::scene::{Camera, NodeContent, SceneDescription, Transform};
 use lab::{bench, eval};
 
@@ -399,6 +399,22 @@ enum BenchCommand {
     },
 }
 
+/// `render --display-transform`.
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum DisplayArg {
+    Clamp,
+    Agx,
+}
+
+impl From<DisplayArg> for engine::render::DisplayTransform {
+    fn from(d: DisplayArg) -> Self {
+        match d {
+            DisplayArg::Clamp => Self::Clamp,
+            DisplayArg::Agx => Self::AgX,
+        }
+    }
+}
+
 #[derive(clap::Args)]
 struct RenderArgs {
     /// A built-in scene name (see --list-scenes; `level` is the demo level) or a .gltf, .glb or .obj file.
@@ -430,6 +446,15 @@ struct RenderArgs {
     out: PathBuf,
     #[command(flatten)]
     camera: CameraArgs,
+    /// How image.png shows the radiance: `clamp` (the radiometric values, clipped at 1: what the
+    /// golden images and eval use) or `agx` (a filmic roll-off of highlights). image.exr is the
+    /// linear radiance either way.
+    #[arg(long, value_enum, default_value = "clamp")]
+    display_transform: DisplayArg,
+    /// The camera's exposure as a photographic exposure value at ISO 100 (one more EV: half the
+    /// exposure); default: the scene camera's own exposure.
+    #[arg(long)]
+    ev100: Option<f32>,
     /// Print the built-in scene names and exit.
     #[arg(long)]
     list_scenes: bool,
@@ -603,6 +628,19 @@ fn render(args: RenderArgs) -> Result<(), String> {
     let mut scene = load(&args.scene)?;
     scene.origin = args.offset.unwrap_or_default();
     args.camera.apply(&mut scene)?;
+    if let Some(ev) = args.ev100 {
+        if !ev.is_finite() {
+            return Err(format!("--ev100: {ev} is not a finite exposure value"));
+        }
+        for node in &mut scene.nodes {
+            for content in &mut node.content {
+                if let engine::scene::NodeContent::Camera(camera) = content {
+                    camera.exposure = engine::color::exposure_from_ev100(ev);
+                }
+            }
+        }
+    }
+    let display = engine::render::DisplayTransform::from(args.display_transform);
     let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
     let ddgi_mode = matches!(args.mode.as_str(), "ddgi" | "indirect");
     let frames = args.frames.unwrap_or(if ddgi_mode { 120 } else { 1 });
@@ -622,9 +660,12 @@ fn render(args: RenderArgs) -> Result<(), String> {
             &gpu,
             scene,
             &settings,
-            |app| match cascades {
-                Some(c) => ddgi::use_ddgi_cascades(app, c, output),
-                None => ddgi::use_ddgi(app, volume, output),
+            |app| {
+                app.insert_resource(display);
+                match cascades {
+                    Some(c) => ddgi::use_ddgi_cascades(app, c, output),
+                    None => ddgi::use_ddgi(app, volume, output),
+                }
             },
             |world| {
                 let volumes = world.resource::<ddgi::DdgiGpuVolumes>();
@@ -653,13 +694,16 @@ fn render(args: RenderArgs) -> Result<(), String> {
         );
         let tick = bar.clone();
         let frame = engine::headless::render_scene_with(&gpu, scene, &settings, |app| {
+            app.insert_resource(display);
             pathtrace::use_path_tracer(app, path);
             app.add_systems(engine::bevy_app::Last, move || tick.inc(1));
         });
         bar.finish_and_clear();
         frame
     } else {
-        render_scene(&gpu, scene, &settings)
+        engine::headless::render_scene_with(&gpu, scene, &settings, |app| {
+            app.insert_resource(display);
+        })
     }
     .map_err(|e| e.to_string())?;
     frame.write(&args.out).map_err(|e| e.to_string())?;

@@ -23,7 +23,7 @@ use serde::Serialize;
 use crate::app::{Prepare, Render, Time};
 use crate::gpu::GpuContext;
 use crate::graph::{FrameReport, GpuTimer, Handle, RenderGraph, Texture as GraphTexture, TextureDesc, TransientPool};
-use crate::shader::{Program, RenderTargets, compute_program, render_program};
+use crate::shader::{Program, RenderTargets, compute_program, compute_program_with_constants, render_program};
 pub use gpu_scene::{GpuScene, RenderSize, SkyRadiance, prepare_gpu_scene};
 
 /// Formats of the G-buffer and outputs.
@@ -67,7 +67,24 @@ impl Plugin for RenderPlugin {
 pub struct CameraPipelines {
     pub gbuffer: Arc<Program<wgpu::RenderPipeline>>,
     pub direct_lighting: Arc<Program<wgpu::ComputePipeline>>,
+    /// The tonemap pass with each [`DisplayTransform`], in the order of its variants.
     pub tonemap: Arc<Program<wgpu::ComputePipeline>>,
+    pub tonemap_agx: Arc<Program<wgpu::ComputePipeline>>,
+}
+
+/// How the `tonemap` pass turns exposed linear radiance into display values (a resource; the
+/// default when absent). `image.exr` and every metric read the linear radiance before it, so the
+/// choice changes what a person sees, not what `eval` measures.
+#[derive(Resource, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum DisplayTransform {
+    /// Clamp to [0, 1], then sRGB: radiometric values shown as they are (what the golden images
+    /// and `eval`'s tonemapper use); light over 1 burns to flat white.
+    #[default]
+    Clamp,
+    /// AgX ([`crate::color::agx`]): highlights roll off into white and desaturate like film, shadows
+    /// keep their detail; the filmic transform Blender 4 and Bevy offer. Costs a few dozen
+    /// arithmetic operations a pixel.
+    AgX,
 }
 
 impl CameraPipelines {
@@ -87,6 +104,13 @@ impl CameraPipelines {
             gbuffer: Arc::new(gbuffer),
             direct_lighting: Arc::new(compute_program(&gpu.device, "direct_lighting.wgsl", "main", "direct_lighting")?),
             tonemap: Arc::new(compute_program(&gpu.device, "tonemap.wgsl", "main", "tonemap")?),
+            tonemap_agx: Arc::new(compute_program_with_constants(
+                &gpu.device,
+                "tonemap.wgsl",
+                "main",
+                "tonemap",
+                &[("DISPLAY_TRANSFORM", 1.0)],
+            )?),
         })
     }
 }
@@ -329,6 +353,7 @@ pub struct CameraFrame<'w> {
     timings: ResMut<'w, FrameTimings>,
     surface: Option<Res<'w, SurfaceTarget>>,
     overlay: Option<Res<'w, SurfaceOverlayHook>>,
+    display: Option<Res<'w, DisplayTransform>>,
 }
 
 impl CameraFrame<'_> {
@@ -436,7 +461,13 @@ impl CameraFrame<'_> {
             let mut pass = graph.add_pass("tonemap");
             let input = pass.read(&hdr);
             let out = pass.write(&mut ldr);
-            let program = pipelines.tonemap.clone();
+            let program = match self.display.as_deref().copied().unwrap_or_default() {
+                DisplayTransform::Clamp => pipelines.tonemap.clone(),
+                DisplayTransform::AgX => {
+                    pass.note("AgX display transform");
+                    pipelines.tonemap_agx.clone()
+                }
+            };
             let scene_reads = pass.read_named(&program.bindings, 0);
             pass.render(move |ctx| {
                 let group0 = ctx.bind_group(&*program, 0, &scene_reads);
