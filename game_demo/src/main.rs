@@ -509,6 +509,10 @@ struct DdgiArgs {
     /// Write the irradiance and distance atlases and the ray directions as images beside the output.
     #[arg(long)]
     dump_atlases: bool,
+    /// Contact occlusion of the indirect light: rays per pixel (DdgiContactOcclusion::rays; 0: off),
+    /// their reach the finest probe spacing.
+    #[arg(long, default_value_t = ddgi::DdgiContactOcclusion::default().rays, value_parser = clap::value_parser!(u32).range(0..=64))]
+    contact_occlusion: u32,
     /// Adaptive ray budgets: each probe's rays follow its temporal error (between DdgiAdaptive's
     /// min_rays and --rays),
     /// and dark probes are switched off. `timings.json` records the rays traced per frame.
@@ -655,13 +659,14 @@ fn render(args: RenderArgs) -> Result<(), String> {
         let output = if args.mode == "indirect" { ddgi::DdgiOutput::Indirect } else { ddgi::DdgiOutput::Full };
         let mut dumped: Result<Vec<PathBuf>, String> = Ok(Vec::new());
         let dump = args.ddgi.dump_atlases;
+        let occlusion = ddgi::DdgiContactOcclusion { rays: args.ddgi.contact_occlusion, ..Default::default() };
         let out = args.out.clone();
         let frame = engine::headless::render_scene_and_inspect(
             &gpu,
             scene,
             &settings,
             |app| {
-                app.insert_resource(display);
+                app.insert_resource(display).insert_resource(occlusion);
                 match cascades {
                     Some(c) => ddgi::use_ddgi_cascades(app, c, output),
                     None => ddgi::use_ddgi(app, volume, output),

@@ -5,11 +5,16 @@
 struct DdgiGatherParams {
     // 1 for the first volume of the frame: the accumulation starts from zero.
     first_volume: u32,
-    // composite_debug: 1 direct light only, 2 albedo, 3 normals.
+    // composite_debug: 1 direct light only, 2 albedo, 3 normals, 4 contact occlusion.
     debug_view: u32,
     // Sky light at pixels no volume covers (ddgi::DdgiSkyLight): visibility rays (0: off) and reach.
     sky_rays: u32,
     sky_distance: f32,
+    // Contact occlusion of the probes' light (ddgi::DdgiContactOcclusion): rays (0: off) and radius.
+    ao_rays: u32,
+    ao_radius: f32,
+    _pad0: u32,
+    _pad1: u32,
 }
 
 @group(2) @binding(0) var<uniform> ddgi_gather_params: DdgiGatherParams;

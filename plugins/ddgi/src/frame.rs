@@ -179,6 +179,7 @@ pub struct DdgiFrame<'w> {
     pub output: Res<'w, DdgiOutput>,
     pub probe_view: Option<Res<'w, DdgiProbeView>>,
     pub sky_light: Option<Res<'w, crate::DdgiSkyLight>>,
+    pub contact_occlusion: Option<Res<'w, crate::DdgiContactOcclusion>>,
 }
 
 impl DdgiFrame<'_> {
@@ -360,11 +361,20 @@ impl DdgiFrame<'_> {
     fn gather_params(&self, graph: &mut RenderGraph, frame: &CameraFrame, first: bool) -> Handle<GraphBuffer> {
         let sky = self.sky_light.as_deref().copied().unwrap_or_default();
         let reach = sky.max_distance.unwrap_or_else(|| 0.1 * self.volumes.scene_extent().unwrap_or(0.0));
+        let occlusion = self.contact_occlusion.as_deref().copied().unwrap_or_default();
+        // Default radius: the finest probe spacing of the volumes.
+        let finest =
+            self.volumes.volumes.iter().map(|(_, v)| v.layout.spacing.min_element()).filter(|s| s.is_finite() && *s > 0.0).reduce(f32::min);
+        let ao_radius = occlusion.radius.or(finest).filter(|r| r.is_finite() && *r > 0.0);
         let p = DdgiGatherParams {
             first_volume: u32::from(first),
             debug_view: self.output.debug_view().unwrap_or(0),
             sky_rays: sky.rays.min(crate::debug_view::MAX_SKY_RAYS),
             sky_distance: if reach.is_finite() && reach > 0.0 { reach } else { crate::gpu::UNBOUNDED_RAY },
+            ao_rays: if ao_radius.is_some() { occlusion.rays.min(crate::debug_view::MAX_SKY_RAYS) } else { 0 },
+            ao_radius: ao_radius.unwrap_or(0.0),
+            _pad0: 0,
+            _pad1: 0,
         };
         let buffer = frame.gpu.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("ddgi_gather_params"),

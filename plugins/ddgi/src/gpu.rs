@@ -140,12 +140,18 @@ pub struct DdgiRay {
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct DdgiGatherParams {
     pub first_volume: u32,
-    /// `composite_debug`: 1 direct light only, 2 albedo, 3 normals.
+    /// `composite_debug`: 1 direct light only, 2 albedo, 3 normals, 4 contact occlusion.
     pub debug_view: u32,
     /// Visibility rays of the sky light at uncovered pixels ([`crate::DdgiSkyLight`]; 0: off).
     pub sky_rays: u32,
     /// Their reach in world units.
     pub sky_distance: f32,
+    /// Contact occlusion of the indirect light ([`crate::DdgiContactOcclusion`]): rays (0: off)
+    /// and radius.
+    pub ao_rays: u32,
+    pub ao_radius: f32,
+    pub _pad0: u32,
+    pub _pad1: u32,
 }
 
 /// Parameters of the probe debug view (`ddgi_probe_spheres.wgsl`).
@@ -403,7 +409,7 @@ pub fn gpu_structs() -> Vec<engine::shader::HostStruct> {
             dispatch, total_rays, probe_dispatch, updated_probes, max_luma, budget_scale, _pad0, _pad1,
         }),
         layout!(DdgiBlock in "ddgi_common.inc.wgsl" { rays, unscaled_rays, max_luma, offset, probes, probe_offset }),
-        layout!(DdgiGatherParams in "ddgi_camera.inc.wgsl" { first_volume, debug_view, sky_rays, sky_distance }),
+        layout!(DdgiGatherParams in "ddgi_camera.inc.wgsl" { first_volume, debug_view, sky_rays, sky_distance, ao_rays, ao_radius, _pad0, _pad1 }),
         layout!(DdgiProbeViewParams in "ddgi_probe_spheres.wgsl" { mode, selected, radius, max_rays, max_error, _pad0, _pad1, _pad2 }),
     ]
 }

@@ -80,7 +80,7 @@ use engine::render::gpu_scene::{flush_uploads, prepare_gpu_scene};
 use engine::render::{FrameScript, frame_script_is};
 
 pub use cascades::{DdgiCascade, DdgiCascades, DdgiFirstCameraCascades};
-pub use debug_view::{DdgiOutput, DdgiProbeColor, DdgiProbeView, DdgiSkyLight};
+pub use debug_view::{DdgiContactOcclusion, DdgiOutput, DdgiProbeColor, DdgiProbeView, DdgiSkyLight};
 pub use frame::{DdgiFrame, VolumeHandles, render_ddgi_frame};
 pub use pipelines::DdgiPipelines;
 pub use resources::{DdgiGpuVolumes, VolumeGpu};
@@ -136,6 +136,7 @@ impl Plugin for DdgiPlugin {
             .init_resource::<DdgiGpuVolumes>()
             .init_resource::<DdgiOutput>()
             .init_resource::<DdgiSkyLight>()
+            .init_resource::<DdgiContactOcclusion>()
             .add_systems(
                 engine::app::Prepare,
                 (

@@ -880,3 +880,69 @@ fn quiet_probes_rest_and_the_per_probe_passes_skip_them() {
     let frame = engine::headless::read_frame(&gpu, resting.world());
     assert!(frame.hdr.iter().all(|x| x.is_finite()));
 }
+
+// ---------------------------------------------------------------------------------------------
+// Contact occlusion
+// ---------------------------------------------------------------------------------------------
+
+/// The open share of cosine-distributed rays of length `radius` from a point of a floor at
+/// `distance` from a wall that rises from it without end: a ray at angle θ from the normal and φ
+/// from the wall's direction reaches the wall's plane within `radius` when sin θ cos φ > a =
+/// distance / radius. Cosine-distributed directions are uniform on the unit disc (sin θ cos φ is
+/// the disc's x), so the blocked share is the disc's segment beyond x = a over its area.
+fn open_share_beside_a_wall(distance: f32, radius: f32) -> f32 {
+    let a = (distance / radius).clamp(0.0, 1.0);
+    1.0 - (a.acos() - a * (1.0 - a * a).sqrt()) / std::f32::consts::PI
+}
+
+#[test]
+fn contact_occlusion_is_one_on_an_open_floor_and_follows_the_analytic_share_beside_a_wall() {
+    let Some(gpu) = gpu("contact_occlusion_follows_the_analytic_share") else { return };
+    // A floor (y = 0, x from 0 to 8) and a wall rising 4 units along x = 0 (far higher and longer
+    // than the radius), seen straight from above: each image column is one distance from the wall.
+    let radius = 1.0;
+    let mut scene = SceneDescription { name: "wall_floor".into(), ..Default::default() };
+    let grey = scene.add_material(Material::diffuse("grey", Vec3::splat(0.5)));
+    let floor = engine::shapes::cuboid("floor", Vec3::new(4.0, 0.05, 20.0));
+    scene.add_mesh_node("floor", Transform::from_xyz(4.0, -0.05, 0.0), floor, grey);
+    let wall = engine::shapes::cuboid("wall", Vec3::new(0.1, 2.05, 20.0));
+    scene.add_mesh_node("wall", Transform::from_xyz(-0.1, 1.95, 0.0), wall, grey);
+    let (height, half_width) = (10.0f32, 2.0f32);
+    let yfov = 2.0 * (half_width / height).atan();
+    let eye = Vec3::new(half_width, height, 0.0);
+    let camera = Transform::from_translation(eye).looking_at(Vec3::new(half_width, 0.0, 0.0), Vec3::NEG_Z);
+    scene.add_node("camera", camera, None, vec![NodeContent::Camera(engine::scene::Camera { yfov, znear: 0.1, exposure: 1.0 })]);
+    let size = 64u32;
+    let volume = DdgiVolume { probe_counts: UVec3::new(4, 2, 4), ..Default::default() };
+    let frame = render_scene_and_inspect(
+        &gpu,
+        scene,
+        &HeadlessSettings { width: size, height: size, frames: 1, ..Default::default() },
+        |app| {
+            use_ddgi(app, volume, DdgiOutput::Occlusion);
+            app.insert_resource(ddgi::DdgiContactOcclusion { rays: 64, radius: Some(radius) });
+        },
+        |_| {},
+    )
+    .expect("render");
+    assert!(frame.hdr.iter().all(|v| v.is_finite()), "non-finite occlusion");
+    // Column i sees the floor at x = (2 (i + 0.5) / size − 1) · half_width + half_width; the mean
+    // over its rows averages the per-pixel rotations of the rays.
+    let mut checked = 0;
+    for i in 0..size {
+        let x = (2.0 * (i as f32 + 0.5) / size as f32 - 1.0) * half_width + half_width;
+        if x < 0.05 {
+            continue;
+        }
+        let column: Vec<f32> = (0..size).map(|j| frame.hdr[((j * size + i) * 4) as usize]).collect();
+        let mean = column.iter().sum::<f32>() / size as f32;
+        let expected = open_share_beside_a_wall(x, radius);
+        assert!((mean - expected).abs() < 0.03, "{x:.3} from the wall: occlusion {mean:.4}, analytic {expected:.4}");
+        if x > radius {
+            // Beyond the radius nothing is in reach: open everywhere, exactly.
+            assert!(column.iter().all(|&v| v == 1.0), "{x:.3} from the wall: {column:?}");
+        }
+        checked += 1;
+    }
+    assert!(checked > size / 2, "too few columns on the floor: {checked}");
+}
