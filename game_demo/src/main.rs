@@ -83,7 +83,7 @@ enum Command {
         rest_smoothing: Option<f32>,
         /// Also DDGI's experiments: quality for probe densities 8×4×8, 16×8×16, 32×16×32 × irradiance
         /// maps of 4, 8, 16 texels, and the ablation of the visibility weights (none → back-face →
-        /// Chebyshev → normal bias).
+        /// Chebyshev → normal bias → contact occlusion).
         #[arg(long, conflicts_with = "time_series")]
         experiments: bool,
         /// Output folder (default: out/eval/<scene>, or out/eval/<scene>/time_series).
@@ -804,7 +804,7 @@ fn bench_walk(
         .map_or(format!("one volume of {probes}"), |c| format!("{} cascades of {probes}, finest {spacing} m", c.count.unwrap_or(0)));
     let config = match &cascades {
         Some(c) => lab::eval::Config::ddgi_cascades(c),
-        None => lab::eval::Config::Ddgi { name: "ddgi".into(), volume: Box::new(volume) },
+        None => lab::eval::Config::Ddgi { name: "ddgi".into(), volume: Box::new(volume), occlusion: Default::default() },
     };
     let path = lab::walk::WalkPath::for_scene(name, &scene);
     let options = lab::walk::WalkOptions {

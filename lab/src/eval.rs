@@ -47,7 +47,9 @@ pub enum Config {
     PathTrace { spp: u32 },
     /// Direct light + DDGI's indirect light from one probe volume, after [`DDGI_FRAMES`] frames (in
     /// a time series: frame after frame, the probes following the change at their hysteresis).
-    Ddgi { name: String, volume: Box<ddgi::DdgiVolume> },
+    /// `occlusion`: the contact occlusion of its indirect light (off unless the configuration is
+    /// about it).
+    Ddgi { name: String, volume: Box<ddgi::DdgiVolume>, occlusion: ddgi::DdgiContactOcclusion },
     /// DDGI's camera-following cascades instead of one volume.
     DdgiCascades { name: String, cascades: Box<ddgi::DdgiCascades> },
 }
@@ -113,7 +115,7 @@ impl Config {
     /// `volume` has its own).
     pub fn ddgi(name: String, scene: &SceneFacts, volume: ddgi::DdgiVolume) -> Config {
         let bounds = volume.bounds.or(scene.gi_bounds);
-        Config::Ddgi { name, volume: Box::new(ddgi::DdgiVolume { bounds, ..volume }) }
+        Config::Ddgi { name, volume: Box::new(ddgi::DdgiVolume { bounds, ..volume }), occlusion: Default::default() }
     }
 
     /// DDGI with `grid` (default: the published grid for `scene`) and the default settings.
@@ -132,7 +134,7 @@ impl Config {
     }
 
     /// The quality table (every density × resolution) and the ablation of the visibility weights
-    /// (none → back-face → Chebyshev → normal bias), in report order.
+    /// (none → back-face → Chebyshev → normal bias → contact occlusion), in report order.
     pub fn ddgi_experiments(scene: &SceneFacts) -> Vec<Config> {
         let mut list = Vec::new();
         for grid in DDGI_DENSITIES {
@@ -157,6 +159,12 @@ impl Config {
             let grid = scene.paper_grid;
             let volume = ddgi::DdgiVolume { probe_counts: grid.into(), weights, ..Default::default() };
             list.push(Config::ddgi(format!("ddgi_weights_{step}"), scene, volume));
+        }
+        // The last step of the ablation: every weight, and contact occlusion of the indirect light
+        // (8 rays a pixel reaching the probe spacing).
+        let volume = ddgi::DdgiVolume { probe_counts: scene.paper_grid.into(), ..Default::default() };
+        if let Config::Ddgi { name, volume, .. } = Config::ddgi("ddgi_weights_contact_occlusion".into(), scene, volume) {
+            list.push(Config::Ddgi { name, volume, occlusion: ddgi::DdgiContactOcclusion { rays: 8, radius: None } });
         }
         list
     }
@@ -229,7 +237,10 @@ impl Config {
                 let settings = pathtrace::PathTraceSettings { samples_per_frame: self.samples_per_frame(), seed, ..Default::default() };
                 pathtrace::use_path_tracer(app, settings);
             }
-            Config::Ddgi { volume, .. } => ddgi::use_ddgi(app, (**volume).clone(), ddgi::DdgiOutput::Full),
+            Config::Ddgi { volume, occlusion, .. } => {
+                app.insert_resource(*occlusion);
+                ddgi::use_ddgi(app, (**volume).clone(), ddgi::DdgiOutput::Full)
+            }
             Config::DdgiCascades { cascades, .. } => ddgi::use_ddgi_cascades(app, (**cascades).clone(), ddgi::DdgiOutput::Full),
         }
     }
@@ -419,10 +430,10 @@ impl Config {
     /// the scene.
     pub fn placed_at(self, origin: glam::DVec3) -> Config {
         match self {
-            Config::Ddgi { name, volume } if origin != glam::DVec3::ZERO => {
+            Config::Ddgi { name, volume, occlusion } if origin != glam::DVec3::ZERO => {
                 let shift = |p: glam::Vec3| (p.as_dvec3() + origin).as_vec3();
                 let bounds = volume.bounds.map(|(lo, hi)| (shift(lo), shift(hi)));
-                Config::Ddgi { name, volume: Box::new(ddgi::DdgiVolume { bounds, ..*volume }) }
+                Config::Ddgi { name, volume: Box::new(ddgi::DdgiVolume { bounds, ..*volume }), occlusion }
             }
             other => other,
         }
