@@ -279,17 +279,10 @@ fn frame_gpu_ms(frame: &FrameTiming) -> Option<f64> {
     frame.passes.iter().filter(|p| p.ran).map(|p| p.gpu_ms).sum()
 }
 
-/// DDGI's mean rays per frame over `frame`'s timings (the `ddgi_rays*` counters, summed over the
-/// volumes of a frame), or `None` when no frame has one.
+/// DDGI's mean rays per frame over `frame`'s timings ([`ddgi::rays_traced`]: every volume's), or
+/// `None` when no frame has a count.
 fn rays_per_frame(frame: &RenderedFrame) -> Option<f64> {
-    let per_frame: Vec<f64> = frame
-        .timings
-        .iter()
-        .filter_map(|t| {
-            let rays: Vec<f64> = t.counters.iter().filter(|(n, _)| n.starts_with("ddgi_rays")).map(|(_, v)| *v).collect();
-            (!rays.is_empty()).then(|| rays.iter().sum())
-        })
-        .collect();
+    let per_frame: Vec<f64> = frame.timings.iter().filter_map(ddgi::rays_traced).collect();
     (!per_frame.is_empty()).then(|| per_frame.iter().sum::<f64>() / per_frame.len() as f64)
 }
 

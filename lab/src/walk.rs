@@ -255,9 +255,9 @@ impl WalkReport {
     }
 }
 
-/// Whether a pass label is the gather of volume `k` of `n` (its suffix `_k` when there are several).
+/// Whether a pass label is the gather of volume `k` of `n`.
 fn of_volume(label: &str, k: usize, n: usize) -> bool {
-    if n > 1 { label == format!("ddgi_gather_{k}") } else { label == "ddgi_gather" }
+    label.strip_prefix("ddgi_gather") == Some(ddgi::volume_suffix(k, n).as_str())
 }
 
 /// The temporal error of a frame: `(current − previous)` of the method against `(current −
@@ -434,15 +434,14 @@ pub fn walk(gpu: &GpuContext, mut scene: SceneDescription, options: &WalkOptions
         }
     });
     bar.finish_and_clear();
-    let timings = app.world().resource::<FrameTimings>();
+    let by_frame: std::collections::HashMap<u64, &engine::render::FrameTiming> =
+        app.world().resource::<FrameTimings>().frames.iter().map(|t| (t.frame, t)).collect();
     let n = report.volumes;
+    let names: Vec<String> = (0..n).map(|k| ddgi::rays_counter(k, n)).collect();
     for (f, app_frame) in report.frames.iter_mut().zip(&app_frames) {
-        let counters = timings.frames.iter().rev().find(|t| t.frame == *app_frame).map(|t| &t.counters);
-        let rays: Vec<f64> = counters.into_iter().flatten().filter(|(name, _)| name.starts_with("ddgi_rays")).map(|(_, v)| *v).collect();
-        f.rays = (!rays.is_empty()).then(|| rays.iter().sum());
-        // The counters' names: `ddgi_rays` for one volume, `ddgi_rays_k` for several.
-        let name = |k: usize| if n > 1 { format!("ddgi_rays_{k}") } else { "ddgi_rays".to_string() };
-        f.volume_rays = (0..n).map(|k| counters.and_then(|c| c.iter().find(|(label, _)| *label == name(k))).map(|(_, v)| *v)).collect();
+        let Some(timing) = by_frame.get(app_frame) else { continue };
+        f.rays = ddgi::rays_traced(timing);
+        f.volume_rays = names.iter().map(|name| timing.counters.iter().find(|(label, _)| label == name).map(|(_, v)| *v)).collect();
     }
     written?;
     measured?;

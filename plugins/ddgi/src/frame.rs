@@ -196,11 +196,11 @@ impl DdgiFrame<'_> {
     /// latency several times over.
     pub fn add_volume_updates(&mut self, graph: &mut RenderGraph, frame: &CameraFrame) -> Vec<VolumeHandles> {
         let specialization = Specialization { spot_lights: frame.scene.has_spot_lights, emissive: frame.scene.has_emissive };
-        let several = self.volumes.volumes.len() > 1;
+        let count = self.volumes.volumes.len();
         let mut handles: Vec<VolumeHandles> = Vec::new();
         let mut updating = Vec::new();
         for (k, (_, volume)) in self.volumes.volumes.iter().enumerate() {
-            let suffix = if several { format!("_{k}") } else { String::new() };
+            let suffix = crate::sync::volume_suffix(k, count);
             handles.push(VolumeHandles::import(graph, k, suffix, volume, &self.pipelines.sampler));
             if volume.updates_this_frame {
                 updating.push(k);
@@ -460,22 +460,16 @@ fn add_volume_update_passes(
         }
         // Each volume's steps: plan, (with a frame budget: the two scaling steps), then the
         // blocks' offsets and the placing of the rays. Without a frame budget the planned rays stand.
-        let steps: Vec<Vec<(&ComputeProgram, u32)>> = updating
-            .iter()
-            .map(|&k| {
-                let volume = volumes[k];
-                let blocks = volume.layout.probe_count.div_ceil(crate::gpu::BUDGET_BLOCK);
-                let frame_budget = volume.settings.adaptive.enabled && volume.settings.adaptive.frame_budget.is_some();
-                let mut plan = vec![(&pipelines.plan, blocks)];
-                if frame_budget {
-                    plan.extend([(&pipelines.plan_scale, 1), (&pipelines.scale, blocks)]);
-                }
-                plan.extend([(&pipelines.plan_blocks, 1), (&pipelines.place, blocks)]);
-                plan
-            })
-            .collect();
         let mut per_volume: Vec<std::collections::VecDeque<Dispatch>> = Vec::new();
-        for (&k, plan) in updating.iter().zip(&steps) {
+        for &k in updating {
+            let volume = volumes[k];
+            let blocks = volume.layout.probe_count.div_ceil(crate::gpu::BUDGET_BLOCK);
+            let frame_budget = volume.settings.adaptive.enabled && volume.settings.adaptive.frame_budget.is_some();
+            let mut plan = vec![(&pipelines.plan, blocks)];
+            if frame_budget {
+                plan.extend([(&pipelines.plan_scale, 1), (&pipelines.scale, blocks)]);
+            }
+            plan.extend([(&pipelines.plan_blocks, 1), (&pipelines.place, blocks)]);
             let bindings = merged(&plan.iter().map(|(p, _)| *p).collect::<Vec<_>>());
             let (group0, group1) = (pass.read_named(&bindings, 0), handles[k].declare(&mut pass, &bindings, 1));
             per_volume.push(

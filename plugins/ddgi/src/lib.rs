@@ -84,6 +84,7 @@ pub use debug_view::{DdgiContactOcclusion, DdgiOutput, DdgiProbeColor, DdgiProbe
 pub use frame::{DdgiFrame, VolumeHandles, render_ddgi_frame};
 pub use pipelines::DdgiPipelines;
 pub use resources::{DdgiGpuVolumes, VolumeGpu};
+pub use sync::{rays_counter, rays_traced, volume_suffix};
 pub use volume::{DdgiAdaptive, DdgiLayout, DdgiProbe, DdgiProbePin, DdgiProbeState, DdgiSettingsError, DdgiVolume, DdgiWeights};
 
 /// DDGI's WGSL (`plugins/ddgi/shaders/`): one file per pass, named after the pass label, and the

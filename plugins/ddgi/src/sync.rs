@@ -9,6 +9,29 @@ use crate::gpu::{DdgiCounters, DdgiProbeData, NO_PIN, PIN_ACTIVE, PIN_INACTIVE};
 use crate::resources::DdgiGpuVolumes;
 use crate::volume::{DdgiProbe, DdgiProbePin, DdgiProbeState};
 
+/// The suffix of volume `index`'s pass labels, graph resources and counters when there are
+/// `volumes` volumes: `_k` when there are several, none for one (`ddgi_gather_2`, `ddgi_rays`).
+pub fn volume_suffix(index: usize, volumes: usize) -> String {
+    if volumes > 1 { format!("_{index}") } else { String::new() }
+}
+
+/// The name of volume `index`'s counter of rays traced in a frame ([`read_back_ddgi_probes`]).
+pub fn rays_counter(index: usize, volumes: usize) -> String {
+    format!("ddgi_rays{}", volume_suffix(index, volumes))
+}
+
+/// The rays DDGI traced in the frame `timing` records, every volume together (the `ddgi_rays`
+/// counters); `None` when none has come back for it.
+pub fn rays_traced(timing: &engine::render::FrameTiming) -> Option<f64> {
+    let rays: Vec<f64> = timing
+        .counters
+        .iter()
+        .filter(|(name, _)| name.strip_prefix("ddgi_rays").is_some_and(|rest| rest.is_empty() || rest.starts_with('_')))
+        .map(|(_, v)| *v)
+        .collect();
+    (!rays.is_empty()).then(|| rays.iter().sum())
+}
+
 /// Prepare stage: copies the probe states that have come back from the GPU into the
 /// [`DdgiProbe`] components (only those that changed, so change detection stays meaningful), and
 /// the rays traced and the probes updated per frame into the frame timings (`ddgi_rays`,
@@ -19,13 +42,12 @@ pub fn read_back_ddgi_probes(
     mut probes: Query<&mut DdgiProbe>,
     mut timings: ResMut<engine::render::FrameTimings>,
 ) {
-    let several = volumes.volumes.len() > 1;
+    let count = volumes.volumes.len();
     for (k, (_, v)) in volumes.volumes.iter_mut().enumerate() {
         for (frame, bytes) in v.counter_readback.poll(&gpu) {
             if let Ok(c) = bytemuck::try_pod_read_unaligned::<DdgiCounters>(&bytes[..size_of::<DdgiCounters>().min(bytes.len())]) {
-                let name = |base: &str| if several { format!("{base}_{k}") } else { base.to_string() };
-                timings.record_counter(frame, &name("ddgi_rays"), f64::from(c.total_rays));
-                timings.record_counter(frame, &name("ddgi_probes_updated"), f64::from(c.updated_probes));
+                timings.record_counter(frame, &rays_counter(k, count), f64::from(c.total_rays));
+                timings.record_counter(frame, &format!("ddgi_probes_updated{}", volume_suffix(k, count)), f64::from(c.updated_probes));
                 // Without a frame budget the scale is never written (and 1 when nothing was cut).
                 let scale = if c.budget_scale.is_finite() && c.budget_scale > 0.0 && c.budget_scale < 1.0 { c.budget_scale } else { 1.0 };
                 v.demanded_rays = Some(f64::from(c.total_rays) / f64::from(scale));
@@ -86,5 +108,24 @@ pub fn upload_ddgi_probe_pins(
         if let Ok(probe) = probes.get(entity) {
             write(probe, None);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rays_are_counted_per_volume_and_summed_over_them() {
+        assert_eq!(rays_counter(0, 1), "ddgi_rays");
+        assert_eq!(rays_counter(2, 3), "ddgi_rays_2");
+        let counters = |c: &[(&str, f64)]| engine::render::FrameTiming {
+            frame: 7,
+            passes: Vec::new(),
+            counters: c.iter().map(|(n, v)| (n.to_string(), *v)).collect(),
+        };
+        assert_eq!(rays_traced(&counters(&[("ddgi_rays", 5.0), ("ddgi_probes_updated", 2.0)])), Some(5.0));
+        assert_eq!(rays_traced(&counters(&[("ddgi_rays_0", 5.0), ("ddgi_rays_1", 3.0), ("ddgi_probes_updated_0", 1.0)])), Some(8.0));
+        assert_eq!(rays_traced(&counters(&[("ddgi_probes_updated", 2.0), ("ddgi_raysx", 1.0)])), None);
     }
 }
