@@ -60,13 +60,17 @@ fn ddgi_indirect_radiance(id: vec2<u32>) -> vec3<f32> {
     // sky light has its own visibility.
     var irradiance = acc.rgb / max(acc.w, 1.0);
     let uncovered = 1.0 - clamp(acc.w, 0.0, 1.0);
-    let p = view_world_position(id, depth);
-    let n = safe_normalize(textureLoad(gbuffer_normal, id, 0).xyz, vec3<f32>(0.0, 1.0, 0.0));
-    if acc.w > 0.0 {
-        irradiance *= ddgi_contact_occlusion(id, p, n);
-    }
-    if uncovered > 0.0 {
-        irradiance += uncovered * ddgi_sky_irradiance(id, p, n);
+    let occluded = acc.w > 0.0 && ddgi_gather_params.ao_rays > 0u;
+    // The surface point is needed only for rays: most pixels of a covered view trace none.
+    if occluded || uncovered > 0.0 {
+        let p = view_world_position(id, depth);
+        let n = safe_normalize(textureLoad(gbuffer_normal, id, 0).xyz, vec3<f32>(0.0, 1.0, 0.0));
+        if occluded {
+            irradiance *= ddgi_contact_occlusion(id, p, n);
+        }
+        if uncovered > 0.0 {
+            irradiance += uncovered * ddgi_sky_irradiance(id, p, n);
+        }
     }
     let albedo = textureLoad(gbuffer_albedo, id, 0).rgb;
     return albedo * INV_PI * irradiance;
