@@ -386,7 +386,8 @@ pub fn run(
     for run in runs {
         let SeriesRun { config, app, settle, rows: mut run_rows, mut samples, .. } = run;
         // Rays per frame come back a few frames late: match them to their rows now.
-        let rays = app.world().resource::<FrameTimings>().counter("ddgi_rays");
+        let rays: Vec<(u64, f64)> =
+            app.world().resource::<FrameTimings>().frames.iter().filter_map(|t| ddgi::rays_traced(t).map(|r| (t.frame, r))).collect();
         let first_static = u64::from(settle).saturating_sub(1 + STATIC_FRAMES as u64);
         let static_rays: Vec<f64> = rays.iter().filter(|(f, _)| (first_static..u64::from(settle)).contains(f)).map(|(_, r)| *r).collect();
         let passes = samples.passes.into_iter().filter_map(|(label, mut ms)| median(&mut ms).map(|m| (label, m))).collect();
