@@ -29,7 +29,10 @@ pub use gpu_scene::{GpuScene, RenderSize, SkyRadiance, prepare_gpu_scene};
 /// Formats of the G-buffer and outputs.
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 pub const NORMAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
-pub const ALBEDO_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+/// Half floats, not 8-bit: an albedo quantized to 1/255 shifts every lit surface's colour by up to
+/// a few per cent in dark channels (0.065 → 17/255 is +2.6%), against the path tracer, which reads
+/// the materials' exact values.
+pub const ALBEDO_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 pub const EMISSIVE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 /// Linear radiance, kept in full float so that readback and the EXR output lose nothing.
 pub const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
