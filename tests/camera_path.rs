@@ -14,6 +14,7 @@ fn floor(size: f32) -> Mesh {
         normals: vec![Vec3::Y; 4],
         uvs: vec![Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y],
         indices: vec![0, 2, 1, 0, 3, 2],
+        ..Default::default()
     }
 }
 
@@ -147,4 +148,128 @@ fn absurd_sizes_are_refused_with_a_clear_error() {
         let err = render_scene(&gpu, scene.clone(), &settings).err().expect("must fail");
         assert!(err.to_string().contains(&format!("{w}×{h}")), "{err}");
     }
+}
+
+/// Preetham's sky behind an empty scene: every background pixel is the CPU mirror's radiance along
+/// that pixel's view ray (`engine::sky::Sky::background`), below the horizon too, and the sun's disk
+/// shows where the camera looks at the sun.
+#[test]
+fn the_sky_background_matches_its_cpu_mirror() {
+    let Some(gpu) = testkit::gpu("the_sky_background_matches_its_cpu_mirror") else { return };
+    use engine::render::Sky;
+    use engine::sky::{PhysicalSky, Sun};
+    let to_sun = Vec3::new(0.3, 0.4, -0.8).normalize();
+    let sun = Sun { direction: to_sun, irradiance: 4.0 };
+    let sky = Sky::Physical(PhysicalSky { turbidity: 3.0, ..Default::default() });
+    let size = 48u32;
+    for (eye_target, yfov) in [(Vec3::new(0.2, 0.1, -1.0), 1.6f32), (to_sun, 0.01)] {
+        let mut scene = SceneDescription { name: "sky".into(), ..Default::default() };
+        let camera = Transform::IDENTITY.looking_at(eye_target, Vec3::Y);
+        scene.add_node("camera", camera, None, vec![NodeContent::Camera(Camera { yfov, ..Default::default() })]);
+        let light = Transform::IDENTITY.looking_at(-to_sun, Vec3::Y);
+        let sunlight = DirectionalLight { color: Vec3::ONE, intensity: sun.irradiance };
+        scene.add_node("sun", light, None, vec![NodeContent::DirectionalLight(sunlight)]);
+        let settings = HeadlessSettings { width: size, height: size, ..Default::default() };
+        let frame = engine::headless::render_scene_with(&gpu, scene, &settings, |app| {
+            app.insert_resource(sky);
+        })
+        .expect("render");
+        let render_size = engine::render::RenderSize { width: size, height: size };
+        let clip = engine::render::gpu_scene::clip_from_world(
+            &Camera { yfov, ..Default::default() },
+            &engine::scene::GlobalTransform(camera.to_affine()),
+            render_size,
+        );
+        let world_from_clip = clip.inverse();
+        let mut worst = 0.0f32;
+        for y in 0..size {
+            for x in 0..size {
+                let ndc = glam::Vec2::new((x as f32 + 0.5) / size as f32 * 2.0 - 1.0, 1.0 - (y as f32 + 0.5) / size as f32 * 2.0);
+                let dir = world_from_clip.project_point3(ndc.extend(1.0)).normalize();
+                // On the disk's rim float rounding decides which side a pixel falls on.
+                if (dir.dot(to_sun) - engine::sky::SUN_ANGULAR_RADIUS.cos()).abs() < 3e-6 {
+                    continue;
+                }
+                let expected = sky.background(Some(sun), dir);
+                let i = ((y * size + x) * 4) as usize;
+                let got = Vec3::new(frame.hdr[i], frame.hdr[i + 1], frame.hdr[i + 2]);
+                worst = worst.max(((got - expected).abs() / expected.max(Vec3::splat(1e-3))).max_element());
+            }
+        }
+        assert!(worst < 2e-3, "yfov {yfov}: GPU sky differs from the CPU mirror by {worst} (relative)");
+        if yfov < 0.1 {
+            let i = ((size / 2 * size + size / 2) * 4) as usize;
+            assert!(frame.hdr[i + 1] > 1e3 * sun.irradiance, "the sun's disk: {}", frame.hdr[i + 1]);
+        }
+    }
+}
+
+/// Auto-exposure: the same floor under a lamp, lit 16× brighter, shows the same picture once the
+/// exposure has adapted (it jumps to its target on the first frame), its exposure value 4 stops
+/// higher; the linear radiance (image.exr) is untouched by it; and after a sudden change it follows
+/// at its set speed.
+#[test]
+fn auto_exposure_finds_the_same_picture_at_any_brightness_and_adapts_at_its_speed() {
+    let Some(gpu) = testkit::gpu("auto_exposure_finds_the_same_picture") else { return };
+    use engine::render::{AutoExposure, DefaultAutoExposure, ExposureState};
+    // The lamp 1.5 m over the floor's centre, seen from 5 m: a bright pool fading outwards.
+    let scene = |scale: f32| {
+        let lamp = NodeContent::PointLight(PointLight { color: Vec3::ONE, intensity: 20.0 * scale, range: None });
+        let mut s = floor_scene(0.5, lamp, Transform::from_xyz(0.0, 1.5, 0.0));
+        for node in &mut s.nodes {
+            for content in &mut node.content {
+                if let NodeContent::Camera(c) = content {
+                    c.yfov = 1.2;
+                }
+            }
+        }
+        s
+    };
+    let settings = HeadlessSettings { width: 48, height: 48, ..Default::default() };
+    let exposure = |world: &bevy_ecs::world::World| {
+        let bytes = engine::render::readback::read_buffer(&gpu, world.resource::<ExposureState>().exposure_buffer());
+        bytemuck::cast_slice::<u8, f32>(&bytes).to_vec()
+    };
+    let render = |scale: f32, auto: Option<AutoExposure>| {
+        let mut state = Vec::new();
+        let frame = engine::headless::render_scene_and_inspect(
+            &gpu,
+            scene(scale),
+            &settings,
+            |app| {
+                if let Some(a) = auto {
+                    app.insert_resource(DefaultAutoExposure(a));
+                }
+            },
+            |world| state = exposure(world),
+        )
+        .expect("render");
+        (frame, state)
+    };
+    let auto = AutoExposure::default();
+    let ((dim, dim_state), (bright, bright_state)) = (render(1.0, Some(auto)), render(16.0, Some(auto)));
+    assert!(dim_state.iter().chain(&bright_state).all(|v| v.is_finite()), "{dim_state:?} {bright_state:?}");
+    assert!((bright_state[0] - dim_state[0] - 4.0).abs() < 0.2, "16× the light, 4 stops: EV {} against {}", bright_state[0], dim_state[0]);
+    let worst = dim.ldr.iter().zip(&bright.ldr).map(|(a, b)| (i32::from(*a) - i32::from(*b)).abs()).max().unwrap_or(0);
+    assert!(worst <= 12, "the adapted pictures differ by {worst} codes");
+    // Linear radiance is what the scene emits, whatever the exposure.
+    let (plain, _) = render(1.0, None);
+    assert_eq!(plain.hdr, dim.hdr);
+    // A sudden 16× change: one frame later the exposure has moved by the brightening speed × 1/60 s.
+    let mut app = engine::headless::scene_app(&gpu, scene(1.0), &settings, |app| {
+        app.insert_resource(DefaultAutoExposure(auto));
+    })
+    .expect("app");
+    let mut evs = Vec::new();
+    engine::headless::run_frames(&mut app, 3, |k, world| {
+        evs.push(exposure(world)[0]);
+        if k == 0 {
+            let mut q = world.query::<&mut engine::scene::PointLight>();
+            for mut l in q.iter_mut(world) {
+                l.intensity *= 16.0;
+            }
+        }
+    });
+    let step = evs[1] - evs[0];
+    assert!(step > 0.0 && step <= auto.speed_brighten / 60.0 + 1e-4, "EV {evs:?}: one frame's step {step}");
 }

@@ -72,10 +72,10 @@ fn render(gpu: &GpuContext, scene: SceneDescription) -> (Vec<String>, Option<Str
 #[test]
 fn geometry_over_the_buffer_limit_is_left_out_with_an_error_naming_mesh_buffer_and_sizes() {
     let Some(gpu) = small_gpu("geometry_over_the_buffer_limit") else { return };
-    // 201² = 40,401 vertices: 1,292,832 bytes of vertices.
+    // 201² = 40,401 vertices: 1,939,248 bytes of vertices (48 each).
     let (errors, _, hdr) = render(&gpu, grid_scene(200));
     let message = errors.iter().find(|e| e.contains("vertex buffer")).unwrap_or_else(|| panic!("no vertex-buffer error: {errors:?}"));
-    for part in ["mesh 0 'grid'", "1292832 bytes", &format!("limit of {LIMIT} bytes")] {
+    for part in ["mesh 0 'grid'", "1939248 bytes", &format!("limit of {LIMIT} bytes")] {
         assert!(message.contains(part), "'{part}' missing from: {message}");
     }
     assert!(hdr.iter().all(|v| v.is_finite()), "non-finite pixels");

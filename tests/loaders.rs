@@ -252,6 +252,7 @@ const BROKEN: &[(&str, &str)] = &[
     ("infinite_translation.gltf", "node 0 'Tri': non-finite translation (inf, 0, 0)"),
     ("infinite_light.gltf", "light 0: invalid intensity inf"),
     ("infinite_emissive_strength.gltf", "material 0 'Blinding': invalid emissiveStrength inf"),
+    ("bad_metallic.gltf", "material 0 'Metal': metallicFactor 2 is not between 0 and 1"),
     ("bad_base64.gltf", "invalid base64"),
     ("count_overflow.gltf", "4294967295 exceeds the limit"),
     ("wrong_magic.glb", "magic \"glTX\""),
@@ -329,6 +330,56 @@ fn every_truncation_of_a_valid_file_fails_cleanly() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// glTF's metallic-roughness model with every texture kind (`tests/fixtures/pbr.gltf`, written by
+/// `tools/make_pbr_fixture.py`): factors, KHR_materials_specular, the metallic-roughness, normal
+/// (with its scale and KHR_texture_transform) and emissive textures, tangents from the file or
+/// from MikkTSpace.
+#[test]
+fn gltf_pbr_materials_with_every_texture_kind() {
+    let scene = load("pbr.gltf");
+    assert_valid(&scene, "pbr.gltf");
+    let metal = &scene.materials[material(&scene, "Metal")];
+    assert_eq!((metal.metallic, metal.roughness, metal.specular, metal.normal_scale), (1.0, 0.4, 1.0, 0.8));
+    let image_name = |t: Option<engine::scene::TextureRef>| scene.images[t.expect("texture").image.index() as usize].name.clone();
+    assert_eq!(image_name(metal.base_color_texture), "color");
+    assert_eq!(image_name(metal.metallic_roughness_texture), "metal_rough");
+    assert_eq!(image_name(metal.normal_texture), "normal");
+    assert_eq!(image_name(metal.emissive_texture), "emissive");
+    let normal = metal.normal_texture.unwrap().transform;
+    assert_eq!((normal.offset, normal.scale), (glam::Vec2::new(0.25, 0.5), glam::Vec2::splat(2.0)));
+    // The images keep their bytes: the metallic-roughness texture is data (no colour decoding).
+    assert_eq!(&scene.images[metal.metallic_roughness_texture.unwrap().image.index() as usize].rgba8[..4], &[0, 128, 255, 255]);
+    let satin = &scene.materials[material(&scene, "Satin")];
+    assert_eq!((satin.metallic, satin.roughness, satin.specular), (0.0, 0.7, 0.5));
+    // Tangents: u runs along +x and v along −y, so MikkTSpace's tangent is +x and, glTF's bitangent
+    // being w · cross(normal, tangent) = w · (+y), its handedness w is −1. The other quad's file
+    // gives tangents of its own (turned 10°), kept as they are.
+    let turned = Vec4::new(10f32.to_radians().cos(), 10f32.to_radians().sin(), 0.0, -1.0);
+    for (node, expected) in [("MikkQuad", Vec4::new(1.0, 0.0, 0.0, -1.0)), ("TangentQuad", turned)] {
+        let (mesh, _) = mesh_instances(&scene, self::node(&scene, node))[0];
+        let tangents = &scene.meshes[mesh].tangents;
+        assert_eq!(tangents.len(), 4, "{node}");
+        for t in tangents {
+            assert!((*t - expected).length() < 1e-4, "{node}: tangent {t}, expected {expected}");
+        }
+    }
+    // A material without a normal map gets no tangents computed (hierarchy.gltf).
+    let plain = load("hierarchy.gltf");
+    assert!(plain.meshes.iter().all(|m| m.tangents.is_empty()));
+}
+
+/// The MTL PBR extension (`Pm` metallic, `Pr` roughness) in the glossy Cornell box the Mitsuba
+/// check uses: its metals get glTF's specular lobe, its walls stay Lambertian.
+#[test]
+fn obj_metals_from_the_mtl_pbr_extension() {
+    let scene = load("cornell_box_glossy.obj");
+    let get = |name: &str| &scene.materials[material(&scene, name)];
+    let (silver, gold, white) = (get("silver"), get("gold"), get("white"));
+    assert_eq!((silver.metallic, silver.roughness, silver.specular), (1.0, 0.35, 1.0));
+    assert_eq!((gold.metallic, gold.roughness), (1.0, 0.2));
+    assert_eq!((white.metallic, white.roughness, white.specular), (0.0, 1.0, 0.0), "no Pm/Pr: Lambertian");
+}
+
 #[test]
 fn kenney_models() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/assets/kenney_fps");
@@ -348,6 +399,12 @@ fn kenney_models() {
         let scene = load_scene(path).unwrap_or_else(|e| panic!("{e}"));
         let name = path.display();
         assert_valid(&scene, &name.to_string());
+        // Kenney's materials: glTF dielectrics (metallic 0, roughness left at its default of 1),
+        // with glTF's specular lobe and no data textures.
+        for m in &scene.materials {
+            assert_eq!((m.metallic, m.roughness, m.specular), (0.0, 1.0, 1.0), "{name}: {}", m.name);
+            assert!(m.metallic_roughness_texture.is_none() && m.normal_texture.is_none(), "{name}: {}", m.name);
+        }
         assert!(scene.triangle_count() > 0, "{name}: no triangles");
         assert!(!scene.nodes.is_empty(), "{name}: no nodes");
         let textures: Vec<_> = scene.materials.iter().filter_map(|m| m.base_color_texture).collect();

@@ -323,6 +323,7 @@ fn hits_report_the_material_with_texture_and_texture_transform() {
         normals: vec![Vec3::Y; 4],
         uvs: vec![Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0), Vec2::new(0.0, 1.0)],
         indices: vec![0, 2, 1, 0, 3, 2],
+        ..Default::default()
     };
     let mut s = SceneDescription { name: "textured".into(), ..Default::default() };
     s.images.push(Image { name: "checker".into(), width: 2, height: 2, rgba8: texels.concat() });

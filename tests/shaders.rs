@@ -68,6 +68,9 @@ fn constants_shared_with_the_host_read_back_from_the_parsed_shader() {
     for (name, host) in [("LIGHT_DIRECTIONAL", LIGHT_DIRECTIONAL), ("LIGHT_POINT", LIGHT_POINT), ("LIGHT_SPOT", LIGHT_SPOT)] {
         assert_eq!(parsed.u32_constant(name), Some(host), "{name}");
     }
+    let exposure = shader::parse("exposure.inc.wgsl").expect("parse");
+    assert_eq!(exposure.u32_constant("EXPOSURE_BINS"), Some(engine::render::exposure::HISTOGRAM_BINS));
+    assert_eq!(parsed.u32_constant("BRDF_DFG_SIZE"), Some(engine::brdf::DFG_SIZE as u32));
 }
 
 #[test]

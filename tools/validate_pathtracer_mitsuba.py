@@ -11,9 +11,15 @@ Usage (Mitsuba and numpy from PyPI: `pip install mitsuba numpy`):
         --width 128 --height 128 --camera-position 0.278,0.273,-0.8 --camera-target 0.278,0.273,0 \
         --fov 39.3 --out out/validate
     python3 tools/validate_pathtracer_mitsuba.py out/validate/image.exr [--spp 512]
+    # Glossy paths: the same with tests/fixtures/cornell_box_glossy.obj (rough metal blocks), and
+    python3 tools/validate_pathtracer_mitsuba.py out/validate_glossy/image.exr --obj tests/fixtures/cornell_box_glossy.obj
 
-Both renderers here treat surfaces as two-sided Lambertian (Mitsuba's `twosided` BSDF), the light
-quad as a one-sided area emitter of radiance Ke, and paths as unbounded (Russian roulette).
+Both renderers here treat surfaces as two-sided (Mitsuba's `twosided` BSDF), the light quad as a
+one-sided area emitter of radiance Ke, and paths as unbounded (Russian roulette). Diffuse
+materials are Lambertian; materials with the MTL PBR extension's `Pm 1` are GGX metals of
+roughness `Pr` (α = Pr²) and reflectance Kd: Mitsuba's `roughconductor` with a perfect mirror's
+Fresnel scaled by Kd, where ours follows Schlick's curve from Kd towards 1 at grazing angles and
+gives back the energy single scattering loses (under 1% of it at these roughnesses).
 """
 import argparse
 import os
@@ -25,7 +31,6 @@ import mitsuba as mi
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 OBJ = os.path.join(ROOT, "tests", "fixtures", "cornell_box.obj")
-MTL = os.path.join(ROOT, "tests", "fixtures", "cornell_box.mtl")
 
 
 def read_mtl(path):
@@ -35,9 +40,11 @@ def read_mtl(path):
         if not parts:
             continue
         if parts[0] == "newmtl":
-            current = materials.setdefault(parts[1], {"Kd": [0, 0, 0], "Ke": [0, 0, 0]})
+            current = materials.setdefault(parts[1], {"Kd": [0, 0, 0], "Ke": [0, 0, 0], "Pm": 0.0, "Pr": 1.0})
         elif parts[0] in ("Kd", "Ke") and current is not None:
             current[parts[0]] = [float(x) for x in parts[1:4]]
+        elif parts[0] in ("Pm", "Pr") and current is not None:
+            current[parts[0]] = float(parts[1])
     return materials
 
 
@@ -71,13 +78,15 @@ def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("ours", help="linear EXR from game_demo render --mode pathtrace")
     parser.add_argument("--spp", type=int, default=512)
+    parser.add_argument("--obj", default=OBJ, help="the OBJ fixture (its mtllib beside it)")
     args = parser.parse_args()
     mi.set_variant("scalar_rgb")
     ours = np.array(mi.Bitmap(args.ours).convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.Float32, srgb_gamma=False))
     height, width = ours.shape[:2]
 
-    positions, objects = read_obj(OBJ)
-    materials = read_mtl(MTL)
+    positions, objects = read_obj(args.obj)
+    mtllib = next(l.split()[1] for l in open(args.obj) if l.startswith("mtllib"))
+    materials = read_mtl(os.path.join(os.path.dirname(os.path.abspath(args.obj)), mtllib))
     eye, target, fov = CAMERA_POSITION, CAMERA_TARGET, CAMERA_FOV
     scene = {
         "type": "scene",
@@ -100,12 +109,17 @@ def main():
             for a, b, c in obj["faces"]:
                 f.write("f %d %d %d\n" % (a + 1, b + 1, c + 1))
         m = materials[obj["material"]]
-        shape = {
-            "type": "obj",
-            "filename": path,
-            "face_normals": True,
-            "bsdf": {"type": "twosided", "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": m["Kd"]}}},
-        }
+        if m["Pm"] > 0.5:
+            surface = {
+                "type": "roughconductor",
+                "distribution": "ggx",
+                "alpha": max(m["Pr"], 0.045) ** 2,
+                "material": "none",
+                "specular_reflectance": {"type": "rgb", "value": m["Kd"]},
+            }
+        else:
+            surface = {"type": "diffuse", "reflectance": {"type": "rgb", "value": m["Kd"]}}
+        shape = {"type": "obj", "filename": path, "face_normals": True, "bsdf": {"type": "twosided", "bsdf": surface}}
         if any(v > 0 for v in m["Ke"]):
             shape["emitter"] = {"type": "area", "radiance": {"type": "rgb", "value": m["Ke"]}}
         scene[obj["name"]] = shape

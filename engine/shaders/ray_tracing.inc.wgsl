@@ -361,13 +361,21 @@ fn offset_ray_origin(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
 // What a ray sees at a hit: position, normals facing the ray, and the material there.
 struct HitSurface {
     position: vec3<f32>,
-    // Interpolated vertex normal, on the side the ray came from.
+    // Shading normal (interpolated vertex normal, normal map applied), on the side the ray came from.
     normal: vec3<f32>,
     // Triangle normal, on the side the ray came from (for offsetting new rays).
     geometric_normal: vec3<f32>,
     uv: vec2<f32>,
+    // Base colour.
     albedo: vec3<f32>,
     emissive: vec3<f32>,
+    metallic: f32,
+    roughness: f32,
+    specular: f32,
+}
+
+fn hit_brdf_surface(s: HitSurface) -> BrdfSurface {
+    return BrdfSurface(s.albedo, s.metallic, s.roughness, s.specular);
 }
 
 // Interpolates the hit triangle's attributes and evaluates its material (base colour and emission,
@@ -394,7 +402,18 @@ fn hit_surface(ray: Ray, hit: RayHit) -> HitSurface {
     }
     out.uv = vec2<f32>(a.u, a.v) * w.x + vec2<f32>(b.u, b.v) * w.y + vec2<f32>(c.u, c.v) * w.z;
     let m = eval_material(instance.material, out.uv);
+    if m.tangent_normal.x != 0.0 || m.tangent_normal.y != 0.0 {
+        let tangent = instance_tangent_to_world(hit.instance, a.tangent * w.x + b.tangent * w.y + c.tangent * w.z);
+        out.normal = apply_normal_map(out.normal, tangent, m.tangent_normal);
+        // A bent normal never faces away from the side the ray sees.
+        if dot(out.normal, out.geometric_normal) < 1e-3 {
+            out.normal = safe_normalize(out.normal - out.geometric_normal * (dot(out.normal, out.geometric_normal) - 1e-3), out.geometric_normal);
+        }
+    }
     out.albedo = m.albedo;
     out.emissive = m.emissive;
+    out.metallic = m.metallic;
+    out.roughness = m.roughness;
+    out.specular = m.specular;
     return out;
 }

@@ -1,13 +1,17 @@
 // Pass `tonemap`: exposure, the display transform, sRGB encoding: linear radiance -> displayable
 // 8-bit. The transform is a pipeline constant (engine::render::DisplayTransform): 0 clamps to
 // [0, 1] (the radiometric default, which eval's metrics assume), 1 is AgX (engine::color::agx is
-// its CPU mirror, checked against this shader by tests/camera_path.rs).
+// its CPU mirror, checked against this shader by tests/camera_path.rs). The exposure is the
+// camera's, or with AUTO_EXPOSURE the auto-exposure's (engine::render::exposure).
 #include "scene.inc.wgsl"
 
 override DISPLAY_TRANSFORM: u32 = 0u;
+override AUTO_EXPOSURE: bool = false;
 
 @group(1) @binding(0) var hdr_in: texture_2d<f32>;
 @group(1) @binding(1) var ldr_out: texture_storage_2d<rgba8unorm, write>;
+// (EV100, exposure, valid, _) of the auto-exposure.
+@group(1) @binding(2) var<storage, read> tonemap_exposure: vec4<f32>;
 
 const AGX_MIN_EV: f32 = -12.47393;
 const AGX_MAX_EV: f32 = 4.026069;
@@ -42,7 +46,11 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if any(id.xy >= view.size) {
         return;
     }
-    let c = sanitize_radiance(textureLoad(hdr_in, id.xy, 0).rgb) * view.exposure;
+    var exposure = view.exposure;
+    if AUTO_EXPOSURE && tonemap_exposure.z > 0.5 && tonemap_exposure.y == tonemap_exposure.y {
+        exposure = tonemap_exposure.y;
+    }
+    let c = sanitize_radiance(sanitize_radiance(textureLoad(hdr_in, id.xy, 0).rgb) * exposure);
     var display = clamp(c, vec3<f32>(0.0), vec3<f32>(1.0));
     if DISPLAY_TRANSFORM == 1u {
         display = agx(c);

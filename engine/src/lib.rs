@@ -7,7 +7,8 @@
 //! - [`gpu`]: adapter choice and the device; [`shader`]: the WGSL library, validated by naga, with
 //!   bindings looked up by name; [`graph`]: the render graph; [`render`]: the camera path;
 //!   [`headless`]: rendering to files without a window; [`memory`]: the heap the Rust code holds;
-//!   [`color`]: the sRGB transfer function on the CPU.
+//!   [`color`]: the sRGB transfer function on the CPU; [`sky`]: the sky (uniform or
+//!   Preetham's analytic daylight) that escaping rays and the background see.
 //! - [`import`]: glTF and OBJ files into a scene; [`shapes`]: mesh primitives for building
 //!   geometry in code.
 //!
@@ -16,6 +17,7 @@
 //! imports nothing: loading a file of a left-out format is an error that names the feature.
 
 pub mod app;
+pub mod brdf;
 pub mod color;
 pub mod gpu;
 pub mod graph;
@@ -28,6 +30,7 @@ pub mod rt;
 pub mod scene;
 pub mod shader;
 pub mod shapes;
+pub mod sky;
 #[cfg(feature = "window")]
 pub mod window;
 

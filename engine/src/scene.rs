@@ -363,11 +363,62 @@ pub struct Mesh {
     /// Texture coordinates; empty when the mesh has none (then all are zero).
     pub uvs: Vec<Vec2>,
     pub indices: Vec<u32>,
+    /// Tangents for normal maps: xyz along increasing u, w the handedness (±1) of the bitangent
+    /// `w · cross(normal, tangent)` along increasing v; empty when the mesh has none (see
+    /// [`Mesh::compute_tangents`]).
+    pub tangents: Vec<glam::Vec4>,
 }
 
 impl Mesh {
     pub fn triangle_count(&self) -> usize {
         self.indices.len() / 3
+    }
+
+    /// MikkTSpace tangents (what glTF prescribes when a file has none) from the normals and texture
+    /// coordinates, for normal maps; none for a mesh without texture coordinates. Where MikkTSpace
+    /// would split a vertex between faces, the vertex keeps one of the tangents.
+    pub fn compute_tangents(&mut self) {
+        struct Geometry<'a> {
+            mesh: &'a Mesh,
+            tangents: Vec<glam::Vec4>,
+        }
+        impl Geometry<'_> {
+            fn index(&self, face: usize, vert: usize) -> usize {
+                self.mesh.indices[face * 3 + vert] as usize
+            }
+        }
+        impl bevy_mikktspace::Geometry for Geometry<'_> {
+            fn num_faces(&self) -> usize {
+                self.mesh.indices.len() / 3
+            }
+            fn num_vertices_of_face(&self, _face: usize) -> usize {
+                3
+            }
+            fn position(&self, face: usize, vert: usize) -> [f32; 3] {
+                self.mesh.positions[self.index(face, vert)].to_array()
+            }
+            fn normal(&self, face: usize, vert: usize) -> [f32; 3] {
+                self.mesh.normals[self.index(face, vert)].to_array()
+            }
+            fn tex_coord(&self, face: usize, vert: usize) -> [f32; 2] {
+                self.mesh.uvs[self.index(face, vert)].to_array()
+            }
+            fn set_tangent(&mut self, tangent: Option<bevy_mikktspace::TangentSpace>, face: usize, vert: usize) {
+                let i = self.index(face, vert);
+                self.tangents[i] = tangent.map_or(glam::Vec4::ZERO, |t| glam::Vec4::from_array(t.tangent_encoded()));
+            }
+        }
+        let n = self.positions.len();
+        if self.uvs.len() != n || self.normals.len() != n || self.indices.iter().any(|&i| i as usize >= n) {
+            self.tangents.clear();
+            return;
+        }
+        let mut geometry = Geometry { mesh: self, tangents: vec![glam::Vec4::ZERO; n] };
+        let tangents = match bevy_mikktspace::generate_tangents(&mut geometry) {
+            Ok(()) => geometry.tangents,
+            Err(_) => Vec::new(),
+        };
+        self.tangents = tangents.into_iter().map(|t| if t.is_finite() { t } else { glam::Vec4::ZERO }).collect();
     }
 
     /// Area-weighted vertex normals from the triangles, for meshes that come without normals.
@@ -429,8 +480,11 @@ pub struct TextureRef {
     pub transform: UvTransform,
 }
 
-/// A Lambertian material with emission. Base colour = factor × texture; emitted radiance =
-/// factor × texture × strength (linear, W/(m²·sr)).
+/// A surface's material: glTF's metallic-roughness model ([`crate::brdf`]) with emission. Base
+/// colour = factor × texture; emitted radiance = factor × texture × strength (linear,
+/// W/(m²·sr)). The default (and [`Material::diffuse`]) is Lambertian: no specular lobe
+/// (`specular` 0, `metallic` 0), as every built-in scene; the glTF importer gives dielectrics
+/// glTF's specular lobe (`specular` 1: F0 = 0.04).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
     pub name: String,
@@ -439,6 +493,20 @@ pub struct Material {
     pub emissive: Vec3,
     pub emissive_texture: Option<TextureRef>,
     pub emissive_strength: f32,
+    /// 0: a dielectric (base colour is its diffuse colour), 1: a metal (base colour is its
+    /// specular reflectance, no diffuse); times the texture's blue channel.
+    pub metallic: f32,
+    /// Perceptual roughness, 0 (a mirror; 0.045 at least) to 1; GGX's α is its square; times the
+    /// texture's green channel.
+    pub roughness: f32,
+    /// glTF's `metallicRoughnessTexture`: linear, roughness in G and metallic in B.
+    pub metallic_roughness_texture: Option<TextureRef>,
+    /// Weight of a dielectric's specular lobe, 0–1 (KHR_materials_specular's factor): 1 is glTF's
+    /// default dielectric, 0 a Lambertian surface.
+    pub specular: f32,
+    /// A tangent-space normal map (linear; xy scaled by `normal_scale`); needs the mesh's tangents.
+    pub normal_texture: Option<TextureRef>,
+    pub normal_scale: f32,
 }
 
 impl Default for Material {
@@ -450,6 +518,12 @@ impl Default for Material {
             emissive: Vec3::ZERO,
             emissive_texture: None,
             emissive_strength: 1.0,
+            metallic: 0.0,
+            roughness: 1.0,
+            metallic_roughness_texture: None,
+            specular: 0.0,
+            normal_texture: None,
+            normal_scale: 1.0,
         }
     }
 }
@@ -465,6 +539,22 @@ impl Material {
 
     pub fn is_emissive(&self) -> bool {
         self.emissive.max_element() * self.emissive_strength > 0.0
+    }
+
+    /// A glTF-style metal or dielectric: base colour, metallic, roughness, and glTF's dielectric
+    /// specular lobe.
+    pub fn pbr(name: &str, color: Vec3, metallic: f32, roughness: f32) -> Self {
+        Self { name: name.into(), base_color: color.extend(1.0), metallic, roughness, specular: 1.0, ..Default::default() }
+    }
+
+    /// The textures it samples, with their field names.
+    pub fn textures(&self) -> [(&'static str, Option<TextureRef>); 4] {
+        [
+            ("base_color_texture", self.base_color_texture),
+            ("emissive_texture", self.emissive_texture),
+            ("metallic_roughness_texture", self.metallic_roughness_texture),
+            ("normal_texture", self.normal_texture),
+        ]
     }
 }
 
@@ -753,14 +843,29 @@ impl Material {
                 reason: "must not be negative",
             });
         }
-        for (field, t) in [("base_color_texture.transform", self.base_color_texture), ("emissive_texture.transform", self.emissive_texture)]
-        {
+        for (field, t) in self.textures() {
             if let Some(t) = t {
                 let u = t.transform;
                 if !(u.offset.is_finite() && u.scale.is_finite() && u.rotation.is_finite()) {
-                    return Err(non_finite(item, field, u));
+                    return Err(non_finite(item, format!("{field}.transform"), u));
                 }
             }
+        }
+        for (field, value) in [("metallic", self.metallic), ("roughness", self.roughness), ("specular", self.specular)] {
+            if !value.is_finite() {
+                return Err(non_finite(item, field, value));
+            }
+            if !(0.0..=1.0).contains(&value) {
+                return Err(SceneDataError::OutOfRange {
+                    item: item.into(),
+                    field: field.into(),
+                    value: format!("{value:?}"),
+                    reason: "must be between 0 and 1",
+                });
+            }
+        }
+        if !self.normal_scale.is_finite() {
+            return Err(non_finite(item, "normal_scale", self.normal_scale));
         }
         Ok(())
     }

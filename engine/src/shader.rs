@@ -30,12 +30,18 @@ pub type ShaderModule = (&'static str, &'static str);
 pub const ENGINE_SHADERS: &[ShaderModule] = &[
     ("common.inc.wgsl", include_str!("../shaders/common.inc.wgsl")),
     ("scene.inc.wgsl", include_str!("../shaders/scene.inc.wgsl")),
+    ("brdf.inc.wgsl", include_str!("../shaders/brdf.inc.wgsl")),
     ("ray_tracing.inc.wgsl", include_str!("../shaders/ray_tracing.inc.wgsl")),
     ("trace_rays.wgsl", include_str!("../shaders/trace_rays.wgsl")),
     ("gbuffer.wgsl", include_str!("../shaders/gbuffer.wgsl")),
     ("direct_lighting.wgsl", include_str!("../shaders/direct_lighting.wgsl")),
     ("tonemap.wgsl", include_str!("../shaders/tonemap.wgsl")),
     ("blit.wgsl", include_str!("../shaders/blit.wgsl")),
+    ("taa.wgsl", include_str!("../shaders/taa.wgsl")),
+    ("taa_output.wgsl", include_str!("../shaders/taa_output.wgsl")),
+    ("exposure.inc.wgsl", include_str!("../shaders/exposure.inc.wgsl")),
+    ("exposure_histogram.wgsl", include_str!("../shaders/exposure_histogram.wgsl")),
+    ("exposure_adapt.wgsl", include_str!("../shaders/exposure_adapt.wgsl")),
 ];
 
 /// Every registered module by name: the engine's, then whatever crates added.

@@ -21,6 +21,7 @@ pub fn quad(name: &str, size: Vec2) -> Mesh {
         normals: vec![Vec3::Y; 4],
         uvs: vec![Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0), Vec2::new(0.0, 1.0)],
         indices: vec![0, 3, 2, 0, 2, 1],
+        ..Default::default()
     }
 }
 

@@ -187,6 +187,9 @@ struct PlayArgs {
     /// Build the level from procedural geometry only, without the shared Kenney models.
     #[arg(long)]
     no_assets: bool,
+    /// Without temporal anti-aliasing: every frame as rendered (aliased edges, no jitter).
+    #[arg(long)]
+    no_taa: bool,
     /// Headless: a soak test instead of the walk. Every --check-every frames the image and the
     /// probe atlases must be finite; after the warm-up, resident and GPU memory may not grow and
     /// frame times may not rise beyond their bounds. Writes soak.csv into --out; fails (exit 1)
@@ -250,6 +253,7 @@ fn play(args: PlayArgs) -> Result<(), String> {
         adaptive: !args.no_adaptive,
         use_assets: !args.no_assets,
         cascades: args.cascades,
+        taa: !args.no_taa,
     };
     if args.soak {
         let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
@@ -424,9 +428,10 @@ struct RenderArgs {
     width: u32,
     #[arg(long, default_value_t = 480)]
     height: u32,
-    /// Frames to run with a fixed 1/60 s step; the image is the last frame (default: 1, or 120 with
-    /// `--mode ddgi` and `indirect`, for the probes to converge). With `--mode pathtrace` the frames
-    /// needed for `--spp` are added.
+    /// Frames to run with a fixed 1/60 s step; the image is the last frame (default: 120 with
+    /// `--mode ddgi` and `indirect`, for the probes to converge; 32 for `direct`, for the temporal
+    /// anti-aliasing to converge, 1 with --no-taa). With `--mode pathtrace` the frames needed for
+    /// `--spp` are added.
     #[arg(long)]
     frames: Option<u32>,
     /// What renders the image: `direct` (direct light with shadows), `ddgi` (direct light + DDGI's
@@ -453,8 +458,15 @@ struct RenderArgs {
     display_transform: DisplayArg,
     /// The camera's exposure as a photographic exposure value at ISO 100 (one more EV: half the
     /// exposure); default: the scene camera's own exposure.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "auto_exposure")]
     ev100: Option<f32>,
+    /// image.png's exposure from the image's own luminance histogram (engine::render::AutoExposure);
+    /// image.exr stays linear radiance.
+    #[arg(long)]
+    auto_exposure: bool,
+    /// Without temporal anti-aliasing (every frame as rasterized: aliased edges).
+    #[arg(long)]
+    no_taa: bool,
     /// Print the built-in scene names and exit.
     #[arg(long)]
     list_scenes: bool,
@@ -491,9 +503,10 @@ impl CameraArgs {
 /// DDGI volume settings from the command line (the volume fills the scene's bounds).
 #[derive(clap::Args, Clone, Debug)]
 struct DdgiArgs {
-    /// Probes along x, y and z, `X,Y,Z`.
-    #[arg(long, value_parser = parse_uvec3, default_value_t = ddgi::DdgiVolume::default().probe_counts)]
-    probes: glam::UVec3,
+    /// Probes along x, y and z, `X,Y,Z` (default: fitted to the volume's box, a sixteenth of its
+    /// longest side apart: ddgi::auto_probe_counts; with --cascades, 16,8,16 per cascade).
+    #[arg(long, value_parser = parse_uvec3)]
+    probes: Option<glam::UVec3>,
     /// Rays per probe per frame.
     #[arg(long, default_value_t = ddgi::DdgiVolume::default().rays_per_probe)]
     rays: u32,
@@ -531,7 +544,8 @@ impl DdgiArgs {
     fn cascades(&self, scene: &SceneDescription) -> Option<ddgi::DdgiCascades> {
         (self.cascades > 0).then(|| {
             let extent = scene.bounds().map_or(1.0, |(lo, hi)| (hi - lo).x.max((hi - lo).z));
-            ddgi::DdgiCascades::fitted(self.cascades, self.probes, extent, self.volume())
+            let probes = self.probes.unwrap_or(ddgi::DdgiCascades::default().probe_counts);
+            ddgi::DdgiCascades::fitted(self.cascades, probes, extent, self.volume())
         })
     }
 
@@ -647,7 +661,20 @@ fn render(args: RenderArgs) -> Result<(), String> {
     let display = engine::render::DisplayTransform::from(args.display_transform);
     let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
     let ddgi_mode = matches!(args.mode.as_str(), "ddgi" | "indirect");
-    let frames = args.frames.unwrap_or(if ddgi_mode { 120 } else { 1 });
+    let default_frames = match (ddgi_mode, args.mode.as_str(), args.no_taa) {
+        (true, _, _) => 120,
+        (false, "direct", false) => 32,
+        _ => 1,
+    };
+    let frames = args.frames.unwrap_or(default_frames);
+    let camera_settings = move |app: &mut engine::bevy_app::App| {
+        if args.no_taa {
+            app.insert_resource(engine::render::DefaultTemporalAntiAliasing(engine::render::TemporalAntiAliasing::off()));
+        }
+        if args.auto_exposure {
+            app.insert_resource(engine::render::DefaultAutoExposure::default());
+        }
+    };
     let mut settings = HeadlessSettings { width: args.width, height: args.height, frames, ..Default::default() };
     let frame = if ddgi_mode {
         let volume = args.ddgi.volume();
@@ -667,6 +694,7 @@ fn render(args: RenderArgs) -> Result<(), String> {
             &settings,
             |app| {
                 app.insert_resource(display).insert_resource(occlusion);
+                camera_settings(app);
                 match cascades {
                     Some(c) => ddgi::use_ddgi_cascades(app, c, output),
                     None => ddgi::use_ddgi(app, volume, output),
@@ -700,6 +728,7 @@ fn render(args: RenderArgs) -> Result<(), String> {
         let tick = bar.clone();
         let frame = engine::headless::render_scene_with(&gpu, scene, &settings, |app| {
             app.insert_resource(display);
+            camera_settings(app);
             pathtrace::use_path_tracer(app, path);
             app.add_systems(engine::bevy_app::Last, move || tick.inc(1));
         });
@@ -708,6 +737,7 @@ fn render(args: RenderArgs) -> Result<(), String> {
     } else {
         engine::headless::render_scene_with(&gpu, scene, &settings, |app| {
             app.insert_resource(display);
+            camera_settings(app);
         })
     }
     .map_err(|e| e.to_string())?;
@@ -776,8 +806,8 @@ fn bench_walk(
     let scene = load(name)?;
     let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
     let volume = ddgi::DdgiVolume {
-        bounds: scenes::find(name).and_then(|e| (e.gi_bounds)()),
-        probe_counts: probes,
+        bounds: scenes::find(name).and_then(|e| (e.gi_bounds)()).map(|(lo, hi)| (lo.as_dvec3(), hi.as_dvec3())),
+        probe_counts: Some(probes),
         rays_per_probe: rays,
         adaptive: ddgi::DdgiAdaptive {
             enabled: adaptive,
@@ -804,7 +834,7 @@ fn bench_walk(
         .map_or(format!("one volume of {probes}"), |c| format!("{} cascades of {probes}, finest {spacing} m", c.count.unwrap_or(0)));
     let config = match &cascades {
         Some(c) => lab::eval::Config::ddgi_cascades(c),
-        None => lab::eval::Config::Ddgi { name: "ddgi".into(), volume: Box::new(volume), occlusion: Default::default() },
+        None => lab::eval::Config::Ddgi { name: "ddgi".into(), volume: Box::new(volume), occlusion: Default::default(), taa: true },
     };
     let path = lab::walk::WalkPath::for_scene(name, &scene);
     let options = lab::walk::WalkOptions {

@@ -296,7 +296,7 @@ pub fn ddgi_throughput(
         return Err(format!("{} has no timestamp queries: GPU times cannot be measured", gpu.adapter_name()));
     }
     let volume = |grid: [u32; 3], rays: u32| ddgi::DdgiVolume {
-        probe_counts: grid.into(),
+        probe_counts: Some(grid.into()),
         rays_per_probe: rays,
         classification: false,
         ..Default::default()
@@ -376,7 +376,7 @@ pub struct ClassificationCheck {
 /// camera rays, a visibility ray from each probe of the cage around its hit point.
 pub fn classification_check(gpu: &GpuContext, scene: SceneDescription, grid: [u32; 3], frames: u32) -> Result<ClassificationCheck, String> {
     use engine::rt::cpu::GpuRay;
-    let volume = ddgi::DdgiVolume { probe_counts: grid.into(), adaptive: ddgi::DdgiAdaptive::on(), ..Default::default() };
+    let volume = ddgi::DdgiVolume { probe_counts: Some(grid.into()), adaptive: ddgi::DdgiAdaptive::on(), ..Default::default() };
     let mut app = engine::headless::headless_app(gpu, RenderSize { width: 64, height: 64 }, 1.0 / 60.0);
     ddgi::use_ddgi(&mut app, volume, ddgi::DdgiOutput::Full);
     scene.spawn(app.world_mut());

@@ -48,8 +48,9 @@ pub enum Config {
     /// Direct light + DDGI's indirect light from one probe volume, after [`DDGI_FRAMES`] frames (in
     /// a time series: frame after frame, the probes following the change at their hysteresis).
     /// `occlusion`: the contact occlusion of its indirect light (off unless the configuration is
-    /// about it).
-    Ddgi { name: String, volume: Box<ddgi::DdgiVolume>, occlusion: ddgi::DdgiContactOcclusion },
+    /// about it); `taa`: the camera's temporal anti-aliasing (on, as by default, unless the
+    /// configuration is about it).
+    Ddgi { name: String, volume: Box<ddgi::DdgiVolume>, occlusion: ddgi::DdgiContactOcclusion, taa: bool },
     /// DDGI's camera-following cascades instead of one volume.
     DdgiCascades { name: String, cascades: Box<ddgi::DdgiCascades> },
 }
@@ -114,14 +115,14 @@ impl Config {
     /// A DDGI configuration on `scene` (its volume bounds from [`SceneFacts::gi_bounds`] unless
     /// `volume` has its own).
     pub fn ddgi(name: String, scene: &SceneFacts, volume: ddgi::DdgiVolume) -> Config {
-        let bounds = volume.bounds.or(scene.gi_bounds);
-        Config::Ddgi { name, volume: Box::new(ddgi::DdgiVolume { bounds, ..volume }), occlusion: Default::default() }
+        let bounds = volume.bounds.or(scene.gi_bounds.map(|(lo, hi)| (lo.as_dvec3(), hi.as_dvec3())));
+        Config::Ddgi { name, volume: Box::new(ddgi::DdgiVolume { bounds, ..volume }), occlusion: Default::default(), taa: true }
     }
 
     /// DDGI with `grid` (default: the published grid for `scene`) and the default settings.
     pub fn ddgi_default(scene: &SceneFacts, grid: Option<[u32; 3]>) -> Config {
         let probes = grid.unwrap_or(scene.paper_grid);
-        let volume = ddgi::DdgiVolume { probe_counts: probes.into(), ..Default::default() };
+        let volume = ddgi::DdgiVolume { probe_counts: Some(probes.into()), ..Default::default() };
         Config::ddgi(format!("ddgi_{}x{}x{}", probes[0], probes[1], probes[2]), scene, volume)
     }
 
@@ -129,7 +130,7 @@ impl Config {
     pub fn ddgi_adaptive(scene: &SceneFacts, grid: Option<[u32; 3]>, adaptive: &ddgi::DdgiAdaptive) -> Config {
         let probes = grid.unwrap_or(scene.paper_grid);
         let adaptive = ddgi::DdgiAdaptive { enabled: true, ..adaptive.clone() };
-        let volume = ddgi::DdgiVolume { probe_counts: probes.into(), adaptive, ..Default::default() };
+        let volume = ddgi::DdgiVolume { probe_counts: Some(probes.into()), adaptive, ..Default::default() };
         Config::ddgi(format!("ddgi_{}x{}x{}_adaptive", probes[0], probes[1], probes[2]), scene, volume)
     }
 
@@ -140,7 +141,7 @@ impl Config {
         for grid in DDGI_DENSITIES {
             for texels in DDGI_RESOLUTIONS {
                 let volume = ddgi::DdgiVolume {
-                    probe_counts: grid.into(),
+                    probe_counts: Some(grid.into()),
                     irradiance_texels: texels,
                     distance_texels: 2 * texels,
                     ..Default::default()
@@ -157,16 +158,44 @@ impl Config {
         ];
         for (step, weights) in steps {
             let grid = scene.paper_grid;
-            let volume = ddgi::DdgiVolume { probe_counts: grid.into(), weights, ..Default::default() };
+            let volume = ddgi::DdgiVolume { probe_counts: Some(grid.into()), weights, ..Default::default() };
             list.push(Config::ddgi(format!("ddgi_weights_{step}"), scene, volume));
         }
         // The last step of the ablation: every weight, and contact occlusion of the indirect light
         // (8 rays a pixel reaching the probe spacing).
-        let volume = ddgi::DdgiVolume { probe_counts: scene.paper_grid.into(), ..Default::default() };
+        let volume = ddgi::DdgiVolume { probe_counts: Some(scene.paper_grid.into()), ..Default::default() };
         if let Config::Ddgi { name, volume, .. } = Config::ddgi("ddgi_weights_contact_occlusion".into(), scene, volume) {
-            list.push(Config::Ddgi { name, volume, occlusion: ddgi::DdgiContactOcclusion { rays: 8, radius: None } });
+            list.push(Config::Ddgi { name, volume, occlusion: ddgi::DdgiContactOcclusion { rays: 8, radius: None }, taa: true });
         }
+        list.extend(Config::ddgi_contributions(scene));
         list
+    }
+
+    /// DDGI at the plugin's defaults ([`ddgi::DdgiVolume::default`]: the grid fitted to the box,
+    /// temporal anti-aliasing on): what a new user's first render gets.
+    pub fn ddgi_defaults(scene: &SceneFacts) -> Config {
+        Config::ddgi("ddgi_defaults".into(), scene, ddgi::DdgiVolume::default())
+    }
+
+    /// What each default contributes, one step at a time from the published grid without temporal
+    /// anti-aliasing (the defaults before them): + temporal anti-aliasing (the published grid's own
+    /// row), + the grid fitted to the box ([`Config::ddgi_defaults`], in the main list), + contact
+    /// occlusion.
+    pub fn ddgi_contributions(scene: &SceneFacts) -> Vec<Config> {
+        let published = |name: &str, taa| match Config::ddgi_default(scene, None) {
+            Config::Ddgi { volume, occlusion, .. } => Config::Ddgi { name: name.into(), volume, occlusion, taa },
+            other => other,
+        };
+        let occluded = match Config::ddgi_defaults(scene) {
+            Config::Ddgi { volume, .. } => Config::Ddgi {
+                name: "ddgi_defaults_contact_occlusion".into(),
+                volume,
+                occlusion: ddgi::DdgiContactOcclusion { rays: 4, radius: None },
+                taa: true,
+            },
+            other => other,
+        };
+        vec![published("ddgi_published_grid_no_taa", false), occluded]
     }
 }
 
@@ -176,6 +205,7 @@ impl Config {
     pub fn still_list(scene: &SceneFacts, experiments: bool, grid: Option<[u32; 3]>, adaptive: &ddgi::DdgiAdaptive) -> Vec<Config> {
         let mut list = vec![Config::Direct];
         list.extend(PATH_TRACE_LADDER.iter().map(|&spp| Config::PathTrace { spp }));
+        list.push(Config::ddgi_defaults(scene));
         list.push(Config::ddgi_default(scene, grid));
         list.push(Config::ddgi_adaptive(scene, grid, adaptive));
         if experiments {
@@ -237,8 +267,11 @@ impl Config {
                 let settings = pathtrace::PathTraceSettings { samples_per_frame: self.samples_per_frame(), seed, ..Default::default() };
                 pathtrace::use_path_tracer(app, settings);
             }
-            Config::Ddgi { volume, occlusion, .. } => {
+            Config::Ddgi { volume, occlusion, taa, .. } => {
                 app.insert_resource(*occlusion);
+                if !taa {
+                    app.insert_resource(engine::render::DefaultTemporalAntiAliasing(engine::render::TemporalAntiAliasing::off()));
+                }
                 ddgi::use_ddgi(app, (**volume).clone(), ddgi::DdgiOutput::Full)
             }
             Config::DdgiCascades { cascades, .. } => ddgi::use_ddgi_cascades(app, (**cascades).clone(), ddgi::DdgiOutput::Full),
@@ -423,10 +456,10 @@ impl Config {
     /// the scene.
     pub fn placed_at(self, origin: glam::DVec3) -> Config {
         match self {
-            Config::Ddgi { name, volume, occlusion } if origin != glam::DVec3::ZERO => {
-                let shift = |p: glam::Vec3| (p.as_dvec3() + origin).as_vec3();
+            Config::Ddgi { name, volume, occlusion, taa } if origin != glam::DVec3::ZERO => {
+                let shift = |p: glam::DVec3| p + origin;
                 let bounds = volume.bounds.map(|(lo, hi)| (shift(lo), shift(hi)));
-                Config::Ddgi { name, volume: Box::new(ddgi::DdgiVolume { bounds, ..*volume }), occlusion }
+                Config::Ddgi { name, volume: Box::new(ddgi::DdgiVolume { bounds, ..*volume }), occlusion, taa }
             }
             other => other,
         }

@@ -74,7 +74,7 @@ pub struct WalkOptions {
     pub path: WalkPath,
     /// The scene's placement in the world ([`SceneDescription::origin`]).
     pub offset: DVec3,
-    /// The sky's radiance ([`engine::render::SkyRadiance`]).
+    /// The sky's radiance ([`engine::render::Sky::Uniform`]).
     pub sky: Vec3,
     /// Write the frame as `frame_NNNNN.png` into the output folder every this many frames.
     pub every: Option<u32>,
@@ -297,7 +297,7 @@ fn reference_view(gpu: &GpuContext, scene: &SceneDescription, camera: Transform,
         let frames = options.reference_spp.max(1).div_ceil(per_frame);
         let settings = HeadlessSettings { width, height, frames, ..Default::default() };
         let frame = engine::headless::render_scene_with(gpu, scene.clone(), &settings, |app| {
-            app.insert_resource(engine::render::SkyRadiance(options.sky));
+            app.insert_resource(engine::render::Sky::Uniform(options.sky));
             pathtrace::use_path_tracer(app, pathtrace::PathTraceSettings { samples_per_frame: per_frame, ..Default::default() });
         })
         .map_err(|e| e.to_string())?;
@@ -330,7 +330,7 @@ pub fn walk(gpu: &GpuContext, mut scene: SceneDescription, options: &WalkOptions
     let settings = HeadlessSettings { width: options.size.width, height: options.size.height, frames: 1, ..Default::default() };
     let seed = pathtrace::PathTraceSettings::default().seed;
     let mut app = scene_app(gpu, scene, &settings, |app| {
-        app.insert_resource(engine::render::SkyRadiance(options.sky)).insert_resource(options.sky_light);
+        app.insert_resource(engine::render::Sky::Uniform(options.sky)).insert_resource(options.sky_light);
         options.config.configure(app, seed);
     })
     .map_err(|e| e.to_string())?;

@@ -137,11 +137,12 @@ fn time_series_measures_every_frame_and_the_path_tracer_converges_after_the_chan
     let pt = series("pathtrace_4spp");
     let (early, late) = ((pt[1].1 + pt[2].1) / 2.0, (pt[pt.len() - 2].1 + pt[pt.len() - 1].1) / 2.0);
     assert!(late < 0.8 * early, "path tracer FLIP after the change must fall: {pt:?}");
-    // Direct light is the same image every frame after the change, and closer to the changed
-    // scene than before it (linear RMSE: the lamp's light moved with it).
+    // Direct light is closer to the changed scene than before it from the first frame after the
+    // change on (linear RMSE: the lamp's light moved with it), and the temporal anti-aliasing's
+    // history follows: the last frame closer than the first.
     let direct = series("direct");
-    assert!(direct[1..].iter().all(|r| (r.1, r.2) == (direct[1].1, direct[1].2)), "{direct:?}");
-    assert!(direct[1].2 < direct[0].2, "the change must reach the renderer: {direct:?}");
+    assert!(direct[1..].iter().all(|r| r.2 < direct[0].2), "the change must reach the renderer: {direct:?}");
+    assert!(direct.last().expect("rows").2 < direct[1].2, "the history must follow the change: {direct:?}");
 
     assert_plot(&out.join("time_series.png"), TIME_SERIES_SIZE);
     let report = std::fs::read_to_string(out.join("report.md")).expect("report");

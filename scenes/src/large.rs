@@ -237,7 +237,14 @@ fn icosphere(name: &str, subdivisions: u32) -> Mesh {
             })
             .collect();
     }
-    Mesh { name: name.into(), normals: positions.clone(), positions, uvs: Vec::new(), indices: faces.into_iter().flatten().collect() }
+    Mesh {
+        name: name.into(),
+        normals: positions.clone(),
+        positions,
+        uvs: Vec::new(),
+        indices: faces.into_iter().flatten().collect(),
+        tangents: Vec::new(),
+    }
 }
 
 /// Appends `part` to `out` (positions, normals and indices; texture coordinates are dropped).

@@ -42,6 +42,14 @@ pub struct SceneEntry {
     pub tour: Option<fn(f32) -> (Vec3, Vec3)>,
 }
 
+impl SceneEntry {
+    /// [`SceneEntry::gi_bounds`] in double precision: a probe volume's world box (as
+    /// `ddgi::DdgiVolume::bounds` takes it).
+    pub fn gi_box(&self) -> Option<(glam::DVec3, glam::DVec3)> {
+        (self.gi_bounds)().map(|(lo, hi)| (lo.as_dvec3(), hi.as_dvec3()))
+    }
+}
+
 /// A hole designed into the closed geometry of a built-in scene: the world-space box that the hole
 /// sweeps through its wall (flat along the wall's normal when the wall is simply left out).
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -775,7 +775,7 @@ impl<'a> Importer<'a> {
             (Some(name), _) => format!("{name}#{}", primitive.index()),
             (None, _) => format!("mesh {}#{}", mesh.index(), primitive.index()),
         };
-        let mut out = Mesh { name, positions, normals: Vec::new(), uvs, indices };
+        let mut out = Mesh { name, positions, normals: Vec::new(), uvs, indices, tangents: Vec::new() };
         out.compute_normals();
         if let Some(normals) = normals {
             // Keep the file's normals, normalised; degenerate ones fall back to the computed normal.
@@ -783,6 +783,24 @@ impl<'a> Importer<'a> {
                 if let Some(unit) = given.try_normalize() {
                     *computed = unit;
                 }
+            }
+        }
+        // Tangents only where a normal map needs them: the file's, or MikkTSpace's (as glTF asks).
+        if primitive.material().normal_texture().is_some() {
+            match primitive.get(&Semantic::Tangents) {
+                Some(accessor) if accessor.count() == n => {
+                    let context = format!("{what} TANGENT");
+                    self.expect_format(&accessor, &context, Dimensions::Vec4, &[(DataType::F32, false)], "VEC4 FLOAT")?;
+                    let tangents = self.read_accessor(&accessor, &context, |b| {
+                        Vec4::new(read_f32(b, 0), read_f32(b, 1), read_f32(b, 2), read_f32(b, 3))
+                    })?;
+                    if let Some((i, t)) = tangents.iter().enumerate().find(|(_, t)| !t.is_finite()) {
+                        return Err(self.invalid(&context, format!("vertex {i} has a non-finite tangent {t}")));
+                    }
+                    out.tangents = tangents;
+                }
+                Some(accessor) => return Err(count_mismatch(&accessor, format!("{what} TANGENT"))),
+                None => out.compute_tangents(),
             }
         }
         super::validate_mesh(&out, self.file, &what)?;
@@ -821,6 +839,42 @@ impl<'a> Importer<'a> {
         if !(emissive_strength.is_finite() && emissive_strength >= 0.0) {
             return Err(self.invalid(&what, format!("invalid emissiveStrength {emissive_strength}")));
         }
+        let unit = |field: &str, v: f32| -> Result<f32, ImportError> {
+            if v.is_finite() && (0.0..=1.0).contains(&v) {
+                Ok(v)
+            } else {
+                Err(self.invalid(&what, format!("{field} {v} is not between 0 and 1")))
+            }
+        };
+        let metallic = unit("metallicFactor", pbr.metallic_factor())?;
+        let roughness = unit("roughnessFactor", pbr.roughness_factor())?;
+        // KHR_materials_specular's factor (1 without the extension: glTF's dielectric).
+        let specular = unit("KHR_materials_specular specularFactor", material.specular().map_or(1.0, |s| s.specular_factor()))?;
+        let metallic_roughness_texture =
+            pbr.metallic_roughness_texture().map(|info| self.texture(&info, &what, "metallicRoughnessTexture")).transpose()?;
+        let (normal_texture, normal_scale) = match material.normal_texture() {
+            Some(normal) => {
+                let scale = normal.scale();
+                if !scale.is_finite() {
+                    return Err(self.invalid(&what, format!("non-finite normalTexture scale {scale}")));
+                }
+                let transform = normal.extension_value("KHR_texture_transform").map(|t| {
+                    let pair = |key: &str, default: [f32; 2]| {
+                        t.get(key)
+                            .and_then(|v| v.as_array())
+                            .map_or(default, |a| [0, 1].map(|i| a.get(i).and_then(|x| x.as_f64()).map_or(f32::NAN, |x| x as f32)))
+                    };
+                    UvTransform {
+                        offset: Vec2::from_array(pair("offset", [0.0, 0.0])),
+                        rotation: t.get("rotation").and_then(|v| v.as_f64()).map_or(0.0, |r| r as f32),
+                        scale: Vec2::from_array(pair("scale", [1.0, 1.0])),
+                    }
+                });
+                let texture = self.texture_ref(normal.texture(), normal.tex_coord(), transform, &what, "normalTexture")?;
+                (Some(texture), scale)
+            }
+            None => (None, 1.0),
+        };
         Ok(Material {
             name: material.name().map_or_else(|| format!("material {index}"), str::to_string),
             base_color,
@@ -828,6 +882,12 @@ impl<'a> Importer<'a> {
             emissive,
             emissive_texture,
             emissive_strength,
+            metallic,
+            roughness,
+            metallic_roughness_texture,
+            specular,
+            normal_texture,
+            normal_scale,
         })
     }
 
@@ -835,18 +895,27 @@ impl<'a> Importer<'a> {
     fn texture(&mut self, info: &::gltf::texture::Info, material: &str, slot: &str) -> Result<TextureRef, ImportError> {
         let ext = info.texture_transform();
         let tex_coord = ext.as_ref().and_then(|t| t.tex_coord()).unwrap_or(info.tex_coord());
+        let transform =
+            ext.map(|t| UvTransform { offset: Vec2::from_array(t.offset()), rotation: t.rotation(), scale: Vec2::from_array(t.scale()) });
+        self.texture_ref(info.texture(), tex_coord, transform, material, slot)
+    }
+
+    fn texture_ref(
+        &mut self,
+        texture: ::gltf::texture::Texture,
+        tex_coord: u32,
+        transform: Option<UvTransform>,
+        material: &str,
+        slot: &str,
+    ) -> Result<TextureRef, ImportError> {
         if tex_coord != 0 {
             log::warn!("{}: {material} {slot} uses TEXCOORD_{tex_coord}; only TEXCOORD_0 is imported", self.file.display());
         }
-        let transform = ext.map_or_else(UvTransform::default, |t| UvTransform {
-            offset: Vec2::from_array(t.offset()),
-            rotation: t.rotation(),
-            scale: Vec2::from_array(t.scale()),
-        });
+        let transform = transform.unwrap_or_default();
         if !(transform.offset.is_finite() && transform.rotation.is_finite() && transform.scale.is_finite()) {
             return Err(self.invalid(format!("{material} {slot}"), format!("non-finite KHR_texture_transform {transform:?}")));
         }
-        let image = self.image(info.texture().source().index())?;
+        let image = self.image(texture.source().index())?;
         Ok(TextureRef { image: Handle::from_index(image as u32), transform })
     }
 

@@ -2,7 +2,9 @@
 //!
 //! Every OBJ object/group (per material) becomes one node holding one mesh. From MTL: `Kd` → base
 //! colour (`d` → alpha), `map_Kd` → base colour texture, `Ke` → emissive, `map_Ke` → emissive
-//! texture; texture paths are relative to the `.mtl` file's folder, libraries relative to the `.obj`.
+//! texture, `Pm`/`Pr` (the MTL PBR extension) → metallic and roughness with glTF's specular lobe
+//! (materials without them are Lambertian); texture paths are relative to the `.mtl` file's folder,
+//! libraries relative to the `.obj`.
 //! OBJ texture coordinates have their origin at the bottom-left, so `v` is flipped to glTF's
 //! top-left convention.
 //!
@@ -244,7 +246,8 @@ impl Importer<'_> {
             }
             Vec::new()
         };
-        let mut mesh = Mesh { name: model.name.clone(), positions, normals: Vec::new(), uvs, indices: source.indices.clone() };
+        let mut mesh =
+            Mesh { name: model.name.clone(), positions, normals: Vec::new(), uvs, indices: source.indices.clone(), tangents: Vec::new() };
         // Check before computing normals, which indexes positions by the indices.
         if let Some((k, index)) = mesh.indices.iter().enumerate().find(|(_, i)| **i as usize >= n) {
             return Err(self.invalid(what, format!("index {index} out of range for {n} vertices (at element {k})")));
@@ -312,8 +315,30 @@ impl Importer<'_> {
         }
         let base_color_texture = source.diffuse_texture.as_deref().map(|t| self.texture(&dir, t)).transpose()?;
         let emissive_texture = source.unknown_param.get("map_Ke").map(|t| self.texture(&dir, t)).transpose()?;
-        let material =
-            Material { name: source.name.clone(), base_color, base_color_texture, emissive, emissive_texture, emissive_strength: 1.0 };
+        // The MTL PBR extension (Exocortex): Pm metallic, Pr roughness; a material with either gets
+        // glTF's specular lobe, one with neither stays Lambertian.
+        let unit = |key: &str| -> Result<Option<f32>, ImportError> {
+            match source.unknown_param.get(key) {
+                None => Ok(None),
+                Some(text) => match text.trim().parse::<f32>() {
+                    Ok(v) if v.is_finite() && (0.0..=1.0).contains(&v) => Ok(Some(v)),
+                    _ => Err(self.invalid(&what, format!("{key} '{text}' is not a number between 0 and 1"))),
+                },
+            }
+        };
+        let (metallic, roughness) = (unit("Pm")?, unit("Pr")?);
+        let pbr = metallic.is_some() || roughness.is_some();
+        let material = Material {
+            name: source.name.clone(),
+            base_color,
+            base_color_texture,
+            emissive,
+            emissive_texture,
+            metallic: metallic.unwrap_or(0.0),
+            roughness: roughness.unwrap_or(1.0),
+            specular: if pbr { 1.0 } else { 0.0 },
+            ..Material::default()
+        };
         let index = self.scene.add_material(material);
         if let Some(slot) = self.materials.get_mut(id) {
             *slot = Some(index);

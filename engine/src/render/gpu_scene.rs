@@ -83,10 +83,6 @@ pub struct RenderSize {
     pub height: u32,
 }
 
-/// Radiance of pixels that see no surface (and, later, of rays that miss): linear RGB.
-#[derive(Resource, Clone, Copy, Debug, PartialEq, Default)]
-pub struct SkyRadiance(pub Vec3);
-
 /// Everything a pass needs to look at the scene: bind group 0 of `scene.inc.wgsl`.
 #[derive(Resource)]
 pub struct GpuScene {
@@ -96,8 +92,16 @@ pub struct GpuScene {
     pub vertices: GrowableBuffer,
     pub indices: GrowableBuffer,
     pub instances: GrowableBuffer,
+    /// Each instance slot's `world_from_local` of the previous frame (motion vectors).
+    pub instance_history: GrowableBuffer,
     pub atlas: wgpu::Texture,
     pub atlas_view: wgpu::TextureView,
+    /// The same images in linear 8-bit, for data textures (metallic-roughness, normal maps); 1×1
+    /// while no material has one.
+    pub data_atlas: wgpu::Texture,
+    pub data_atlas_view: wgpu::TextureView,
+    /// The BRDF's split-sum table ([`crate::brdf::dfg_table`]).
+    pub brdf_table: wgpu::Buffer,
     pub sampler: wgpu::Sampler,
     pub mesh_ranges: Vec<MeshRange>,
     pub draws: Vec<Draw>,
@@ -111,7 +115,11 @@ pub struct GpuScene {
     /// Whether any material emits light (shaders may leave out the emission lookup when none does).
     pub has_emissive: bool,
     pub view_uniform: ViewUniform,
+    /// The last frame's unjittered `clip_from_world` (motion vectors).
+    previous_clip_from_world: Option<Mat4>,
     atlas_rects: Vec<[f32; 4]>,
+    /// Whether `data_atlas` holds the images (some material has a data texture).
+    data_atlas_filled: bool,
     seen_generations: Option<(u64, u64, u64)>,
     frame: u32,
     /// Scene data left out of the upload, by where it was found (see [`GpuScene::errors`]).
@@ -125,12 +133,16 @@ pub struct GpuScene {
 impl GpuScene {
     pub fn new(gpu: &GpuContext) -> Self {
         let storage = wgpu::BufferUsages::STORAGE;
-        let atlas = create_atlas_texture(gpu, 1, 1);
-        gpu.queue.write_texture(
-            atlas.as_image_copy(),
-            &[255; 4],
-            wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(4), rows_per_image: None },
-            wgpu::Extent3d { width: 1, height: 1, depth_or_array_layers: 1 },
+        let white = PackedAtlas { width: 1, height: 1, rgba8: vec![255; 4], rects: Vec::new() };
+        let atlas = create_atlas_texture(gpu, &white, wgpu::TextureFormat::Rgba8UnormSrgb);
+        let data_atlas = create_atlas_texture(gpu, &white, wgpu::TextureFormat::Rgba8Unorm);
+        let brdf_table = wgpu::util::DeviceExt::create_buffer_init(
+            &gpu.device,
+            &wgpu::util::BufferInitDescriptor {
+                label: Some("brdf_dfg_table"),
+                contents: bytemuck::cast_slice(crate::brdf::dfg_table()),
+                usage: storage,
+            },
         );
         Self {
             view: GrowableBuffer::new(&gpu.device, "view_uniform", wgpu::BufferUsages::UNIFORM),
@@ -139,8 +151,12 @@ impl GpuScene {
             vertices: GrowableBuffer::new(&gpu.device, "vertices", storage),
             indices: GrowableBuffer::new(&gpu.device, "indices", storage | wgpu::BufferUsages::INDEX),
             instances: GrowableBuffer::new(&gpu.device, "instances", storage),
+            instance_history: GrowableBuffer::new(&gpu.device, "instance_history", storage),
             atlas_view: atlas.create_view(&Default::default()),
             atlas,
+            data_atlas_view: data_atlas.create_view(&Default::default()),
+            data_atlas,
+            brdf_table,
             sampler: gpu.device.create_sampler(&wgpu::SamplerDescriptor {
                 label: Some("atlas_sampler"),
                 mag_filter: wgpu::FilterMode::Linear,
@@ -156,7 +172,9 @@ impl GpuScene {
             has_spot_lights: false,
             has_emissive: false,
             view_uniform: ViewUniform::zeroed(),
+            previous_clip_from_world: None,
             atlas_rects: Vec::new(),
+            data_atlas_filled: false,
             seen_generations: None,
             frame: 0,
             geometry_errors: Vec::new(),
@@ -194,6 +212,9 @@ impl GpuScene {
             ("atlas_sampler", NamedResource::Sampler(&self.sampler)),
             ("vertices", NamedResource::Buffer(&self.vertices.buffer)),
             ("instances", NamedResource::Buffer(&self.instances.buffer)),
+            ("instance_history", NamedResource::Buffer(&self.instance_history.buffer)),
+            ("data_atlas", NamedResource::Texture { texture: &self.data_atlas, view: &self.data_atlas_view }),
+            ("brdf_dfg_table", NamedResource::Buffer(&self.brdf_table)),
             ("indices", NamedResource::Buffer(&self.indices.buffer)),
         ]
     }
@@ -244,14 +265,15 @@ impl GpuScene {
             vertices.extend(mesh.positions.iter().enumerate().map(|(i, p)| {
                 let n = mesh.normals.get(i).copied().unwrap_or(Vec3::Y);
                 let uv = mesh.uvs.get(i).copied().unwrap_or_default();
-                GpuVertex { position: p.to_array(), u: uv.x, normal: n.to_array(), v: uv.y }
+                let tangent = mesh.tangents.get(i).copied().filter(|t| t.is_finite()).unwrap_or(glam::Vec4::ZERO);
+                GpuVertex { position: p.to_array(), u: uv.x, normal: n.to_array(), v: uv.y, tangent: tangent.to_array() }
             }));
             indices.extend_from_slice(&mesh.indices);
             self.mesh_ranges.push(MeshRange { indices: first..indices.len() as u32, base_vertex });
         }
         let limit = max_storage_buffer_bytes(&gpu.device);
         let needs = [
-            ("vertex buffer (32 bytes per vertex)", std::mem::size_of_val(vertices.as_slice()) as u64),
+            ("vertex buffer (48 bytes per vertex)", std::mem::size_of_val(vertices.as_slice()) as u64),
             ("index buffer (4 bytes per index)", std::mem::size_of_val(indices.as_slice()) as u64),
         ];
         if let Some((buffer, needed)) = needs.into_iter().find(|(_, n)| *n > limit) {
@@ -269,19 +291,18 @@ impl GpuScene {
         self.indices.write(gpu, bytemuck::cast_slice(&indices));
     }
 
-    fn upload_atlas(&mut self, gpu: &GpuContext, images: &Assets<Image>) {
+    /// Packs every image into the colour atlas, and into the data atlas too when `with_data` (some
+    /// material samples a data texture).
+    fn upload_atlas(&mut self, gpu: &GpuContext, images: &Assets<Image>, with_data: bool) {
         let max_dim = gpu.device.limits().max_texture_dimension_2d.min(8192);
         let list: Vec<&Image> = images.iter().map(|(_, i)| i).collect();
         let packed = pack_atlas(&list, max_dim);
-        let atlas = create_atlas_texture(gpu, packed.width, packed.height);
-        gpu.queue.write_texture(
-            atlas.as_image_copy(),
-            &packed.rgba8,
-            wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(packed.width * 4), rows_per_image: None },
-            wgpu::Extent3d { width: packed.width, height: packed.height, depth_or_array_layers: 1 },
-        );
-        self.atlas_view = atlas.create_view(&Default::default());
-        self.atlas = atlas;
+        self.atlas = create_atlas_texture(gpu, &packed, wgpu::TextureFormat::Rgba8UnormSrgb);
+        self.atlas_view = self.atlas.create_view(&Default::default());
+        let white = PackedAtlas { width: 1, height: 1, rgba8: vec![255; 4], rects: Vec::new() };
+        self.data_atlas = create_atlas_texture(gpu, if with_data { &packed } else { &white }, wgpu::TextureFormat::Rgba8Unorm);
+        self.data_atlas_view = self.data_atlas.create_view(&Default::default());
+        self.data_atlas_filled = with_data;
         self.atlas_rects = packed.rects;
     }
 
@@ -316,8 +337,11 @@ impl GpuScene {
                 GpuMaterial {
                     base_color: m.base_color.to_array(),
                     emissive: emissive.extend(1.0).to_array(),
+                    pbr: [m.metallic, m.roughness, m.specular, m.normal_scale],
                     base_color_texture: slot(&m.base_color_texture),
                     emissive_texture: slot(&m.emissive_texture),
+                    metallic_roughness_texture: slot(&m.metallic_roughness_texture),
+                    normal_texture: slot(&m.normal_texture),
                 }
             })
             .collect();
@@ -327,17 +351,26 @@ impl GpuScene {
     }
 }
 
-fn create_atlas_texture(gpu: &GpuContext, width: u32, height: u32) -> wgpu::Texture {
-    gpu.device.create_texture(&wgpu::TextureDescriptor {
-        label: Some("texture_atlas"),
-        size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+/// A texture holding `packed`: sRGB-encoded colour (decoded by the sampler) or linear data.
+fn create_atlas_texture(gpu: &GpuContext, packed: &PackedAtlas, format: wgpu::TextureFormat) -> wgpu::Texture {
+    let size = wgpu::Extent3d { width: packed.width, height: packed.height, depth_or_array_layers: 1 };
+    let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(if format.is_srgb() { "texture_atlas" } else { "data_atlas" }),
+        size,
         mip_level_count: 1,
         sample_count: 1,
         dimension: wgpu::TextureDimension::D2,
-        format: wgpu::TextureFormat::Rgba8UnormSrgb,
+        format,
         usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
         view_formats: &[],
-    })
+    });
+    gpu.queue.write_texture(
+        texture.as_image_copy(),
+        &packed.rgba8,
+        wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(packed.width * 4), rows_per_image: None },
+        size,
+    );
+    texture
 }
 
 /// Every image of the scene packed into one texture, so that raster and compute passes sample any
@@ -428,6 +461,10 @@ struct InstanceSlots {
     by_entity: EntityHashMap<u32>,
     free: Vec<u32>,
     data: Vec<GpuInstance>,
+    /// Each slot's `world_from_local` of the previous frame.
+    history: Vec<[[f32; 4]; 4]>,
+    /// Slots that moved in the previous frame: their history catches up this frame.
+    moved_last_frame: Vec<u32>,
     placement: Vec<Option<(u32, Affine3A)>>,
 }
 
@@ -439,6 +476,7 @@ impl InstanceSlots {
         }
         let slot = self.free.pop().unwrap_or_else(|| {
             self.data.push(GpuInstance::zeroed());
+            self.history.push([[0.0; 4]; 4]);
             self.placement.push(None);
             self.data.len() as u32 - 1
         });
@@ -484,6 +522,28 @@ fn gpu_instance(instance: &MeshInstance, transform: &GlobalTransform) -> GpuInst
 }
 
 impl GpuScene {
+    /// The previous frame's transforms: the slots written this frame hold their old transform
+    /// (set as they were written); those that moved in the previous frame but not in this one
+    /// are still now, so their history becomes their transform.
+    fn upload_instance_history(&mut self, gpu: &GpuContext, uploads: &mut Uploads) {
+        let slots = &mut self.slots;
+        let written: std::collections::HashSet<u32> = self.changes.dirty.iter().copied().collect();
+        let mut changed: Vec<usize> = self.changes.dirty.iter().map(|&d| d as usize).collect();
+        for &slot in &slots.moved_last_frame {
+            if !written.contains(&slot) && (slot as usize) < slots.data.len() {
+                slots.history[slot as usize] = slots.data[slot as usize].world_from_local;
+                changed.push(slot as usize);
+            }
+        }
+        slots.moved_last_frame = self.changes.dirty.clone();
+        let needed = (slots.history.len() * size_of::<[[f32; 4]; 4]>()) as u64;
+        if needed > self.instance_history.buffer.size() {
+            self.instance_history.write(gpu, bytemuck::cast_slice(&slots.history));
+            return;
+        }
+        uploads.write_dirty_ranges(gpu, &self.instance_history.buffer, &slots.history, &mut changed);
+    }
+
     fn upload_instances(&mut self, gpu: &GpuContext, uploads: &mut Uploads, dirty: &[u32]) {
         let needed = (self.slots.data.len() * size_of::<GpuInstance>()) as u64;
         if needed > self.instances.buffer.size() {
@@ -575,7 +635,8 @@ pub fn prepare_gpu_scene(
     mut scene: ResMut<GpuScene>,
     mut uploads: ResMut<Uploads>,
     size: Res<RenderSize>,
-    sky: Res<SkyRadiance>,
+    sky: Res<crate::sky::Sky>,
+    taa: Option<Res<super::TaaState>>,
     meshes: Res<Assets<Mesh>>,
     materials: Res<Assets<Material>>,
     images: Res<Assets<Image>>,
@@ -592,8 +653,11 @@ pub fn prepare_gpu_scene(
     if seen.map(|s| s.0) != Some(generations.0) {
         scene.upload_geometry(&gpu, &meshes);
     }
-    if seen.map(|s| s.1) != Some(generations.1) {
-        scene.upload_atlas(&gpu, &images);
+    let needs_data_atlas = || materials.iter().any(|(_, m)| m.metallic_roughness_texture.is_some() || m.normal_texture.is_some());
+    if seen.map(|s| s.1) != Some(generations.1)
+        || (seen.map(|s| s.2) != Some(generations.2) && needs_data_atlas() != scene.data_atlas_filled)
+    {
+        scene.upload_atlas(&gpu, &images, needs_data_atlas());
     }
     if seen.map(|s| (s.1, s.2)) != Some((generations.1, generations.2)) {
         scene.upload_materials(&gpu, &materials);
@@ -629,6 +693,10 @@ pub fn prepare_gpu_scene(
         }
         let (slot, previous_mesh) = scene.slots.acquire(entity);
         let data = gpu_instance(instance, transform);
+        // A new instance (or one given another mesh) did not move; one that moved was where its
+        // old transform put it.
+        let was = if previous_mesh.is_some() { scene.slots.data[slot as usize].world_from_local } else { data.world_from_local };
+        scene.slots.history[slot as usize] = was;
         scene.slots.data[slot as usize] = data;
         scene.slots.placement[slot as usize] = Some((instance.mesh.index(), transform.0));
         scene.changes.dirty.push(slot);
@@ -654,6 +722,7 @@ pub fn prepare_gpu_scene(
     let dirty = std::mem::take(&mut scene.changes.dirty);
     scene.upload_instances(&gpu, &mut uploads, &dirty);
     scene.changes.dirty = dirty;
+    scene.upload_instance_history(&gpu, &mut uploads);
     scene.changes.cpu_time = instances_started.elapsed();
 
     // Lights.
@@ -699,6 +768,11 @@ pub fn prepare_gpu_scene(
         g.spot_offset = -cos_outer * scale;
         lights.push(g);
     }
+    // The sky follows the first directional light: towards it, at its irradiance's luminance.
+    let sun = lights.iter().find(|l| l.kind == LIGHT_DIRECTIONAL).map(|l| crate::sky::Sun {
+        direction: -Vec3::from_array(l.direction),
+        irradiance: Vec3::from_array(l.radiance).dot(Vec3::new(0.2126, 0.7152, 0.0722)),
+    });
     scene.light_count = lights.len() as u32;
     scene.lights.write(&gpu, bytemuck::cast_slice(&lights));
     scene.light_data = lights;
@@ -723,17 +797,21 @@ pub fn prepare_gpu_scene(
     scene.frame_errors = frame_errors;
     scene.log_new_errors();
     let clip_from_world = clip_from_world(&camera, &camera_transform, *size);
+    let previous_clip_from_world = scene.previous_clip_from_world.replace(clip_from_world).unwrap_or(clip_from_world);
     let position = camera_transform.translation();
     scene.view_uniform = ViewUniform {
         clip_from_world: mat4_cols(clip_from_world),
         world_from_clip: mat4_cols(clip_from_world.inverse()),
+        previous_clip_from_world: mat4_cols(previous_clip_from_world),
         camera_position: position.to_array(),
         exposure: camera.exposure,
-        sky_radiance: sky.0.to_array(),
-        light_count: scene.light_count,
         size: [size.width, size.height],
+        jitter: taa.map_or(glam::Vec2::ZERO, |t| t.jitter).to_array(),
+        light_count: scene.light_count,
         frame: scene.frame,
-        _pad: 0,
+        _pad0: 0,
+        _pad1: 0,
+        sky: sky.gpu(sun),
     };
     scene.frame = scene.frame.wrapping_add(1);
     let view = scene.view_uniform;

@@ -7,15 +7,23 @@ use bytemuck::{Pod, Zeroable};
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct ViewUniform {
+    /// Unjittered: the temporal anti-aliasing's sub-pixel offset is `jitter`, applied by the
+    /// rasterizing passes alone.
     pub clip_from_world: [[f32; 4]; 4],
     pub world_from_clip: [[f32; 4]; 4],
+    /// The previous frame's `clip_from_world` (this frame's on the first), for motion vectors.
+    pub previous_clip_from_world: [[f32; 4]; 4],
     pub camera_position: [f32; 3],
     pub exposure: f32,
-    pub sky_radiance: [f32; 3],
-    pub light_count: u32,
     pub size: [u32; 2],
+    /// Sub-pixel offset of this frame's raster, in pixels (x right, y down); zero without TAA.
+    pub jitter: [f32; 2],
+    pub light_count: u32,
     pub frame: u32,
-    pub _pad: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    /// What escaping rays and the background see ([`crate::sky::Sky`]).
+    pub sky: crate::sky::GpuSky,
 }
 
 #[repr(C)]
@@ -25,6 +33,8 @@ pub struct GpuVertex {
     pub u: f32,
     pub normal: [f32; 3],
     pub v: f32,
+    /// The mesh's tangent (xyz) and handedness (w); zero when it has none.
+    pub tangent: [f32; 4],
 }
 
 #[repr(C)]
@@ -52,8 +62,13 @@ pub struct TextureSlot {
 pub struct GpuMaterial {
     pub base_color: [f32; 4],
     pub emissive: [f32; 4],
+    /// metallic, roughness, specular, normal scale.
+    pub pbr: [f32; 4],
     pub base_color_texture: TextureSlot,
     pub emissive_texture: TextureSlot,
+    /// In the linear data atlas (`data_atlas`), like `normal_texture`.
+    pub metallic_roughness_texture: TextureSlot,
+    pub normal_texture: TextureSlot,
 }
 
 pub const LIGHT_DIRECTIONAL: u32 = 0;
@@ -81,12 +96,21 @@ pub fn gpu_structs() -> Vec<crate::shader::HostStruct> {
     use crate::gpu_struct_layout as layout;
     use crate::rt::cpu::{GpuRay as Ray, TraceResult};
     use crate::rt::{GpuBlas, TlasEntry};
+    use crate::sky::GpuSky;
     vec![
-        layout!(ViewUniform in "scene.inc.wgsl" { clip_from_world, world_from_clip, camera_position, exposure, sky_radiance, light_count, size, frame, _pad }),
-        layout!(GpuVertex in "scene.inc.wgsl" { position, u, normal, v }),
+        layout!(ViewUniform in "scene.inc.wgsl" {
+            clip_from_world, world_from_clip, previous_clip_from_world, camera_position, exposure, size, jitter, light_count, frame,
+            _pad0, _pad1, sky
+        }),
+        layout!(GpuSky in "scene.inc.wgsl" {
+            perez_a, perez_b, perez_c, perez_d, perez_e, zenith, normalization, sun_direction, sun_radiance, uniform, ground_albedo
+        }),
+        layout!(GpuVertex in "scene.inc.wgsl" { position, u, normal, v, tangent }),
         layout!(GpuInstance in "scene.inc.wgsl" { world_from_local, local_from_world, material, mesh, _pad0, _pad1 }),
         layout!(TextureSlot in "scene.inc.wgsl" { uv_x, uv_y, rect }),
-        layout!(GpuMaterial in "scene.inc.wgsl" { base_color, emissive, base_color_texture, emissive_texture }),
+        layout!(GpuMaterial in "scene.inc.wgsl" {
+            base_color, emissive, pbr, base_color_texture, emissive_texture, metallic_roughness_texture, normal_texture
+        }),
         layout!(GpuLight in "scene.inc.wgsl" { position, kind, direction, range, radiance, spot_scale, spot_offset, _pad0, _pad1, _pad2 }),
         layout!(GpuBlas in "ray_tracing.inc.wgsl" { node_offset, triangle_offset, node_count, triangle_count, first_index, base_vertex, _pad0, _pad1 }),
         layout!(TlasEntry in "ray_tracing.inc.wgsl" { instance, node_offset, triangle_offset, _pad }),

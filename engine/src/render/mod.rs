@@ -1,15 +1,18 @@
-//! The camera path: raster G-buffer → direct lighting → tonemapping, as one frame script on the
-//! render graph, plus output readback and per-pass GPU timings.
+//! The camera path: raster G-buffer → direct lighting → temporal anti-aliasing → tonemapping, as
+//! one frame script on the render graph, plus output readback and per-pass GPU timings.
 //!
 //! ```text
 //!  scene (ECS) ──extract/prepare──▶ GpuScene (bind group 0)
 //!                                     │
-//!  gbuffer ──depth, normal, albedo, emissive──▶ direct_lighting ──hdr_radiance──▶ tonemap ──ldr_image──▶ present_blit
+//!  gbuffer ──depth, normal, albedo, emissive, motion──▶ direct_lighting ──hdr_radiance──▶ taa, taa_output
+//!      ──hdr_radiance──▶ tonemap ──ldr_image──▶ present_blit
 //! ```
 
+pub mod exposure;
 pub mod gpu_scene;
 pub mod gpu_types;
 pub mod readback;
+pub mod taa;
 
 use std::collections::VecDeque;
 use std::ops::Not;
@@ -24,7 +27,10 @@ use crate::app::{Prepare, Render, Time};
 use crate::gpu::GpuContext;
 use crate::graph::{FrameReport, GpuTimer, Handle, RenderGraph, Texture as GraphTexture, TextureDesc, TransientPool};
 use crate::shader::{Program, RenderTargets, compute_program, compute_program_with_constants, render_program};
-pub use gpu_scene::{GpuScene, RenderSize, SkyRadiance, prepare_gpu_scene};
+pub use crate::sky::Sky;
+pub use exposure::{AutoExposure, DefaultAutoExposure, ExposureState};
+pub use gpu_scene::{GpuScene, RenderSize, prepare_gpu_scene};
+pub use taa::{DefaultTemporalAntiAliasing, TaaState, TemporalAntiAliasing};
 
 /// Formats of the G-buffer and outputs.
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
@@ -34,6 +40,8 @@ pub const NORMAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 /// the materials' exact values.
 pub const ALBEDO_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 pub const EMISSIVE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+/// Screen motion since the previous frame (screen units), for the temporal anti-aliasing.
+pub const MOTION_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rg16Float;
 /// Linear radiance, kept in full float so that readback and the EXR output lose nothing.
 pub const HDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 /// Tonemapped, sRGB-encoded output.
@@ -50,16 +58,28 @@ impl Plugin for RenderPlugin {
         let pipelines = CameraPipelines::new(&self.gpu).unwrap_or_else(|e| panic!("camera path shaders: {e}"));
         app.insert_resource(self.gpu.clone())
             .insert_resource(self.size)
-            .init_resource::<SkyRadiance>()
+            .init_resource::<Sky>()
             .insert_resource(GpuScene::new(&self.gpu))
             .insert_resource(RenderOutputs::new(&self.gpu, self.size))
+            .insert_resource(TaaState::new(&self.gpu, self.size))
+            .insert_resource(ExposureState::new(&self.gpu))
             .insert_resource(pipelines)
             .init_resource::<TransientPool>()
             .init_resource::<GpuTimer>()
             .init_resource::<FrameTimings>()
             .insert_resource(crate::rt::RayTracingScene::new(&self.gpu))
             .insert_resource(gpu_scene::Uploads::new(&self.gpu))
-            .add_systems(Prepare, (prepare_render_outputs, prepare_gpu_scene, crate::rt::prepare_ray_tracing_scene).chain())
+            .add_systems(
+                Prepare,
+                (
+                    prepare_render_outputs,
+                    taa::prepare_taa,
+                    exposure::prepare_exposure,
+                    prepare_gpu_scene,
+                    crate::rt::prepare_ray_tracing_scene,
+                )
+                    .chain(),
+            )
             .init_resource::<FrameScript>()
             .add_systems(Render, (gpu_scene::flush_uploads, render_camera_frame.run_if(frame_script_is("direct"))).chain());
     }
@@ -70,9 +90,13 @@ impl Plugin for RenderPlugin {
 pub struct CameraPipelines {
     pub gbuffer: Arc<Program<wgpu::RenderPipeline>>,
     pub direct_lighting: Arc<Program<wgpu::ComputePipeline>>,
-    /// The tonemap pass with each [`DisplayTransform`], in the order of its variants.
-    pub tonemap: Arc<Program<wgpu::ComputePipeline>>,
-    pub tonemap_agx: Arc<Program<wgpu::ComputePipeline>>,
+    /// The tonemap pass with each [`DisplayTransform`] (in the order of its variants), with the
+    /// camera's exposure (`[0]`) or the auto-exposure's (`[1]`).
+    pub tonemap: [[Arc<Program<wgpu::ComputePipeline>>; 2]; 2],
+    pub exposure_histogram: Arc<Program<wgpu::ComputePipeline>>,
+    pub exposure_adapt: Arc<Program<wgpu::ComputePipeline>>,
+    pub taa: Arc<Program<wgpu::ComputePipeline>>,
+    pub taa_output: Arc<Program<wgpu::ComputePipeline>>,
 }
 
 /// How the `tonemap` pass turns exposed linear radiance into display values (a resource; the
@@ -98,7 +122,7 @@ impl CameraPipelines {
             "gbuffer.wgsl",
             "gbuffer",
             RenderTargets {
-                colors: &[color(NORMAL_FORMAT), color(ALBEDO_FORMAT), color(EMISSIVE_FORMAT)],
+                colors: &[color(NORMAL_FORMAT), color(ALBEDO_FORMAT), color(EMISSIVE_FORMAT), color(MOTION_FORMAT)],
                 depth: Some(depth_test()),
                 primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
             },
@@ -106,14 +130,23 @@ impl CameraPipelines {
         Ok(Self {
             gbuffer: Arc::new(gbuffer),
             direct_lighting: Arc::new(compute_program(&gpu.device, "direct_lighting.wgsl", "main", "direct_lighting")?),
-            tonemap: Arc::new(compute_program(&gpu.device, "tonemap.wgsl", "main", "tonemap")?),
-            tonemap_agx: Arc::new(compute_program_with_constants(
-                &gpu.device,
-                "tonemap.wgsl",
-                "main",
-                "tonemap",
-                &[("DISPLAY_TRANSFORM", 1.0)],
-            )?),
+            tonemap: {
+                let variant = |display: f64, auto: f64| {
+                    compute_program_with_constants(
+                        &gpu.device,
+                        "tonemap.wgsl",
+                        "main",
+                        "tonemap",
+                        &[("DISPLAY_TRANSFORM", display), ("AUTO_EXPOSURE", auto)],
+                    )
+                    .map(Arc::new)
+                };
+                [[variant(0.0, 0.0)?, variant(0.0, 1.0)?], [variant(1.0, 0.0)?, variant(1.0, 1.0)?]]
+            },
+            exposure_histogram: Arc::new(compute_program(&gpu.device, "exposure_histogram.wgsl", "main", "exposure_histogram")?),
+            exposure_adapt: Arc::new(compute_program(&gpu.device, "exposure_adapt.wgsl", "main", "exposure_adapt")?),
+            taa: Arc::new(compute_program(&gpu.device, "taa.wgsl", "main", "taa")?),
+            taa_output: Arc::new(compute_program(&gpu.device, "taa_output.wgsl", "main", "taa_output")?),
         })
     }
 }
@@ -331,6 +364,9 @@ pub struct GBuffer {
     pub normal: Handle<GraphTexture>,
     pub albedo: Handle<GraphTexture>,
     pub emissive: Handle<GraphTexture>,
+    /// Where each pixel's surface was on the screen in the previous frame, as an offset (screen
+    /// units) from where it is now.
+    pub motion: Handle<GraphTexture>,
 }
 
 /// One camera frame being scripted: its graph and its two outputs.
@@ -357,6 +393,8 @@ pub struct CameraFrame<'w> {
     surface: Option<Res<'w, SurfaceTarget>>,
     overlay: Option<Res<'w, SurfaceOverlayHook>>,
     display: Option<Res<'w, DisplayTransform>>,
+    taa: Option<ResMut<'w, TaaState>>,
+    exposure: Option<Res<'w, ExposureState>>,
 }
 
 impl CameraFrame<'_> {
@@ -384,9 +422,10 @@ impl CameraFrame<'_> {
         let mut normal = graph.create_texture("gbuffer_normal", texture_desc(size, NORMAL_FORMAT, attachment));
         let mut albedo = graph.create_texture("gbuffer_albedo", texture_desc(size, ALBEDO_FORMAT, attachment));
         let mut emissive = graph.create_texture("gbuffer_emissive", texture_desc(size, EMISSIVE_FORMAT, attachment));
+        let mut motion = graph.create_texture("gbuffer_motion", texture_desc(size, MOTION_FORMAT, attachment));
         {
             let mut pass = graph.add_pass("gbuffer");
-            let targets = [pass.write(&mut normal), pass.write(&mut albedo), pass.write(&mut emissive)];
+            let targets = [pass.write(&mut normal), pass.write(&mut albedo), pass.write(&mut emissive), pass.write(&mut motion)];
             let depth_target = pass.write(&mut depth);
             let program = pipelines.gbuffer.clone();
             let scene_reads = pass.read_named(&program.bindings, 0);
@@ -423,13 +462,13 @@ impl CameraFrame<'_> {
             });
         }
 
-        GBuffer { depth, normal, albedo, emissive }
+        GBuffer { depth, normal, albedo, emissive, motion }
     }
 
     /// Direct light (emission + every light with a shadow ray) of the G-buffer into `hdr`.
     pub fn add_direct_lighting(&self, graph: &mut RenderGraph, gbuffer: &GBuffer, hdr: &mut Handle<GraphTexture>) {
         let (pipelines, size) = (&self.pipelines, self.size());
-        let GBuffer { depth, normal, albedo, emissive } = gbuffer;
+        let GBuffer { depth, normal, albedo, emissive, .. } = gbuffer;
         {
             let mut pass = graph.add_pass("direct_lighting");
             let inputs = [pass.read(depth), pass.read(normal), pass.read(albedo), pass.read(emissive)];
@@ -459,29 +498,37 @@ impl CameraFrame<'_> {
     /// graph and records its timings.
     pub fn finish(&mut self, frame: FrameGraph) {
         let FrameGraph { mut graph, hdr, mut ldr } = frame;
+        let auto_exposure = self.add_auto_exposure(&mut graph, &hdr);
         let (gpu, pipelines, size) = (self.gpu.clone(), &self.pipelines, self.size());
         {
             let mut pass = graph.add_pass("tonemap");
             let input = pass.read(&hdr);
             let out = pass.write(&mut ldr);
-            let program = match self.display.as_deref().copied().unwrap_or_default() {
-                DisplayTransform::Clamp => pipelines.tonemap.clone(),
-                DisplayTransform::AgX => {
-                    pass.note("AgX display transform");
-                    pipelines.tonemap_agx.clone()
-                }
-            };
+            let display = self.display.as_deref().copied().unwrap_or_default();
+            if display == DisplayTransform::AgX {
+                pass.note("AgX display transform");
+            }
+            if auto_exposure.is_some() {
+                pass.note("auto-exposure");
+            }
+            let program = pipelines.tonemap[display as usize][auto_exposure.is_some() as usize].clone();
+            let exposure = auto_exposure.as_ref().map(|e| pass.read(e));
+            // Without auto-exposure the shader reads no exposure buffer; the binding still needs one.
+            let unused = self.exposure.as_deref().map(|e| e.exposure_buffer().clone());
             let scene_reads = pass.read_named(&program.bindings, 0);
             pass.render(move |ctx| {
                 let group0 = ctx.bind_group(&*program, 0, &scene_reads);
-                let group1 = program.bind_group(
-                    &ctx.gpu.device,
-                    1,
-                    &[
-                        ("hdr_in", wgpu::BindingResource::TextureView(ctx.view(input))),
-                        ("ldr_out", wgpu::BindingResource::TextureView(ctx.view(out))),
-                    ],
-                );
+                let exposure = match (exposure, &unused) {
+                    (Some(e), _) => Some(ctx.buffer(e).as_entire_binding()),
+                    (None, Some(b)) => Some(b.as_entire_binding()),
+                    (None, None) => None,
+                };
+                let mut entries = vec![
+                    ("hdr_in", wgpu::BindingResource::TextureView(ctx.view(input))),
+                    ("ldr_out", wgpu::BindingResource::TextureView(ctx.view(out))),
+                ];
+                entries.extend(exposure.map(|e| ("tonemap_exposure", e)));
+                let group1 = program.bind_group(&ctx.gpu.device, 1, &entries);
                 dispatch(ctx.encoder, ctx.label, &program.pipeline, &[&group0, &group1], workgroups(size));
             });
         }
@@ -534,11 +581,13 @@ impl CameraFrame<'_> {
     }
 }
 
-/// Render stage: the engine's frame script, `"direct"` — G-buffer, direct light, tonemap.
+/// Render stage: the engine's frame script, `"direct"` — G-buffer, direct light, temporal
+/// anti-aliasing, tonemap.
 pub fn render_camera_frame(mut frame: CameraFrame) {
     let mut script = frame.begin();
     let gbuffer = frame.add_gbuffer(&mut script.graph);
     frame.add_direct_lighting(&mut script.graph, &gbuffer, &mut script.hdr);
+    frame.add_taa(&mut script.graph, &gbuffer, &mut script.hdr);
     frame.finish(script);
 }
 

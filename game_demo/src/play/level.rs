@@ -24,9 +24,10 @@ use std::path::{Path, PathBuf};
 use bevy_app::{App, Plugin, Update};
 use bevy_ecs::prelude::*;
 use engine::app::Time;
-use engine::render::SkyRadiance;
+use engine::render::Sky;
 use engine::scene::{Camera, DirectionalLight, Material, Name, NodeContent, Orbit, PointLight, SceneDescription, Transform};
 use engine::shapes::{box_part, box_with_hole, merge};
+use engine::sky::PhysicalSky;
 use glam::{Affine3A, Quat, UVec3, Vec2, Vec3};
 
 /// An axis-aligned rectangle of the floor plan: `min`/`max` are (x, z).
@@ -753,7 +754,9 @@ pub struct SunState {
     pub transform: Transform,
     pub color: Vec3,
     pub intensity: f32,
-    pub sky: Vec3,
+    /// Preetham's sky for this sun (its brightness that of the sun at its highest, fading through
+    /// twilight by itself while the sun's light is already off).
+    pub sky: Sky,
     /// Unit vector towards the sun.
     pub to_sun: Vec3,
 }
@@ -776,10 +779,12 @@ impl DayNight {
         let noon = Vec3::new(1.0, 0.95, 0.85);
         let dusk = Vec3::new(1.0, 0.42, 0.15);
         let color = dusk.lerp(noon, smoothstep(0.0, 0.45, elevation));
-        let night_sky = Vec3::new(0.004, 0.006, 0.015);
-        let day_sky = Vec3::new(0.2, 0.32, 0.55);
-        let dusk_glow = Vec3::new(0.3, 0.12, 0.05) * (-(elevation / 0.12).powi(2)).exp();
-        let sky = night_sky.lerp(day_sky, smoothstep(-0.1, 0.35, elevation)) + dusk_glow;
+        let sky = Sky::Physical(PhysicalSky {
+            sun_direction: Some(to_sun),
+            sun_irradiance: Some(self.max_intensity),
+            night: Vec3::new(0.004, 0.006, 0.015),
+            ..Default::default()
+        });
         let transform = Transform::from_translation(to_sun * 30.0).looking_at(Vec3::ZERO, Vec3::Y);
         SunState { transform, color, intensity: if elevation > 0.0 { intensity } else { 0.0 }, sky, to_sun }
     }
@@ -846,12 +851,8 @@ pub fn animate_platform(time: Res<Time>, mut platforms: Query<(&mut PlatformMoti
     }
 }
 
-/// Turns the sun and sets its colour and intensity, and the sky radiance.
-pub fn animate_day_night(
-    time: Res<Time>,
-    sky: Option<ResMut<SkyRadiance>>,
-    mut suns: Query<(&DayNight, &mut DirectionalLight, &mut Transform)>,
-) {
+/// Turns the sun and sets its colour and intensity, and the sky.
+pub fn animate_day_night(time: Res<Time>, sky: Option<ResMut<Sky>>, mut suns: Query<(&DayNight, &mut DirectionalLight, &mut Transform)>) {
     let mut sky = sky;
     for (day, mut light, mut transform) in &mut suns {
         let state = day.state(time.elapsed_seconds);
@@ -859,7 +860,7 @@ pub fn animate_day_night(
         light.color = state.color;
         light.intensity = state.intensity;
         if let Some(sky) = sky.as_mut() {
-            sky.0 = state.sky;
+            **sky = state.sky;
         }
     }
 }
@@ -1060,7 +1061,7 @@ mod tests {
         let mut world = World::new();
         let root = level.scene.clone().spawn(&mut world);
         level.attach_animations(&mut world, root).unwrap();
-        world.insert_resource(SkyRadiance::default());
+        world.insert_resource(Sky::default());
         world.insert_resource(Time::fixed(1.0 / 60.0));
         let mut schedule = Schedule::default();
         schedule.add_systems((animate_door, animate_platform, animate_day_night, animate_color_cycle));
@@ -1098,10 +1099,12 @@ mod tests {
         let midnight = day.state(((0.75 - day.phase) * day.period) as f64);
         let dusk = day.state(((0.49 - day.phase) * day.period) as f64);
         assert!(noon.intensity > 0.9 * day.max_intensity && midnight.intensity == 0.0);
-        assert!(noon.sky.z > midnight.sky.z * 10.0);
+        let zenith = |s: &SunState| s.sky.radiance(None, Vec3::Y);
+        assert!(zenith(&noon).z > zenith(&midnight).z * 10.0, "noon {}, midnight {}", zenith(&noon), zenith(&midnight));
+        assert!(zenith(&midnight).min_element() > 0.0, "the night sky is not black");
         assert!(dusk.color.z < noon.color.z * 0.5, "dusk is not redder than noon");
         assert!(noon.transform.rotation.mul_vec3(Vec3::NEG_Z).y < -0.5, "the noon sun does not shine down");
-        let sky = world.resource::<SkyRadiance>().0;
+        let sky = *world.resource::<Sky>();
         assert_eq!(sky, day.state(world.resource::<Time>().elapsed_seconds).sky);
 
         // The light's hue changes.

@@ -48,6 +48,8 @@ pub struct PlayOptions {
     /// Camera-following cascades (0: one volume over the level): this many nested volumes of
     /// [`CASCADE_PROBES`] probes, the finest at `probe_spacing`.
     pub cascades: u32,
+    /// Temporal anti-aliasing ([`engine::render::TemporalAntiAliasing`]).
+    pub taa: bool,
 }
 
 /// Probes of each cascade of `play --cascades N`.
@@ -63,6 +65,7 @@ impl Default for PlayOptions {
             adaptive: true,
             use_assets: true,
             cascades: 0,
+            taa: true,
         }
     }
 }
@@ -71,6 +74,9 @@ impl Default for PlayOptions {
 /// animations, the player on the navigation mesh, the level's DDGI volume and the overlay's
 /// resources. `scripted`: the player follows the level's tour instead of input.
 pub fn setup_play(app: &mut App, options: &PlayOptions, scripted: bool) -> Result<DemoLevel, String> {
+    if !options.taa {
+        app.insert_resource(engine::render::DefaultTemporalAntiAliasing(engine::render::TemporalAntiAliasing::off()));
+    }
     let assets = if options.use_assets { level::kenney_assets_or_note() } else { None };
     let level = demo_level(assets.as_deref());
     let player = PlayerPlugin::new(level.layout.clone(), PlayerSettings::default()).map_err(|e| format!("navigation mesh: {e}"))?;
@@ -86,8 +92,8 @@ pub fn setup_play(app: &mut App, options: &PlayOptions, scripted: bool) -> Resul
     app.add_plugins((DemoLevelPlugin, player));
 
     let mut volume = DdgiVolume {
-        bounds: Some(level.layout.gi_bounds),
-        probe_counts: level::level_probe_counts(options.probe_spacing),
+        bounds: Some((level.layout.gi_bounds.0.as_dvec3(), level.layout.gi_bounds.1.as_dvec3())),
+        probe_counts: Some(level::level_probe_counts(options.probe_spacing)),
         rays_per_probe: options.rays_per_probe,
         ..Default::default()
     };
@@ -98,7 +104,7 @@ pub fn setup_play(app: &mut App, options: &PlayOptions, scripted: bool) -> Resul
             count: Some(options.cascades),
             probe_counts: CASCADE_PROBES,
             spacing: options.probe_spacing,
-            volume: DdgiVolume { bounds: None, probe_counts: CASCADE_PROBES, warm_up: true, ..volume },
+            volume: DdgiVolume { bounds: None, probe_counts: Some(CASCADE_PROBES), warm_up: true, ..volume },
             ..Default::default()
         };
         cascades.validate().map_err(|e| format!("the level's DDGI cascades: {e}"))?;

@@ -673,6 +673,7 @@ mod tests {
             adaptive: true,
             use_assets: false,
             cascades: 0,
+            taa: true,
         };
         let mut app = engine::headless::headless_app(&gpu, RenderSize { width: 128, height: 72 }, crate::play::STEP_SECONDS);
         crate::play::setup_play(&mut app, &options, true).expect("the level builds");

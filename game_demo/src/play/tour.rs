@@ -7,7 +7,7 @@ use bevy_app::{App, Update};
 use bevy_ecs::prelude::*;
 use engine::app::Time;
 use engine::gpu::GpuContext;
-use engine::render::{RenderSize, SkyRadiance};
+use engine::render::{RenderSize, Sky};
 use engine::scene::{Camera, SceneDescription, Transform};
 use engine::window::{WindowContext, WindowHooks};
 use glam::{UVec3, Vec3};
@@ -48,7 +48,7 @@ fn walk_the_tour(time: Res<Time>, mut cameras: Query<&mut Transform, With<Camera
 /// Sets `app` up for the tour: the sky, the cascades and the walking camera (the scene is spawned
 /// by the caller).
 pub fn setup_tour(app: &mut App, cascades: ddgi::DdgiCascades) {
-    app.insert_resource(SkyRadiance(OPEN_SKY));
+    app.insert_resource(Sky::Uniform(OPEN_SKY));
     ddgi::use_ddgi_cascades(app, cascades, ddgi::DdgiOutput::Full);
     app.add_systems(Update, walk_the_tour);
 }

@@ -74,6 +74,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
 /// DDGI with one volume, and the `"probe_fog"` frame script instead of `"ddgi"`.
 fn add_probe_fog(app: &mut App, bounds: Option<(glam::Vec3, glam::Vec3)>) {
+    let bounds = bounds.map(|(lo, hi)| (lo.as_dvec3(), hi.as_dvec3()));
     ddgi::use_ddgi(app, DdgiVolume { bounds, ..Default::default() }, Default::default());
     let gpu = app.world().resource::<engine::gpu::GpuContext>().clone();
     let program = ddgi::register_shaders()
@@ -100,6 +101,7 @@ fn render_probe_fog_frame(mut frame: CameraFrame, mut ddgi: DdgiFrame, fog: Res<
     if let Some(volume) = volumes.first_mut() {
         add_probe_fog_pass(&mut script.graph, &frame, &fog, volume, &gbuffer, &lit, &mut script.hdr);
     }
+    frame.add_taa(&mut script.graph, &gbuffer, &mut script.hdr);
     frame.finish(script);
     ddgi.finish(&frame);
 }

@@ -102,7 +102,7 @@ fn spawn_box(world: &mut World, index: usize, at: Vec3) {
 /// The game in `app` (which has the engine and the camera path): DDGI over the scene, the
 /// player's light at `light`, the boxes already dropped, and the game's systems.
 fn setup_game(app: &mut App, light: Vec3, boxes: Boxes) {
-    let volume = DdgiVolume { bounds: (scene_entry().gi_bounds)(), ..Default::default() };
+    let volume = DdgiVolume { bounds: scene_entry().gi_box(), ..Default::default() };
     use_ddgi(app, volume, DdgiOutput::Full);
     let light =
         (PlayerLight, PointLight { color: Vec3::new(0.3, 0.5, 1.0), intensity: 5.0, range: None }, Transform::from_translation(light));

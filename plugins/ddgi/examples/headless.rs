@@ -26,7 +26,8 @@ pub fn run(args: Args) -> Result<(), Box<dyn std::error::Error>> {
     let built_in = scenes::find(&args.scene);
     let scene = built_in.map_or_else(|| engine::import::load_scene(Path::new(&args.scene)), |entry| Ok((entry.build)()))?;
     // One volume of DdgiVolume's default probes over the scene (a built-in scene's own GI bounds).
-    let volume = DdgiVolume { bounds: built_in.and_then(|entry| (entry.gi_bounds)()), ..Default::default() };
+    let bounds = built_in.and_then(|entry| (entry.gi_bounds)()).map(|(lo, hi)| (lo.as_dvec3(), hi.as_dvec3()));
+    let volume = DdgiVolume { bounds, ..Default::default() };
     let gpu = GpuContext::new(GpuOptions::default())?;
     let settings = HeadlessSettings { width: args.size, height: args.size, frames: args.frames, ..Default::default() };
     let frame = render_scene_with(&gpu, scene, &settings, |app| use_ddgi(app, volume, DdgiOutput::Full))?;

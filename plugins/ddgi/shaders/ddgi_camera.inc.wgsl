@@ -22,6 +22,23 @@ struct DdgiGatherParams {
 @group(2) @binding(2) var gbuffer_normal: texture_2d<f32>;
 @group(2) @binding(3) var gbuffer_albedo: texture_2d<f32>;
 @group(2) @binding(4) var direct_in: texture_2d<f32>;
-// Per pixel: (Σ volume weight · irradiance, Σ volume weight).
+// Per pixel: (Σ volume weight · irradiance, Σ volume weight); then, at pixel + the pixel count, the
+// same for the irradiance along a glossy pixel's reflection (written only at such pixels).
 @group(2) @binding(5) var<storage, read_write> ddgi_indirect: array<vec4<f32>>;
 @group(2) @binding(6) var radiance_out: texture_storage_2d<rgba32float, write>;
+@group(2) @binding(7) var gbuffer_emissive: texture_2d<f32>;
+
+// The material of a G-buffer pixel as the BRDF sees it (base colour and metallic, roughness in the
+// normal's w, specular weight in the emission's).
+fn ddgi_pixel_surface(id: vec2<u32>) -> BrdfSurface {
+    let albedo = textureLoad(gbuffer_albedo, id, 0);
+    return BrdfSurface(albedo.rgb, albedo.a, textureLoad(gbuffer_normal, id, 0).w, textureLoad(gbuffer_emissive, id, 0).a);
+}
+
+// The direction a glossy lobe gathers most of its light from: the mirror direction, drawn towards
+// the normal as the surface roughens (Lagarde and de Rousiers 2014).
+fn ddgi_specular_direction(n: vec3<f32>, to_viewer: vec3<f32>, s: BrdfSurface) -> vec3<f32> {
+    let a = brdf_alpha(s);
+    let r = reflect(-to_viewer, n);
+    return safe_normalize(mix(n, r, (1.0 - a) * (sqrt(1.0 - a) + a)), n);
+}

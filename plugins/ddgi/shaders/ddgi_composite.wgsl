@@ -5,15 +5,18 @@
 #include "ddgi_camera.inc.wgsl"
 #include "ray_tracing.inc.wgsl"
 
-// The cosine-weighted share of `count` stratified rays from surface point p (normal n) that travel
-// `reach` without a hit: spherical Fibonacci over the hemisphere, turned by a per-pixel angle.
-fn ddgi_open_fraction(pixel: vec2<u32>, p: vec3<f32>, n: vec3<f32>, count: u32, reach: f32) -> f32 {
+// `count` stratified cosine-distributed rays from surface point p (normal n), of reach `reach`,
+// turned by a per-pixel angle: the share that escapes (x) and the mean over all of the sky's
+// radiance along those that escape (yzw), which times π is the sky's irradiance through them.
+fn ddgi_open_rays(pixel: vec2<u32>, p: vec3<f32>, n: vec3<f32>, count: u32, reach: f32, with_sky: bool) -> vec4<f32> {
     let view_distance = length(p - view.camera_position);
     let origin = offset_ray_origin(p + n * (1e-4 * view_distance), n);
     let tangent = safe_normalize(cross(select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.9), n), vec3<f32>(1.0, 0.0, 0.0));
     let bitangent = cross(n, tangent);
-    let turn = f32(hash_lowbias32(pixel.x * 7919u + pixel.y * 104729u)) / 4294967296.0;
+    // A new turn every frame: the temporal anti-aliasing averages the rays of many frames.
+    let turn = f32(hash_lowbias32(pixel.x * 7919u + pixel.y * 104729u + view.frame * 2654435769u)) / 4294967296.0;
     var open = 0u;
+    var sky = vec3<f32>(0.0);
     for (var k = 0u; k < count; k++) {
         // Cosine-distributed: uniform over the unit disc, lifted onto the hemisphere.
         let u = (f32(k) + 0.5) / f32(count);
@@ -22,20 +25,24 @@ fn ddgi_open_fraction(pixel: vec2<u32>, p: vec3<f32>, n: vec3<f32>, count: u32, 
         let d = tangent * (r * cos(phi)) + bitangent * (r * sin(phi)) + n * sqrt(max(1.0 - u, 0.0));
         if !trace_any(Ray(origin, 0.0, d, reach)) {
             open += 1u;
+            if with_sky {
+                sky += sky_radiance(d);
+            }
         }
     }
-    return f32(open) / f32(max(count, 1u));
+    let total = f32(max(count, 1u));
+    return vec4<f32>(f32(open) / total, sky / total);
 }
 
-// The sky's irradiance at surface point p (normal n) times its visibility (the open share of
-// `sky_rays` rays of reach sky_distance).
+// The sky's irradiance at surface point p (normal n) through its visibility: π × the mean sky
+// radiance along `sky_rays` rays of reach sky_distance, those that hit counting as black.
 fn ddgi_sky_irradiance(pixel: vec2<u32>, p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     let count = ddgi_gather_params.sky_rays;
-    let sky = sanitize_radiance(view.sky_radiance);
-    if count == 0u || !(max(sky.x, max(sky.y, sky.z)) > 0.0) {
+    let uniform = view.sky.uniform.rgb;
+    if count == 0u || (view.sky.zenith.w == 0.0 && !(max(uniform.x, max(uniform.y, uniform.z)) > 0.0)) {
         return vec3<f32>(0.0);
     }
-    return PI * sky * ddgi_open_fraction(pixel, p, n, count, ddgi_gather_params.sky_distance);
+    return PI * ddgi_open_rays(pixel, p, n, count, ddgi_gather_params.sky_distance, true).yzw;
 }
 
 // Contact occlusion at surface point p (normal n): the open share of ao_rays rays of ao_radius, 1
@@ -45,35 +52,54 @@ fn ddgi_contact_occlusion(pixel: vec2<u32>, p: vec3<f32>, n: vec3<f32>) -> f32 {
     if count == 0u || !(ddgi_gather_params.ao_radius > 0.0) {
         return 1.0;
     }
-    return ddgi_open_fraction(pixel, p, n, count, ddgi_gather_params.ao_radius);
+    return ddgi_open_rays(pixel, p, n, count, ddgi_gather_params.ao_radius, false).x;
 }
 
-// albedo / π × the irradiance of the volumes at a pixel (0 where there is no surface).
+// The indirect light a pixel reflects (0 where there is no surface): albedo / π × the volumes'
+// irradiance; a glossy pixel's specular lobe reflects, by its albedo, the irradiance along its
+// reflection instead, and its diffuse lobe what the specular one leaves.
 fn ddgi_indirect_radiance(id: vec2<u32>) -> vec3<f32> {
     let depth = textureLoad(gbuffer_depth, id, 0);
     if depth <= 0.0 {
         return vec3<f32>(0.0);
     }
-    let acc = ddgi_indirect[id.y * view.size.x + id.x];
+    let index = id.y * view.size.x + id.x;
+    let acc = ddgi_indirect[index];
+    let surface = ddgi_pixel_surface(id);
+    let glossy = brdf_has_specular(surface);
     // Outside every volume the probes' light fades out (the weights sum to less than 1), and the
     // sky light fills the share they leave. Contact occlusion darkens the probes' share only: the
     // sky light has its own visibility.
     var irradiance = acc.rgb / max(acc.w, 1.0);
+    var reflected = vec3<f32>(0.0);
+    if glossy {
+        let r = ddgi_indirect[index + view.size.x * view.size.y];
+        reflected = r.rgb / max(r.w, 1.0);
+    }
     let uncovered = 1.0 - clamp(acc.w, 0.0, 1.0);
     let occluded = acc.w > 0.0 && ddgi_gather_params.ao_rays > 0u;
-    // The surface point is needed only for rays: most pixels of a covered view trace none.
-    if occluded || uncovered > 0.0 {
+    // The surface point is needed only for rays and for glossy pixels: most pixels of a covered
+    // view trace none.
+    if occluded || uncovered > 0.0 || glossy {
         let p = view_world_position(id, depth);
         let n = safe_normalize(textureLoad(gbuffer_normal, id, 0).xyz, vec3<f32>(0.0, 1.0, 0.0));
         if occluded {
-            irradiance *= ddgi_contact_occlusion(id, p, n);
+            let open = ddgi_contact_occlusion(id, p, n);
+            irradiance *= open;
+            reflected *= open;
         }
         if uncovered > 0.0 {
-            irradiance += uncovered * ddgi_sky_irradiance(id, p, n);
+            let sky = uncovered * ddgi_sky_irradiance(id, p, n);
+            irradiance += sky;
+            reflected += sky;
+        }
+        if glossy {
+            let to_viewer = safe_normalize(view.camera_position - p, n);
+            let specular = brdf_specular_albedo(surface, max(dot(n, to_viewer), 1e-4));
+            return (brdf_diffuse_color(surface) * (vec3<f32>(1.0) - specular) * irradiance + specular * reflected) * INV_PI;
         }
     }
-    let albedo = textureLoad(gbuffer_albedo, id, 0).rgb;
-    return albedo * INV_PI * irradiance;
+    return surface.base_color * INV_PI * irradiance;
 }
 
 // Direct light + indirect light.

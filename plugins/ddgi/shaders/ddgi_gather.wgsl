@@ -63,6 +63,7 @@ fn gather_irradiance(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let index = id.y * view.size.x + id.x;
+    let glossy_index = index + view.size.x * view.size.y;
     let first = ddgi_gather_params.first_volume != 0u;
     var acc = vec4<f32>(0.0);
     if !first {
@@ -80,12 +81,26 @@ fn gather_irradiance(@builtin(global_invocation_id) id: vec3<u32>) {
     if depth > 0.0 {
         let p = view_world_position(id.xy, depth);
         let w = ddgi_volume_weight(p);
+        let surface = ddgi_pixel_surface(id.xy);
+        let glossy = brdf_has_specular(surface);
         if w > 0.0 {
             let n = safe_normalize(textureLoad(gbuffer_normal, id.xy, 0).xyz, vec3<f32>(0.0, 1.0, 0.0));
             let to_viewer = safe_normalize(view.camera_position - p, n);
-            acc = ddgi_accumulate(acc, ddgi_sample_irradiance(p, n, to_viewer), w);
+            // A glossy pixel also takes the irradiance along its reflection, with the same weights.
+            let r = select(n, ddgi_specular_direction(n, to_viewer, surface), glossy);
+            let e = ddgi_sample_irradiance_pair(p, n, to_viewer, r, glossy);
+            if glossy {
+                var reflected = vec4<f32>(0.0);
+                if !first {
+                    reflected = ddgi_indirect[glossy_index];
+                }
+                ddgi_indirect[glossy_index] = ddgi_accumulate(reflected, e.reflected, w);
+            }
+            acc = ddgi_accumulate(acc, e.normal, w);
             ddgi_mark_seen_probes(p, n);
             lit = true;
+        } else if glossy && first {
+            ddgi_indirect[glossy_index] = vec4<f32>(0.0);
         }
     }
     // The first volume starts every pixel's accumulation; the others write only what they added.

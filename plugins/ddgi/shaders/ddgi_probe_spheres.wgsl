@@ -48,7 +48,7 @@ fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) probe: u
     let n = vec3<f32>(sin(theta) * cos(phi), cos(theta), sin(theta) * sin(phi));
     let center = ddgi_volume.origin + ddgi_volume.spacing * vec3<f32>(ddgi_probe_coords(probe)) + ddgi_probe_view_probes[probe].offset;
     var out: ProbeVertex;
-    out.clip = view.clip_from_world * vec4<f32>(center + n * max(ddgi_probe_view.radius, 0.0), 1.0);
+    out.clip = view_raster_position(vec4<f32>(center + n * max(ddgi_probe_view.radius, 0.0), 1.0));
     out.normal = n;
     out.probe = probe;
     return out;

@@ -35,6 +35,18 @@ fn ddgi_cage_probe(base: vec3<i32>, step: vec3<u32>) -> u32 {
 // back-face (wrap shading), Chebyshev visibility on the distance moments, crush of small weights,
 // trilinear; the normal/view bias moves the lookup point off the surface first.
 fn ddgi_sample_irradiance(p: vec3<f32>, n: vec3<f32>, to_viewer: vec3<f32>) -> vec3<f32> {
+    return ddgi_sample_irradiance_pair(p, n, to_viewer, n, false).normal;
+}
+
+// Irradiance at a point from the probes for its normal and, with `reflected`, for a second
+// direction too (a glossy surface's reflection: the irradiance maps are the radiance a rough lobe
+// sees), with the same weights.
+struct DdgiIrradiancePair {
+    normal: vec3<f32>,
+    reflected: vec3<f32>,
+}
+
+fn ddgi_sample_irradiance_pair(p: vec3<f32>, n: vec3<f32>, to_viewer: vec3<f32>, r: vec3<f32>, reflected: bool) -> DdgiIrradiancePair {
     let v = ddgi_volume;
     var biased = p;
     if ddgi_has(DDGI_WEIGHT_NORMAL_BIAS) {
@@ -44,6 +56,7 @@ fn ddgi_sample_irradiance(p: vec3<f32>, n: vec3<f32>, to_viewer: vec3<f32>) -> v
     let base = ddgi_cage_base(grid);
     let alpha = clamp(grid - vec3<f32>(base), vec3<f32>(0.0), vec3<f32>(1.0));
     var sum = vec3<f32>(0.0);
+    var sum_reflected = vec3<f32>(0.0);
     var total = 0.0;
     for (var i = 0u; i < 8u; i++) {
         let step = ddgi_cage_step(i);
@@ -92,10 +105,14 @@ fn ddgi_sample_irradiance(p: vec3<f32>, n: vec3<f32>, to_viewer: vec3<f32>) -> v
         let irradiance = ddgi_decode_irradiance(textureSampleLevel(ddgi_irradiance, ddgi_sampler, uv, 0.0).rgb);
         sum += weight * irradiance;
         total += weight;
+        if reflected {
+            let uv_r = ddgi_atlas_uv(probe, r, v.irradiance_texels, v.irradiance_atlas_size);
+            sum_reflected += weight * ddgi_decode_irradiance(textureSampleLevel(ddgi_irradiance, ddgi_sampler, uv_r, 0.0).rgb);
+        }
     }
     if !(total > 0.0) {
-        return vec3<f32>(0.0);
+        return DdgiIrradiancePair(vec3<f32>(0.0), vec3<f32>(0.0));
     }
-    return sanitize_radiance(sum / total);
+    return DdgiIrradiancePair(sanitize_radiance(sum / total), sanitize_radiance(sum_reflected / total));
 }
 

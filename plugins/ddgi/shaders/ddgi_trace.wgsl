@@ -37,9 +37,9 @@ fn ddgi_generate_ray(i: u32) -> DdgiRay {
 }
 
 // Trace and shading: generates ray i (kept in ddgi_rays for the probe update), traces its closest
-// hit, back faces included (they mark probes inside geometry), and shades the hit (Lambertian): its
-// emission, direct light (a shadow ray per light) and indirect light from the previous frame's
-// probes. One pass, not two: a separate shading pass cost its own launch and a round trip of every
+// hit, back faces included (they mark probes inside geometry), and shades the hit: its emission,
+// direct light (a shadow ray per light, through the BRDF) and indirect light from the previous
+// frame's probes. One pass, not two: a separate shading pass cost its own launch and a round trip of every
 // hit through memory, which at the published grids took longer than the shading itself.
 @compute @workgroup_size(DDGI_RAY_GROUP)
 fn trace_rays(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -53,8 +53,13 @@ fn trace_rays(@builtin(global_invocation_id) id: vec3<u32>) {
     let ray = Ray(origin, 0.0, ray_info.direction, ddgi_volume.max_ray_distance);
     let hit = trace_closest(ray);
     if hit.instance == RT_NO_HIT {
-        // Misses see the sky.
-        ddgi_radiance[i] = vec4<f32>(min(sanitize_radiance(ddgi_volume.sky_radiance), vec3<f32>(DDGI_MAX_IRRADIANCE)), DDGI_MISS);
+        // Misses see the sky (the scene's along the ray, or the volume's own), never its sun disk:
+        // the directional light already lights what the probes see.
+        var sky = sky_radiance(ray_info.direction);
+        if ddgi_has(DDGI_SKY_OVERRIDE) {
+            sky = ddgi_volume.sky_radiance;
+        }
+        ddgi_radiance[i] = vec4<f32>(min(sanitize_radiance(sky), vec3<f32>(DDGI_MAX_IRRADIANCE)), DDGI_MISS);
         return;
     }
     if !hit.front_face {
@@ -72,14 +77,26 @@ fn trace_rays(@builtin(global_invocation_id) id: vec3<u32>) {
     // Lift it by a few ulps of that magnitude first.
     let magnitude = max(t, max(abs(origin.x), max(abs(origin.y), abs(origin.z))));
     let shadow_origin = offset_ray_origin(position + normal * (1e-5 * magnitude), normal);
+    let brdf = hit_brdf_surface(surface);
+    let to_probe = -ray_info.direction;
     var irradiance = vec3<f32>(0.0);
+    var direct = vec3<f32>(0.0);
     for (var l = 0u; l < view.light_count; l++) {
         let s = sample_light(lights[l], position, normal);
         if any(s.irradiance > vec3<f32>(0.0)) && !trace_any(Ray(shadow_origin, 0.0, s.to_light, s.distance * (1.0 - 1e-4))) {
             irradiance += s.irradiance;
+            direct += brdf_eval(brdf, normal, to_probe, s.to_light) * s.irradiance;
         }
     }
-    irradiance += ddgi_sample_irradiance(position, normal, -ray_info.direction);
-    let radiance = surface.emissive + surface.albedo * INV_PI * irradiance;
+    let probes = ddgi_sample_irradiance(position, normal, to_probe);
+    var radiance = surface.emissive + surface.albedo * INV_PI * (irradiance + probes);
+    if brdf_has_specular(brdf) {
+        // Direct light through the whole BRDF; the probes' light (irradiance, which cannot resolve
+        // a glossy reflection) reflected as by a diffuse surface of the lobes' albedo, so that
+        // metals seen by the probes are not black.
+        let specular = brdf_specular_albedo(brdf, max(dot(normal, to_probe), 1e-4));
+        let albedo = brdf_diffuse_color(brdf) * (vec3<f32>(1.0) - specular) + specular;
+        radiance = surface.emissive + direct + albedo * INV_PI * probes;
+    }
     ddgi_radiance[i] = vec4<f32>(min(sanitize_radiance(radiance), vec3<f32>(DDGI_MAX_IRRADIANCE)), t);
 }

@@ -214,7 +214,7 @@ pub fn follow_ddgi_cascades(
         };
         let mine: Vec<Entity> = volumes.iter().filter(|(_, c, _)| c.camera == camera).map(|(e, _, _)| e).collect();
         let template = |level: u32| DdgiVolume {
-            probe_counts: cascades.probe_counts,
+            probe_counts: Some(cascades.probe_counts),
             update_period: cascades.update_period(level),
             update_phase: level,
             bounds: None,
@@ -234,7 +234,7 @@ pub fn follow_ddgi_cascades(
             }
             for level in 0..count {
                 let (lo, hi) = cascades.level_bounds(level, position, None);
-                let volume = DdgiVolume { bounds: Some((lo.as_vec3(), hi.as_vec3())), ..template(level) };
+                let volume = DdgiVolume { bounds: Some((lo, hi)), ..template(level) };
                 let cascade = DdgiCascade { camera, level, blend_cells: cascades.blend_cells };
                 commands.spawn((volume, cascade, Name(format!("ddgi_cascade_{level}"))));
             }
@@ -249,18 +249,15 @@ pub fn follow_ddgi_cascades(
             .map(|(e, c, _)| (c.level, state.volumes.iter().find(|(v, _)| *v == e).and_then(|(_, g)| g.demanded_rays)))
             .collect();
         for (_, c, mut volume) in volumes.iter_mut().filter(|(_, c, _)| c.camera == camera) {
-            let current = volume.bounds.map(|(lo, _)| lo.as_dvec3());
+            let current = volume.bounds.map(|(lo, _)| lo);
             let (lo, hi) = cascades.level_bounds(c.level, position, current);
             let t = template(c.level);
             let budget = match cascades.frame_budget {
                 Some(total) if updates(c.level) => Some(budget_share(total, c.level, &demands)),
                 _ => cascades.volume.adaptive.frame_budget,
             };
-            let next = DdgiVolume {
-                bounds: Some((lo.as_vec3(), hi.as_vec3())),
-                adaptive: crate::DdgiAdaptive { frame_budget: budget, ..t.adaptive.clone() },
-                ..t
-            };
+            let next =
+                DdgiVolume { bounds: Some((lo, hi)), adaptive: crate::DdgiAdaptive { frame_budget: budget, ..t.adaptive.clone() }, ..t };
             if *volume != next {
                 *volume = next;
             }

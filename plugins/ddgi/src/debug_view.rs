@@ -77,10 +77,10 @@ pub struct DdgiContactOcclusion {
 }
 
 /// Sky light beyond the volumes: a surface point that no volume or cascade covers (or covers only
-/// in part, across a volume's fading edge) gets, for the share left uncovered, the sky's
-/// irradiance (π × the sky radiance of [`engine::render::SkyRadiance`]) times its visibility: the
-/// cosine-weighted share of `rays` short rays from the point that reach `max_distance` without a
-/// hit (ambient occlusion). Such points are never black under a lit sky, and the light fades into
+/// in part, across a volume's fading edge) gets, for the share left uncovered, the sky's light
+/// through its visibility: π × the mean over `rays` short cosine-distributed rays from the point
+/// of the sky's radiance ([`engine::render::Sky`]) along those that reach `max_distance` without a
+/// hit (ambient occlusion that keeps the sky's direction: a physical sky lights from above). Such points are never black under a lit sky, and the light fades into
 /// the volumes' own with no seam. The rays are traced only at uncovered pixels, and not at all
 /// when the sky is black.
 #[derive(Resource, Clone, Copy, Debug, PartialEq)]

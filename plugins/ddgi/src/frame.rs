@@ -221,8 +221,9 @@ impl DdgiFrame<'_> {
 
     /// Adds the gather of every volume for the camera: each pixel's irradiance from the probes,
     /// weighted by how far inside each volume it lies. Returns the per-pixel accumulation
-    /// `(Σ weight · irradiance, Σ weight)` that [`DdgiFrame::add_composite`] reads. Left out when the
-    /// output reads no indirect light.
+    /// `(Σ weight · irradiance, Σ weight)`, followed by the same along the reflection of each
+    /// glossy pixel (a material with a specular lobe), that [`DdgiFrame::add_composite`] reads.
+    /// Left out when the output reads no indirect light.
     pub fn add_gather(
         &self,
         graph: &mut RenderGraph,
@@ -234,7 +235,7 @@ impl DdgiFrame<'_> {
         let pixels = u64::from(size.width.max(1)) * u64::from(size.height.max(1));
         let mut indirect = graph.create_buffer(
             "ddgi_indirect",
-            BufferDesc { size: pixels * 16, usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST },
+            BufferDesc { size: pixels * 32, usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST },
         );
         if volumes.is_empty() {
             // No volume: the indirect term is zero.
@@ -259,6 +260,8 @@ impl DdgiFrame<'_> {
                 ("ddgi_gather_params", Bind::buffer(pass.read(&params))),
                 ("gbuffer_depth", Bind::texture(pass.read(&gbuffer.depth))),
                 ("gbuffer_normal", Bind::texture(pass.read(&gbuffer.normal))),
+                ("gbuffer_albedo", Bind::texture(pass.read(&gbuffer.albedo))),
+                ("gbuffer_emissive", Bind::texture(pass.read(&gbuffer.emissive))),
                 ("ddgi_indirect", {
                     pass.read(&indirect);
                     Bind::buffer(pass.write(&mut indirect))
@@ -299,8 +302,10 @@ impl DdgiFrame<'_> {
             ("gbuffer_depth", Bind::texture(pass.read(&gbuffer.depth))),
             ("gbuffer_albedo", Bind::texture(pass.read(&gbuffer.albedo))),
         ];
-        // The debug views draw the normals; the sky light traces from them.
+        // The debug views draw the normals; the sky light traces from them; glossy pixels need
+        // their roughness (the normal's w) and specular weight (the emission's).
         group2.push(("gbuffer_normal", Bind::texture(pass.read(&gbuffer.normal))));
+        group2.push(("gbuffer_emissive", Bind::texture(pass.read(&gbuffer.emissive))));
         if full || debug {
             group2.push(("direct_in", Bind::texture(pass.read(direct))));
         }
@@ -548,7 +553,8 @@ fn interleaved(mut per_volume: Vec<std::collections::VecDeque<Dispatch>>) -> Vec
 }
 
 /// Render stage: the `"ddgi"` frame script — G-buffer, direct light, each volume's probe update,
-/// the final gather of every volume, the composite, then the engine's tonemap and present.
+/// the final gather of every volume, the composite, then the engine's temporal anti-aliasing,
+/// tonemap and present.
 pub fn render_ddgi_frame(mut frame: CameraFrame, mut ddgi: DdgiFrame) {
     let mut script = frame.begin();
     let mut gbuffer = frame.add_gbuffer(&mut script.graph);
@@ -558,6 +564,7 @@ pub fn render_ddgi_frame(mut frame: CameraFrame, mut ddgi: DdgiFrame) {
     let indirect = ddgi.add_gather(&mut script.graph, &frame, &mut volumes, &gbuffer);
     ddgi.add_composite(&mut script.graph, &frame, &gbuffer, &direct, &indirect, &mut script.hdr);
     ddgi.add_probe_spheres(&mut script.graph, &frame, &mut volumes, &mut gbuffer.depth, &mut script.hdr);
+    frame.add_taa(&mut script.graph, &gbuffer, &mut script.hdr);
     frame.finish(script);
     ddgi.finish(&frame);
 }

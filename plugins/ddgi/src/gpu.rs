@@ -187,6 +187,8 @@ pub const CLASSIFICATION: u32 = 64;
 pub const ADAPTIVE: u32 = 128;
 /// A fresh probe's first updates blend as a running mean ([`crate::DdgiVolume::warm_up`]).
 pub const WARM_UP: u32 = 256;
+/// Probe rays that miss see `DdgiVolumeGpu::sky_radiance` instead of the scene's sky.
+pub const SKY_OVERRIDE: u32 = 512;
 
 /// `DdgiProbeData::pinned_rays` of a probe whose ray count is not pinned.
 pub const NO_PIN: u32 = u32::MAX;
@@ -252,6 +254,7 @@ const SHARED_CONSTANTS: &[(&str, WgslValue)] = &[
     ("DDGI_CLASSIFICATION", WgslValue::U32(CLASSIFICATION)),
     ("DDGI_ADAPTIVE", WgslValue::U32(ADAPTIVE)),
     ("DDGI_WARM_UP", WgslValue::U32(WARM_UP)),
+    ("DDGI_SKY_OVERRIDE", WgslValue::U32(SKY_OVERRIDE)),
     ("DDGI_NO_PIN", WgslValue::U32(NO_PIN)),
     ("DDGI_NO_PROBE", WgslValue::U32(NO_PROBE)),
     ("DDGI_PIN_ACTIVE", WgslValue::U32(PIN_ACTIVE)),
@@ -297,7 +300,8 @@ pub fn wgsl_constants() -> String {
 pub const UNBOUNDED_RAY: f32 = 1.0e30;
 
 impl DdgiVolumeGpu {
-    /// The uniform of one frame: `rotation` turns the ray directions, `sky` is the miss radiance.
+    /// The uniform of one frame: `rotation` turns the ray directions, `sky` is the miss radiance
+    /// when the volume has its own (else misses see the scene's sky).
     /// The settings are taken as [`DdgiVolume::validate`] passed them (no clamping here); the budget
     /// pass bounds the ray counts by `rays_per_probe` itself.
     #[allow(clippy::too_many_arguments)]
@@ -305,7 +309,7 @@ impl DdgiVolumeGpu {
         volume: &DdgiVolume,
         layout: &DdgiLayout,
         rotation: glam::Mat3,
-        sky: glam::Vec3,
+        sky: Option<glam::Vec3>,
         recheck: bool,
         cascade_blend: f32,
         wake_boxes: u32,
@@ -322,6 +326,7 @@ impl DdgiVolumeGpu {
             (volume.classification, CLASSIFICATION),
             (volume.adaptive.enabled, ADAPTIVE),
             (volume.warm_up, WARM_UP),
+            (sky.is_some(), SKY_OVERRIDE),
         ]
         .iter()
         .filter(|(on, _)| *on)
@@ -336,7 +341,7 @@ impl DdgiVolumeGpu {
             counts: layout.counts.to_array(),
             flags,
             ray_rotation: [column(rotation.x_axis), column(rotation.y_axis), column(rotation.z_axis)],
-            sky_radiance: sky.to_array(),
+            sky_radiance: sky.unwrap_or_default().to_array(),
             hysteresis: volume.hysteresis,
             normal_bias: volume.normal_bias * min_spacing,
             view_bias: volume.view_bias * min_spacing,

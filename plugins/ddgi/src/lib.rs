@@ -85,7 +85,10 @@ pub use frame::{DdgiFrame, VolumeHandles, render_ddgi_frame};
 pub use pipelines::DdgiPipelines;
 pub use resources::{DdgiGpuVolumes, VolumeGpu};
 pub use sync::{rays_counter, rays_traced, volume_suffix};
-pub use volume::{DdgiAdaptive, DdgiLayout, DdgiProbe, DdgiProbePin, DdgiProbeState, DdgiSettingsError, DdgiVolume, DdgiWeights};
+pub use volume::{
+    AUTO_PROBES_LONGEST, DdgiAdaptive, DdgiLayout, DdgiProbe, DdgiProbePin, DdgiProbeState, DdgiSettingsError, DdgiVolume, DdgiWeights,
+    auto_probe_counts,
+};
 
 /// DDGI's WGSL (`plugins/ddgi/shaders/`): one file per pass, named after the pass label, and the
 /// modules they share — `ddgi_common.inc.wgsl` (structs, bindings, helpers), `ddgi_sampling.inc.wgsl`

@@ -5,7 +5,6 @@ use std::collections::HashMap;
 
 use bevy_ecs::prelude::*;
 use engine::gpu::GpuContext;
-use engine::render::SkyRadiance;
 use engine::render::gpu_scene::GpuScene;
 use engine::render::readback::ReadbackRing;
 use engine::rng::SplitMix64;
@@ -347,14 +346,14 @@ impl DdgiGpuVolumes {
 
 /// Whether `new` bounds are `old` moved by whole cells of a grid of `counts` (the same size, every
 /// corner within a thousandth of a cell of a whole step): the cells moved, or `None`.
-pub fn scroll_cells(old: (Vec3, Vec3), new: (Vec3, Vec3), counts: glam::UVec3) -> Option<IVec3> {
-    let size = (old.1 - old.0).as_dvec3();
-    let new_size = (new.1 - new.0).as_dvec3();
+pub fn scroll_cells(old: (DVec3, DVec3), new: (DVec3, DVec3), counts: glam::UVec3) -> Option<IVec3> {
+    let size = old.1 - old.0;
+    let new_size = new.1 - new.0;
     let cell = size / counts.max(glam::UVec3::ONE).as_dvec3();
     if cell.min_element() <= 0.0 || ((new_size - size).abs().cmpgt(cell * 1e-3)).any() {
         return None;
     }
-    let steps = (new.0.as_dvec3() - old.0.as_dvec3()) / cell;
+    let steps = (new.0 - old.0) / cell;
     let whole = steps.round();
     ((steps - whole).abs().max_element() < 1e-3 && whole.abs().max_element() < 1e9).then(|| whole.as_ivec3())
 }
@@ -388,7 +387,6 @@ pub fn prepare_ddgi_volumes(
     mut commands: Commands,
     gpu: Res<GpuContext>,
     scene: Res<GpuScene>,
-    sky: Res<SkyRadiance>,
     meshes: Res<Assets<Mesh>>,
     materials: Res<Assets<Material>>,
     images: Res<Assets<Image>>,
@@ -434,9 +432,9 @@ pub fn prepare_ddgi_volumes(
         let existing = state.volumes.iter().position(|(e, _)| *e == entity);
         // Bounds moved by whole cells of the same grid scroll it instead of building it anew.
         let scroll = existing.and_then(|i| {
-            let old = &state.volumes[i].1.settings;
+            let (old, counts) = (&state.volumes[i].1.settings, state.volumes[i].1.layout.counts);
             match (old.bounds, volume.bounds) {
-                (Some(a), Some(b)) if a != b && same_grid(old, volume) => scroll_cells(a, b, volume.probe_counts),
+                (Some(a), Some(b)) if a != b && same_grid(old, volume) => scroll_cells(a, b, counts),
                 _ => None,
             }
         });
@@ -444,7 +442,7 @@ pub fn prepare_ddgi_volumes(
         if rebuild {
             // `DdgiVolume::bounds` are in the world; the scene's (from the instances) in render space.
             let bounds = match volume.bounds {
-                Some((lo, hi)) => Some(((lo.as_dvec3() - origin).as_vec3(), (hi.as_dvec3() - origin).as_vec3())),
+                Some((lo, hi)) => Some(((lo - origin).as_vec3(), (hi - origin).as_vec3())),
                 None => state.scene_bounds(&scene, &meshes),
             };
             let layout = bounds
@@ -515,8 +513,7 @@ pub fn prepare_ddgi_volumes(
         }
         let recheck = structure_changed || wake_all || (interval > 0 && v.frames % interval == 0);
         let rotation = random_rotation(&mut v.rng);
-        let uniform =
-            DdgiVolumeGpu::new(volume, &v.layout, rotation, volume.sky_radiance.unwrap_or(sky.0), recheck, v.cascade_blend, wake_boxes);
+        let uniform = DdgiVolumeGpu::new(volume, &v.layout, rotation, volume.sky_radiance, recheck, v.cascade_blend, wake_boxes);
         gpu.queue.write_buffer(&v.uniform, 0, bytemuck::bytes_of(&uniform));
     }
     state.volumes.sort_by_key(|(_, v)| v.order);

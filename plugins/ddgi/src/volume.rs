@@ -2,7 +2,7 @@
 //! grid layout both resolve to ([`DdgiLayout`]).
 
 use bevy_ecs::prelude::*;
-use glam::{UVec2, UVec3, Vec3};
+use glam::{DVec3, UVec2, UVec3, Vec3};
 
 /// Which weights the sampling function applies when it blends the 8 probes around a point. Each
 /// can be switched off, for the ablation `none → back-face → Chebyshev → normal bias`.
@@ -154,12 +154,16 @@ impl DdgiAdaptive {
 /// whatever the grid.
 #[derive(Component, Clone, Debug, PartialEq)]
 pub struct DdgiVolume {
-    /// World-space box the probes fill, `(min, max)` (world coordinates, not render space: see
-    /// [`engine::scene::RenderOrigin`]); `None`: the bounds of the scene's instances.
-    /// Probes sit at the centres of `probe_counts` equal cells of the box.
-    pub bounds: Option<(Vec3, Vec3)>,
-    /// Probes along x, y and z (any size ≥ 1, not only powers of two).
-    pub probe_counts: UVec3,
+    /// World-space box the probes fill, `(min, max)`, in double precision (world coordinates, not
+    /// render space: see [`engine::scene::RenderOrigin`]; a box 100 km out keeps its place to the
+    /// micrometre); `None`: the bounds of the scene's instances. Probes sit at the centres of
+    /// `probe_counts` equal cells of the box.
+    pub bounds: Option<(DVec3, DVec3)>,
+    /// Probes along x, y and z (any size ≥ 1, not only powers of two); `None` (the default): the
+    /// grid [`auto_probe_counts`] fits to the box — a sixteenth of its longest side apart. More
+    /// probes: finer light and sharper shadows of it, proportionally more rays, memory and update
+    /// time.
+    pub probe_counts: Option<UVec3>,
     /// Rays each probe traces per frame. More rays: less noise, proportionally more trace and
     /// shading time.
     pub rays_per_probe: u32,
@@ -182,7 +186,8 @@ pub struct DdgiVolume {
     /// Longest probe ray in world units (at most 1e30); `None`: unbounded. Shorter rays are cheaper in large
     /// scenes and miss (seeing the sky) beyond it.
     pub max_ray_distance: Option<f32>,
-    /// Radiance of rays that escape the scene; `None`: the engine's [`engine::render::SkyRadiance`].
+    /// Radiance of probe rays that escape the scene, the same in every direction; `None`: the
+    /// engine's [`engine::render::Sky`] along each ray.
     pub sky_radiance: Option<Vec3>,
     /// The sampling function's weights.
     pub weights: DdgiWeights,
@@ -233,7 +238,7 @@ impl Default for DdgiVolume {
     fn default() -> Self {
         Self {
             bounds: None,
-            probe_counts: UVec3::splat(8),
+            probe_counts: None,
             rays_per_probe: 128,
             irradiance_texels: 8,
             distance_texels: 16,
@@ -281,6 +286,24 @@ pub enum DdgiSettingsError {
     NoBounds,
 }
 
+/// Probes along the longest side of a volume whose grid is left to [`auto_probe_counts`].
+pub const AUTO_PROBES_LONGEST: u32 = 16;
+/// The grid of a volume of `extent` whose [`DdgiVolume::probe_counts`] is `None`: cubic cells a
+/// sixteenth of the longest side ([`AUTO_PROBES_LONGEST`]) across, as many along each side as fit
+/// (rounded, at least 2: a flat floor gets a grid two probes thick): the density the literature's
+/// room grids have (16×8×16 for a room twice as long as it is high), where a fixed 8×8×8 put probes
+/// a metre apart in one scene and ten in the next. A cube gets the most, 16³ = 4,096 probes
+/// (524,288 rays a frame at 128 rays per probe, 1.3 MiB of atlases).
+pub fn auto_probe_counts(extent: Vec3) -> UVec3 {
+    let extent = Vec3::select(extent.is_finite_mask(), extent.max(Vec3::ZERO), Vec3::ZERO);
+    let longest = extent.max_element();
+    if longest <= 0.0 {
+        return UVec3::splat(2);
+    }
+    let spacing = longest / AUTO_PROBES_LONGEST as f32;
+    (extent / spacing).round().as_uvec3().clamp(UVec3::splat(2), UVec3::splat(AUTO_PROBES_LONGEST))
+}
+
 fn invalid(field: &'static str, value: impl std::fmt::Debug, reason: &'static str) -> DdgiSettingsError {
     DdgiSettingsError::Invalid { field, value: format!("{value:?}"), reason }
 }
@@ -288,12 +311,13 @@ fn invalid(field: &'static str, value: impl std::fmt::Debug, reason: &'static st
 impl DdgiVolume {
     /// Checks every setting; the first problem found is returned with its field and value.
     pub fn validate(&self) -> Result<(), DdgiSettingsError> {
-        let c = self.probe_counts;
-        if c.min_element() == 0 {
-            return Err(invalid("probe_counts", c, "every axis needs at least one probe"));
-        }
-        if u64::from(c.x) * u64::from(c.y) * u64::from(c.z) > u64::from(MAX_PROBES) {
-            return Err(invalid("probe_counts", c, "more than 4,194,304 probes"));
+        if let Some(c) = self.probe_counts {
+            if c.min_element() == 0 {
+                return Err(invalid("probe_counts", c, "every axis needs at least one probe"));
+            }
+            if u64::from(c.x) * u64::from(c.y) * u64::from(c.z) > u64::from(MAX_PROBES) {
+                return Err(invalid("probe_counts", c, "more than 4,194,304 probes"));
+            }
         }
         if !(1..=MAX_RAYS_PER_PROBE).contains(&self.rays_per_probe) {
             return Err(invalid("rays_per_probe", self.rays_per_probe, "must be between 1 and 4096"));
@@ -530,6 +554,7 @@ impl DdgiLayout {
         let extent = (hi - lo).max(Vec3::splat(largest * 1e-3));
         let center = (lo + hi) * 0.5;
         let (lo, hi) = (center - extent * 0.5, center + extent * 0.5);
+        let counts = counts.unwrap_or_else(|| auto_probe_counts(extent));
         let spacing = extent / counts.as_vec3();
         let probe_count = counts.x * counts.y * counts.z;
         let largest_tile = volume.irradiance_texels.max(volume.distance_texels) + 2;

@@ -8,10 +8,10 @@ use ddgi::atlas::{probe_mean_irradiance, read_irradiance};
 use ddgi::{DdgiCascades, DdgiGpuVolumes, DdgiOutput, DdgiProbe, DdgiProbePin, DdgiVolume, use_ddgi, use_ddgi_cascades};
 use engine::gpu::GpuContext;
 use engine::headless::{HeadlessSettings, read_hdr, run_frames, scene_app};
-use engine::render::SkyRadiance;
+use engine::render::Sky;
 use engine::render::readback::{read_buffer, read_texture};
 use engine::scene::{Camera, Material, NodeContent, SceneDescription, Transform};
-use glam::{UVec3, Vec2, Vec3};
+use glam::{DVec3, UVec3, Vec2, Vec3};
 use testkit::{closed_room, gpu};
 
 const SIZE: u32 = 48;
@@ -37,8 +37,8 @@ const CELL: f32 = 0.5;
 fn scrolling_volume(offset_cells: f32, warm_up: bool) -> DdgiVolume {
     let lo = LO + Vec3::X * (offset_cells * CELL);
     DdgiVolume {
-        bounds: Some((lo, lo + Vec3::new(4.0, 3.0, 4.0) * CELL)),
-        probe_counts: UVec3::new(4, 3, 4),
+        bounds: Some((lo.into(), (lo + Vec3::new(4.0, 3.0, 4.0) * CELL).into())),
+        probe_counts: Some(UVec3::new(4, 3, 4)),
         rays_per_probe: 128,
         hysteresis: 0.9,
         relocation: false,
@@ -224,8 +224,8 @@ fn nested_cascades_blend_with_weights_that_sum_to_one_and_no_nan_at_their_edges(
     // Alone, and with a fixed volume over part of the slab (gathered first, the cascades filling
     // what its fading edge leaves).
     let fixed = DdgiVolume {
-        bounds: Some((Vec3::new(-1.0, -1.0, -1.9), Vec3::new(1.5, 1.0, -0.4))),
-        probe_counts: UVec3::new(4, 3, 3),
+        bounds: Some((DVec3::new(-1.0, -1.0, -1.9), DVec3::new(1.5, 1.0, -0.4))),
+        probe_counts: Some(UVec3::new(4, 3, 3)),
         ..settings
     };
     for with_fixed in [false, true] {
@@ -312,13 +312,13 @@ fn a_point_outside_every_volume_is_lit_by_the_sky_not_black() {
     let camera = Transform::from_xyz(0.0, 6.0, 0.0).looking_at(Vec3::ZERO, Vec3::NEG_Z);
     s.add_node("camera", camera, None, vec![NodeContent::Camera(Camera { yfov: 1.2, ..Default::default() })]);
     let volume = DdgiVolume {
-        bounds: Some((Vec3::new(-8.0, 0.0, -8.0), Vec3::new(-4.0, 2.0, -4.0))),
-        probe_counts: UVec3::new(4, 2, 4),
+        bounds: Some((DVec3::new(-8.0, 0.0, -8.0), DVec3::new(-4.0, 2.0, -4.0))),
+        probe_counts: Some(UVec3::new(4, 2, 4)),
         rays_per_probe: 64,
         ..Default::default()
     };
     let mut a = app(&gpu, s, |app| {
-        app.insert_resource(SkyRadiance(Vec3::splat(sky)));
+        app.insert_resource(Sky::Uniform(Vec3::splat(sky)));
         use_ddgi(app, volume, DdgiOutput::Indirect);
     });
     frames(&mut a, 4);
@@ -346,8 +346,8 @@ fn a_mover_wakes_the_probes_around_it_and_no_others() {
     let block = s.add_mesh(engine::shapes::cuboid("block", Vec3::splat(0.2)));
     s.add_node("block", Transform::from_xyz(2.0, 0.0, 0.0), None, vec![NodeContent::Meshes(vec![(block, 0)])]);
     let volume = DdgiVolume {
-        bounds: Some((Vec3::splat(-4.0), Vec3::splat(4.0))),
-        probe_counts: UVec3::splat(8),
+        bounds: Some((DVec3::splat(-4.0), DVec3::splat(4.0))),
+        probe_counts: Some(UVec3::splat(8)),
         rays_per_probe: 128,
         relocation: false,
         recheck_interval: 0,

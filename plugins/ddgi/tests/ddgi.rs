@@ -9,7 +9,7 @@ use engine::gpu::GpuContext;
 use engine::headless::{HeadlessSettings, RenderedFrame, add_default_camera, headless_app, render_scene_and_inspect};
 use engine::render::RenderSize;
 use engine::scene::{Assets, Material, NodeContent, SceneDescription, Transform};
-use glam::{UVec3, Vec3};
+use glam::{DVec3, UVec3, Vec3};
 use testkit::{closed_room, gpu, mean_flip, path_traced_reference};
 
 // ---------------------------------------------------------------------------------------------
@@ -50,11 +50,11 @@ fn invalid_settings_name_their_field_and_value() {
     let smoothing =
         |s: f32| DdgiVolume { adaptive: ddgi::DdgiAdaptive { rest_smoothing: Some(s), ..ddgi::DdgiAdaptive::on() }, ..Default::default() };
     let cases: [(DdgiVolume, &str, &str); 9] = [
-        (DdgiVolume { probe_counts: UVec3::new(4, 0, 4), ..Default::default() }, "probe_counts", "UVec3(4, 0, 4)"),
+        (DdgiVolume { probe_counts: Some(UVec3::new(4, 0, 4)), ..Default::default() }, "probe_counts", "UVec3(4, 0, 4)"),
         (DdgiVolume { rays_per_probe: 0, ..Default::default() }, "rays_per_probe", "0"),
         (DdgiVolume { hysteresis: 1.5, ..Default::default() }, "hysteresis", "1.5"),
         (DdgiVolume { normal_bias: f32::NAN, ..Default::default() }, "normal_bias", "NaN"),
-        (DdgiVolume { bounds: Some((Vec3::ONE, Vec3::ZERO)), ..Default::default() }, "bounds", "Vec3(1.0, 1.0, 1.0)"),
+        (DdgiVolume { bounds: Some((DVec3::ONE, DVec3::ZERO)), ..Default::default() }, "bounds", "DVec3(1.0, 1.0, 1.0)"),
         (exponent(-0.5), "adaptive.hysteresis_exponent", "-0.5"),
         (exponent(f32::NAN), "adaptive.hysteresis_exponent", "NaN"),
         (smoothing(1.0), "adaptive.rest_smoothing", "1.0"),
@@ -65,7 +65,7 @@ fn invalid_settings_name_their_field_and_value() {
         assert!(message.contains(field) && message.contains(value), "{message}");
     }
     // A grid whose ray buffers exceed the adapter's storage buffer limit is refused with the sizes.
-    let huge = DdgiVolume { probe_counts: UVec3::splat(128), rays_per_probe: 1024, ..Default::default() };
+    let huge = DdgiVolume { probe_counts: Some(UVec3::splat(128)), rays_per_probe: 1024, ..Default::default() };
     let limits = ddgi::volume::DdgiLimits { max_texture_dimension: 1 << 20, max_storage_buffer_bytes: 128 << 20 };
     let err = ddgi::DdgiLayout::new(&huge, (Vec3::ZERO, Vec3::ONE), limits).expect_err("over the limit").to_string();
     assert!(err.contains("34359738368") && err.contains("134217728"), "{err}");
@@ -73,7 +73,7 @@ fn invalid_settings_name_their_field_and_value() {
 
 #[test]
 fn layout_puts_probes_at_cell_centres_and_tiles_in_rows() {
-    let volume = DdgiVolume { probe_counts: UVec3::new(3, 2, 5), ..Default::default() };
+    let volume = DdgiVolume { probe_counts: Some(UVec3::new(3, 2, 5)), ..Default::default() };
     let limits = ddgi::volume::DdgiLimits { max_texture_dimension: 256, max_storage_buffer_bytes: 1 << 30 };
     let layout = ddgi::DdgiLayout::new(&volume, (Vec3::ZERO, Vec3::new(3.0, 2.0, 10.0)), limits).expect("layout");
     assert_eq!(layout.spacing, Vec3::new(1.0, 1.0, 2.0));
@@ -247,8 +247,8 @@ fn border_texels_equal_their_mirrored_interior_texels() {
     let Some(gpu) = gpu("border_texels_equal_their_mirrored_interior_texels") else { return };
     let scene = (scenes::find("cornell").expect("cornell").build)();
     let volume = DdgiVolume {
-        bounds: (scenes::find("cornell").expect("built-in scene").gi_bounds)(),
-        probe_counts: UVec3::new(3, 2, 2),
+        bounds: scenes::find("cornell").expect("built-in scene").gi_box(),
+        probe_counts: Some(UVec3::new(3, 2, 2)),
         rays_per_probe: 64,
         irradiance_texels: 6,
         distance_texels: 10,
@@ -271,8 +271,13 @@ fn furnace_probes_converge_to_the_analytic_irradiance() {
     let (albedo, emission) = (0.5f32, 0.3f32);
     let (lo, hi) = (Vec3::new(-1.0, 0.0, -1.5), Vec3::new(1.0, 1.5, 1.5));
     let material = Material { base_color: Vec3::splat(albedo).extend(1.0), emissive: Vec3::splat(emission), ..Default::default() };
-    let volume =
-        DdgiVolume { bounds: Some((lo, hi)), probe_counts: UVec3::new(3, 2, 3), rays_per_probe: 96, hysteresis: 0.8, ..Default::default() };
+    let volume = DdgiVolume {
+        bounds: Some((lo.into(), hi.into())),
+        probe_counts: Some(UVec3::new(3, 2, 3)),
+        rays_per_probe: 96,
+        hysteresis: 0.8,
+        ..Default::default()
+    };
     let (frame, app) = run_ddgi(&gpu, closed_room(lo, hi, 0.2, material), volume, 24, 90);
     let expected = std::f32::consts::PI * emission / (1.0 - albedo);
     let v = first_volume(&app);
@@ -301,8 +306,8 @@ fn emitting_room() -> SceneDescription {
 /// 2³ probes of 64 rays over [`emitting_room`], with hysteresis `h` and no firefly clamp.
 fn emitting_room_volume(h: f32) -> DdgiVolume {
     DdgiVolume {
-        bounds: Some((Vec3::splat(-1.0), Vec3::splat(1.0))),
-        probe_counts: UVec3::splat(2),
+        bounds: Some((DVec3::splat(-1.0), DVec3::splat(1.0))),
+        probe_counts: Some(UVec3::splat(2)),
         rays_per_probe: 64,
         hysteresis: h,
         firefly_threshold: 0.0,
@@ -391,8 +396,8 @@ fn atlases_stay_finite_over_hundreds_of_frames_with_a_moving_light() {
     let Some(gpu) = gpu("atlases_stay_finite_over_hundreds_of_frames") else { return };
     let scene = (scenes::find("color_bleed").expect("color_bleed").build)();
     let volume = DdgiVolume {
-        bounds: (scenes::find("color_bleed").expect("built-in scene").gi_bounds)(),
-        probe_counts: UVec3::new(4, 3, 4),
+        bounds: scenes::find("color_bleed").expect("built-in scene").gi_box(),
+        probe_counts: Some(UVec3::new(4, 3, 4)),
         rays_per_probe: 32,
         ..Default::default()
     };
@@ -407,7 +412,7 @@ fn probes_are_entities_that_mirror_relocation_and_classification() {
     // The scene's own bounds include the 0.2 m walls; at 0.37 m spacing the outer probes of this
     // grid sit inside them.
     let scene = (scenes::find("color_bleed").expect("color_bleed").build)();
-    let volume = DdgiVolume { probe_counts: UVec3::new(12, 8, 12), rays_per_probe: 32, ..Default::default() };
+    let volume = DdgiVolume { probe_counts: Some(UVec3::new(12, 8, 12)), rays_per_probe: 32, ..Default::default() };
     let (_, mut app) = run_ddgi(&gpu, scene, volume, 16, 12);
     let world = app.world_mut();
     let probes: Vec<DdgiProbe> = world.query::<&DdgiProbe>().iter(world).cloned().collect();
@@ -443,8 +448,8 @@ fn centre_luminance(hdr: &[f32], size: u32, half: u32) -> f32 {
 fn against_reference(gpu: &GpuContext, scene: &str, probes: UVec3, frames: u32) -> (f32, f32, RenderedFrame, image::RgbaImage) {
     let description = (scenes::find(scene).expect("scene").build)();
     let volume = DdgiVolume {
-        bounds: (scenes::find(scene).expect("built-in scene").gi_bounds)(),
-        probe_counts: probes,
+        bounds: scenes::find(scene).expect("built-in scene").gi_box(),
+        probe_counts: Some(probes),
         rays_per_probe: 128,
         ..Default::default()
     };
@@ -510,8 +515,8 @@ fn door_room_matches_the_reference_and_its_dark_corner_does_not_leak() {
 fn two_volumes_light_the_scene_like_one() {
     let Some(gpu) = gpu("two_volumes_light_the_scene_like_one") else { return };
     let scene = || (scenes::find("cornell").expect("cornell").build)();
-    let (lo, hi) = (scenes::find("cornell").expect("built-in scene").gi_bounds)().expect("bounds");
-    let base = DdgiVolume { probe_counts: UVec3::new(4, 4, 4), rays_per_probe: 64, ..Default::default() };
+    let (lo, hi) = scenes::find("cornell").expect("built-in scene").gi_box().expect("bounds");
+    let base = DdgiVolume { probe_counts: Some(UVec3::new(4, 4, 4)), rays_per_probe: 64, ..Default::default() };
     let one = render_scene_and_inspect(
         &gpu,
         scene(),
@@ -529,10 +534,10 @@ fn two_volumes_light_the_scene_like_one() {
             let half = UVec3::new(2, 4, 4);
             use_ddgi(
                 app,
-                DdgiVolume { bounds: Some((lo, Vec3::new(mid, hi.y, hi.z))), probe_counts: half, ..base.clone() },
+                DdgiVolume { bounds: Some((lo, DVec3::new(mid, hi.y, hi.z))), probe_counts: Some(half), ..base.clone() },
                 DdgiOutput::Indirect,
             );
-            app.world_mut().spawn(DdgiVolume { bounds: Some((Vec3::new(mid, lo.y, lo.z), hi)), probe_counts: half, ..base.clone() });
+            app.world_mut().spawn(DdgiVolume { bounds: Some((DVec3::new(mid, lo.y, lo.z), hi)), probe_counts: Some(half), ..base.clone() });
         },
         |world| assert_eq!(world.resource::<DdgiGpuVolumes>().volumes.len(), 2),
     )
@@ -641,8 +646,8 @@ fn adaptive_budgets_trace_fewer_rays_in_a_static_scene_at_the_same_error() {
     let reference = path_traced_reference(&gpu, "cornell", REFERENCE_SIZE);
     let run = |adaptive: bool, rest_smoothing: Option<f32>| {
         let volume = DdgiVolume {
-            bounds: (scenes::find("cornell").expect("built-in scene").gi_bounds)(),
-            probe_counts: UVec3::new(6, 6, 6),
+            bounds: scenes::find("cornell").expect("built-in scene").gi_box(),
+            probe_counts: Some(UVec3::new(6, 6, 6)),
             rays_per_probe: 128,
             adaptive: ddgi::DdgiAdaptive { enabled: adaptive, rest_smoothing, ..Default::default() },
             ..Default::default()
@@ -705,8 +710,8 @@ fn switching_a_light_on_raises_the_rays_within_a_few_frames() {
         m.emissive = Vec3::ZERO;
     }
     let volume = DdgiVolume {
-        bounds: (scenes::find("cornell").expect("built-in scene").gi_bounds)(),
-        probe_counts: UVec3::new(6, 6, 6),
+        bounds: scenes::find("cornell").expect("built-in scene").gi_box(),
+        probe_counts: Some(UVec3::new(6, 6, 6)),
         adaptive: ddgi::DdgiAdaptive::on(),
         ..Default::default()
     };
@@ -768,8 +773,8 @@ fn dark_probes_switch_off_and_an_opening_door_wakes_them() {
     let Some(gpu) = gpu("dark_probes_switch_off_and_an_opening_door_wakes_them") else { return };
     // 1 m cells: the 2 × 2 × 2 probes at x, z = ±0.5 and y ≈ 1.1, 2.2 are inside the room.
     let volume = DdgiVolume {
-        bounds: Some((Vec3::new(-3.0, -0.5, -3.0), Vec3::new(3.0, 4.0, 5.0))),
-        probe_counts: UVec3::new(6, 4, 8),
+        bounds: Some((DVec3::new(-3.0, -0.5, -3.0), DVec3::new(3.0, 4.0, 5.0))),
+        probe_counts: Some(UVec3::new(6, 4, 8)),
         rays_per_probe: 64,
         // The walls are thin against the 1 m cells, so DDGI's own leaking lights the closed room
         // at about 1% of the sunlit probes' luma (measured: 0.2–1%): call that dark here.
@@ -817,8 +822,8 @@ fn a_frame_budget_caps_the_rays_of_every_frame() {
     let Some(gpu) = gpu("a_frame_budget_caps_the_rays_of_every_frame") else { return };
     let budget = 6000u32;
     let volume = DdgiVolume {
-        bounds: (scenes::find("cornell").expect("built-in scene").gi_bounds)(),
-        probe_counts: UVec3::new(6, 6, 6),
+        bounds: scenes::find("cornell").expect("built-in scene").gi_box(),
+        probe_counts: Some(UVec3::new(6, 6, 6)),
         rays_per_probe: 128,
         adaptive: ddgi::DdgiAdaptive { frame_budget: Some(budget), ..ddgi::DdgiAdaptive::on() },
         ..Default::default()
@@ -837,8 +842,8 @@ fn a_frame_budget_caps_the_rays_of_every_frame() {
 fn quiet_probes_rest_and_the_per_probe_passes_skip_them() {
     let Some(gpu) = gpu("quiet_probes_rest") else { return };
     let volume = |max_rest_frames: u32| DdgiVolume {
-        bounds: (scenes::find("cornell").expect("built-in scene").gi_bounds)(),
-        probe_counts: UVec3::new(6, 6, 6),
+        bounds: scenes::find("cornell").expect("built-in scene").gi_box(),
+        probe_counts: Some(UVec3::new(6, 6, 6)),
         adaptive: ddgi::DdgiAdaptive { max_rest_frames, ..ddgi::DdgiAdaptive::on() },
         ..Default::default()
     };
@@ -913,7 +918,7 @@ fn contact_occlusion_is_one_on_an_open_floor_and_follows_the_analytic_share_besi
     let camera = Transform::from_translation(eye).looking_at(Vec3::new(half_width, 0.0, 0.0), Vec3::NEG_Z);
     scene.add_node("camera", camera, None, vec![NodeContent::Camera(engine::scene::Camera { yfov, znear: 0.1, exposure: 1.0 })]);
     let size = 64u32;
-    let volume = DdgiVolume { probe_counts: UVec3::new(4, 2, 4), ..Default::default() };
+    let volume = DdgiVolume { probe_counts: Some(UVec3::new(4, 2, 4)), ..Default::default() };
     let frame = render_scene_and_inspect(
         &gpu,
         scene,
@@ -945,4 +950,62 @@ fn contact_occlusion_is_one_on_an_open_floor_and_follows_the_analytic_share_besi
         checked += 1;
     }
     assert!(checked > size / 2, "too few columns on the floor: {checked}");
+}
+
+/// The default grid (`probe_counts: None`) is fitted to the volume's box: cells a sixteenth of its
+/// longest side across, as many along each side as fit, never fewer than two probes along a side;
+/// the volume's layout takes it.
+#[test]
+fn the_default_grid_is_fitted_to_the_box() {
+    for scene in ["door_room", "ceiling_opening", "cornell", "color_bleed"] {
+        let (lo, hi) = (scenes::find(scene).expect("scene").gi_bounds)().expect("bounds");
+        let (extent, grid) = (hi - lo, ddgi::auto_probe_counts(hi - lo));
+        let spacing = extent / grid.as_vec3();
+        assert_eq!(grid.max_element(), 16, "{scene}: {grid}");
+        // Cubic cells to within the rounding of each side's count.
+        assert!(spacing.max_element() / spacing.min_element() < 1.2, "{scene}: {grid} over {extent}, cells {spacing}");
+        let layout = ddgi::DdgiLayout::new(
+            &DdgiVolume::default(),
+            (lo, hi),
+            ddgi::volume::DdgiLimits { max_texture_dimension: 8192, max_storage_buffer_bytes: 1 << 30 },
+        )
+        .expect("layout");
+        assert_eq!(layout.counts, grid, "{scene}");
+    }
+    assert_eq!(ddgi::auto_probe_counts(Vec3::new(10.0, 0.0, 5.0)), UVec3::new(16, 2, 8), "a floor gets two layers");
+    assert_eq!(ddgi::auto_probe_counts(Vec3::splat(f32::NAN)), UVec3::splat(2));
+    assert_eq!(ddgi::auto_probe_counts(Vec3::splat(3.0)), UVec3::splat(16));
+}
+
+/// The white furnace through the raster path: a white rough metal (and a white glossy dielectric)
+/// box under a uniform white sky, lit only by it, through DDGI's probes and the specular lobe's
+/// gather along the reflection: every pixel as bright as the sky (the box vanishes), as in the path
+/// tracer (tests/pathtrace.rs) — metals are never black, and no lobe adds or loses energy.
+#[test]
+fn a_glossy_box_in_a_white_furnace_vanishes_into_the_sky() {
+    let Some(gpu) = gpu("a_glossy_box_in_a_white_furnace_vanishes_into_the_sky") else { return };
+    for (metallic, roughness) in [(1.0f32, 1.0f32), (1.0, 0.4), (0.0, 0.5)] {
+        let mut s = engine::scene::SceneDescription { name: "furnace".into(), ..Default::default() };
+        let cube = s.add_mesh(engine::shapes::cuboid("box", Vec3::splat(0.5)));
+        let m = s.add_material(engine::scene::Material::pbr("white", Vec3::ONE, metallic, roughness));
+        s.add_node("box", engine::scene::Transform::IDENTITY, None, vec![engine::scene::NodeContent::Meshes(vec![(cube, m)])]);
+        let camera = engine::scene::Transform::from_xyz(1.6, 1.2, 2.0).looking_at(Vec3::ZERO, Vec3::Y);
+        let lens = engine::scene::Camera { yfov: 0.6, ..Default::default() };
+        s.add_node("camera", camera, None, vec![engine::scene::NodeContent::Camera(lens)]);
+        let volume =
+            DdgiVolume { bounds: Some((DVec3::splat(-1.5), DVec3::splat(1.5))), probe_counts: Some(UVec3::splat(4)), ..Default::default() };
+        let frame = engine::headless::render_scene_with(
+            &gpu,
+            s,
+            &HeadlessSettings { width: 32, height: 32, frames: 60, ..Default::default() },
+            |app| {
+                app.insert_resource(engine::render::Sky::Uniform(Vec3::ONE));
+                use_ddgi(app, volume, DdgiOutput::Full)
+            },
+        )
+        .expect("render");
+        let worst = frame.hdr.chunks_exact(4).map(|p| (p[0] - 1.0).abs().max((p[2] - 1.0).abs())).fold(0.0f32, f32::max);
+        eprintln!("metallic {metallic}, roughness {roughness}: worst pixel off by {worst}");
+        assert!(worst < 0.05, "metallic {metallic}, roughness {roughness}: a pixel off by {worst}");
+    }
 }

@@ -13,7 +13,7 @@ const FRAMES: u32 = 8;
 fn cornell_app(gpu: &GpuContext) -> engine::bevy_app::App {
     let scene = (scenes::find("cornell").expect("cornell is built in").build)();
     let settings = HeadlessSettings { width: 48, height: 48, ..Default::default() };
-    let volume = DdgiVolume { probe_counts: UVec3::splat(4), rays_per_probe: 32, ..Default::default() };
+    let volume = DdgiVolume { probe_counts: Some(UVec3::splat(4)), rays_per_probe: 32, ..Default::default() };
     scene_app(gpu, scene, &settings, |app| use_ddgi(app, volume, DdgiOutput::Full)).expect("a valid scene")
 }
 

@@ -21,7 +21,7 @@ use engine::render::RenderSize;
 use engine::render::gpu_scene::GpuScene;
 use engine::render::readback::read_texture;
 use engine::scene::{Camera, Material, Mesh, NodeContent, PointLight, SceneDescription, SpotLight, Transform};
-use glam::{UVec3, Vec3};
+use glam::{DVec3, UVec3, Vec3};
 use testkit::{closed_room, gpu};
 
 use std::f32::consts::PI;
@@ -56,8 +56,8 @@ fn floor(scale: f32, albedo: f32) -> SceneDescription {
 /// classification off unless a test asks (so that every probe updates every frame).
 fn volume(bounds: (Vec3, Vec3), counts: UVec3, rays: u32, h: f32) -> DdgiVolume {
     DdgiVolume {
-        bounds: Some(bounds),
-        probe_counts: counts,
+        bounds: Some((bounds.0.into(), bounds.1.into())),
+        probe_counts: Some(counts),
         rays_per_probe: rays,
         hysteresis: h,
         relocation: false,
@@ -530,7 +530,7 @@ fn probe_grids_beyond_the_adapters_buffers_and_invalid_settings_are_refused_by_n
     // 4,194,304 probes of one ray and one-texel maps: within MAX_PROBES, but 64 bytes of state each
     // is 268 MB, over lavapipe's 128 MiB per storage buffer (taken from the adapter here).
     let huge = DdgiVolume {
-        probe_counts: UVec3::new(256, 128, 128),
+        probe_counts: Some(UVec3::new(256, 128, 128)),
         rays_per_probe: 1,
         irradiance_texels: 1,
         distance_texels: 1,
@@ -548,7 +548,7 @@ fn probe_grids_beyond_the_adapters_buffers_and_invalid_settings_are_refused_by_n
         Ok(_) => {}
     }
     // More rays than the per-ray buffer holds.
-    let rays = DdgiVolume { probe_counts: UVec3::splat(64), rays_per_probe: 4096, ..Default::default() };
+    let rays = DdgiVolume { probe_counts: Some(UVec3::splat(64)), rays_per_probe: 4096, ..Default::default() };
     let message = ddgi::DdgiLayout::new(&rays, bounds, limits).expect_err("per-ray buffer").to_string();
     assert!(message.contains("per-ray buffer") && message.contains(&(64u64.pow(3) * 4096 * 16).to_string()), "{message}");
 
@@ -560,7 +560,7 @@ fn probe_grids_beyond_the_adapters_buffers_and_invalid_settings_are_refused_by_n
         (DdgiVolume { hysteresis: -0.1, ..Default::default() }, "hysteresis", "-0.1"),
         (DdgiVolume { hysteresis: f32::NAN, ..Default::default() }, "hysteresis", "NaN"),
         (DdgiVolume { max_ray_distance: Some(-1.0), ..Default::default() }, "max_ray_distance", "-1.0"),
-        (DdgiVolume { bounds: Some((Vec3::ZERO, Vec3::new(1.0, f32::INFINITY, 1.0))), ..Default::default() }, "bounds", "inf"),
+        (DdgiVolume { bounds: Some((DVec3::ZERO, DVec3::new(1.0, f64::INFINITY, 1.0))), ..Default::default() }, "bounds", "inf"),
     ];
     for (v, field, value) in cases {
         let message = v.validate().expect_err(field).to_string();
@@ -571,7 +571,8 @@ fn probe_grids_beyond_the_adapters_buffers_and_invalid_settings_are_refused_by_n
     // validation error, finite).
     if needed > limits.max_storage_buffer_bytes {
         let (lo, hi) = (Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 1.5, 1.0));
-        let frames = run(&gpu, closed_room(lo, hi, 0.2, material(0.5, 0.3)), DdgiVolume { bounds: Some((lo, hi)), ..huge }, 2);
+        let frames =
+            run(&gpu, closed_room(lo, hi, 0.2, material(0.5, 0.3)), DdgiVolume { bounds: Some((lo.into(), hi.into())), ..huge }, 2);
         let last = frames.last().unwrap();
         assert!(last.error.as_deref().is_some_and(|e| e.contains("probe buffer")), "{:?}", last.error);
         assert!(last.hdr.iter().all(|v| v.is_finite()));

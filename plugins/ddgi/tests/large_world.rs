@@ -50,7 +50,7 @@ fn render(
     let settings = HeadlessSettings { width: SIZE, height: SIZE, frames: FRAMES, ..Default::default() };
     let mut app = scene_app(gpu, scene, &settings, |app| {
         app.insert_resource(origin);
-        let volume = DdgiVolume { probe_counts: UVec3::splat(4), rays_per_probe: 64, ..Default::default() };
+        let volume = DdgiVolume { probe_counts: Some(UVec3::splat(4)), rays_per_probe: 64, ..Default::default() };
         match mode {
             Mode::Direct => {}
             Mode::Ddgi => use_ddgi(app, volume, DdgiOutput::Full),

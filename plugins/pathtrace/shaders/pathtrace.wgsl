@@ -1,6 +1,8 @@
-// Progressive reference path tracer: Lambertian surfaces with base-colour textures, emissive
-// surfaces (found by the paths), punctual lights by next-event estimation with shadow rays,
-// Russian roulette after a few bounces, an optional bounce cap. Each dispatch adds `samples` paths
+// Progressive reference path tracer: the engine's BRDF (engine::brdf: Lambertian, and glTF's GGX
+// lobe where a material has one, sampled from its visible normals) with base-colour,
+// metallic-roughness and normal textures, emissive surfaces (found by the paths), punctual lights
+// by next-event estimation with shadow rays, the sky along escaping paths, Russian roulette after
+// a few bounces, an optional bounce cap. Each dispatch adds `samples` paths
 // per pixel to a float accumulation buffer; the output is their mean.
 #include "ray_tracing.inc.wgsl"
 
@@ -42,13 +44,8 @@ fn sample_cosine(n: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
     let r = sqrt(u.x);
     let phi = 2.0 * PI * u.y;
     let local = vec3<f32>(r * cos(phi), r * sin(phi), sqrt(max(0.0, 1.0 - u.x)));
-    // Orthonormal basis (Duff et al. 2017).
-    let s = select(-1.0, 1.0, n.z >= 0.0);
-    let a = -1.0 / (s + n.z);
-    let b = n.x * n.y * a;
-    let t = vec3<f32>(1.0 + s * n.x * n.x * a, s * b, -s * n.x);
-    let bt = vec3<f32>(b, s + n.y * n.y * a, -n.y);
-    return safe_normalize(t * local.x + bt * local.y + n * local.z, n);
+    let basis = brdf_basis(n);
+    return safe_normalize(basis[0] * local.x + basis[1] * local.y + basis[2] * local.z, n);
 }
 
 fn camera_ray(pixel: vec2<u32>, jitter: vec2<f32>) -> Ray {
@@ -61,6 +58,21 @@ fn camera_ray(pixel: vec2<u32>, jitter: vec2<f32>) -> Ray {
     return Ray(view.camera_position, 0.0, dir, 3.0e38);
 }
 
+// Russian roulette from RR_START_BOUNCE on: false ends the path; a survivor's throughput is
+// divided by its chance to survive.
+fn russian_roulette(throughput: ptr<function, vec3<f32>>, bounce: u32, rng: ptr<function, Rng>) -> bool {
+    if bounce < RR_START_BOUNCE {
+        return true;
+    }
+    let t = *throughput;
+    let survive = clamp(max(t.x, max(t.y, t.z)), 0.05, 0.95);
+    if rng_next(rng) >= survive {
+        return false;
+    }
+    *throughput = t / survive;
+    return true;
+}
+
 fn trace_path(first: Ray, rng: ptr<function, Rng>) -> vec3<f32> {
     var ray = first;
     var throughput = vec3<f32>(1.0);
@@ -69,36 +81,62 @@ fn trace_path(first: Ray, rng: ptr<function, Rng>) -> vec3<f32> {
     loop {
         let hit = trace_closest(ray);
         if hit.instance == RT_NO_HIT {
-            radiance += throughput * view.sky_radiance;
+            // The sun's disk only for camera rays: bounced paths get the sun from its light.
+            radiance += throughput * sky_radiance_along(ray.direction, bounce == 0u);
             break;
         }
         let surface = hit_surface(ray, hit);
         // Emission is found by the paths only (lights are punctual), so nothing is counted twice.
         radiance += throughput * surface.emissive;
         let origin = offset_ray_origin(surface.position, surface.geometric_normal);
+        let brdf = hit_brdf_surface(surface);
+        let to_viewer = -ray.direction;
         for (var i = 0u; i < view.light_count; i++) {
             let s = sample_light(lights[i], surface.position, surface.normal);
             if any(s.irradiance > vec3<f32>(0.0)) && !trace_any(Ray(origin, 0.0, s.to_light, s.distance * (1.0 - 1e-4))) {
-                radiance += throughput * surface.albedo * INV_PI * s.irradiance;
+                radiance += throughput * brdf_eval(brdf, surface.normal, to_viewer, s.to_light) * s.irradiance;
             }
         }
         bounce += 1u;
         if path_params.max_bounces != 0u && bounce >= path_params.max_bounces {
             break;
         }
-        // Lambertian, cosine-sampled: BRDF · cos / pdf = albedo.
-        throughput *= surface.albedo;
-        if bounce >= RR_START_BOUNCE {
-            let survive = clamp(max(throughput.x, max(throughput.y, throughput.z)), 0.05, 0.95);
-            if rng_next(rng) >= survive {
+        var dir: vec3<f32>;
+        if brdf_has_specular(brdf) {
+            // One of the two lobes, chosen by their share of the reflected light; the weight is
+            // f · cos over the density of the mixture of both.
+            let n = surface.normal;
+            let specular = luminance(brdf_specular_albedo(brdf, max(dot(n, to_viewer), 1e-4)));
+            let diffuse = luminance(brdf_diffuse_color(brdf));
+            let p_specular = select(clamp(specular / max(specular + diffuse, 1e-6), 0.1, 0.9), 1.0, diffuse <= 0.0);
+            let alpha = brdf_alpha(brdf);
+            let choice = rng_next(rng);
+            let u = vec2<f32>(rng_next(rng), rng_next(rng));
+            if choice < p_specular {
+                dir = reflect(ray.direction, brdf_sample_visible_normal(n, to_viewer, alpha, u));
+            } else {
+                dir = sample_cosine(n, u);
+            }
+            let n_l = dot(n, dir);
+            if n_l <= 0.0 || dot(dir, surface.geometric_normal) <= 0.0 {
                 break;
             }
-            throughput /= survive;
+            let pdf = p_specular * brdf_visible_normal_pdf(n, to_viewer, dir, alpha) + (1.0 - p_specular) * n_l * INV_PI;
+            throughput *= brdf_eval(brdf, n, to_viewer, dir) * (n_l / max(pdf, 1e-30));
+            if !russian_roulette(&throughput, bounce, rng) {
+                break;
+            }
+        } else {
+            // Lambertian, cosine-sampled: BRDF · cos / pdf = albedo.
+            throughput *= surface.albedo;
+            if !russian_roulette(&throughput, bounce, rng) {
+                break;
+            }
+            dir = sample_cosine(surface.normal, vec2<f32>(rng_next(rng), rng_next(rng)));
         }
         if all(throughput <= vec3<f32>(0.0)) {
             break;
         }
-        let dir = sample_cosine(surface.normal, vec2<f32>(rng_next(rng), rng_next(rng)));
         ray = Ray(origin, 0.0, dir, 3.0e38);
     }
     return sanitize_radiance(radiance);

@@ -135,8 +135,12 @@ fn render_path_traced_frame(
     // Start over when what the image shows has changed.
     let now = (frame.scene.view_uniform, frame.scene.light_data.clone());
     let view_changed = state.last.as_ref().is_none_or(|(v, l)| {
+        // What the path tracer reads of the view: the frame counter, the raster's jitter and the
+        // last frame's camera are not part of it.
         let mut v = *v;
         v.frame = now.0.frame;
+        v.jitter = now.0.jitter;
+        v.previous_clip_from_world = now.0.previous_clip_from_world;
         v != now.0 || *l != now.1
     });
     if view_changed || !frame.scene.instance_changes().dirty.is_empty() {
