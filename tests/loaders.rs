@@ -1,5 +1,5 @@
 //! The scene importers: the glTF fixture's hierarchy, transforms, meshes, materials, lights and
-//! camera; the OBJ Cornell box; the shared Kenney models; and the broken-file corpus, where every
+//! camera; the OBJ Cornell box; the Kenney models (vendored in assets/); and the broken-file corpus, where every
 //! file must fail with a message naming the file and the problem, and nothing may panic.
 
 use std::f32::consts::FRAC_PI_4;
@@ -382,15 +382,8 @@ fn obj_metals_from_the_mtl_pbr_extension() {
 
 #[test]
 fn kenney_models() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/assets/kenney_fps");
-    if !dir.is_dir() {
-        let message = format!("shared Kenney models not found at {}", dir.display());
-        if std::env::var("CI").as_deref() == Ok("true") {
-            panic!("{message}");
-        }
-        eprintln!("skipping kenney_models: {message}");
-        return;
-    }
+    // Vendored with their CC0 licence: always there.
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/kenney_fps");
     let mut models: Vec<PathBuf> =
         std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().path()).filter(|p| p.extension().is_some_and(|e| e == "glb")).collect();
     models.sort();

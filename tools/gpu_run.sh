@@ -9,6 +9,9 @@ if ! ls /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json >/dev/null 2>&1;
     export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
 fi
 export WGPU_BACKEND=vulkan RUST_LOG=warn
+# Binaries built before the Kenney models were vendored look for them in ../shared beside the
+# checkout they were built from (/work/main or /tmp/base): put a copy there.
+for d in /work/shared/assets /shared/assets; do mkdir -p "$d" && cp -r assets/kenney_fps "$d/" 2>/dev/null; done
 # B: the binary (default dist/game_demo); TAG: a suffix for the results of this call, so that
 # several binaries can be compared in one session.
 B=${B:-dist/game_demo}
@@ -31,36 +34,43 @@ run() { # name, command...
 for step in "$@"; do
     case $step in
     bench_*) scene=${step#bench_}; run "$step" $B bench ddgi --scene "$scene" --iterations 10 ;;
-    eval_*) scene=${step#eval_}; run "$step" $B eval --scene "$scene" --width 256 --height 256 --reference-spp 4096 --experiments --out "$R/$step" --cache /tmp/cache ;;
+    eval_*) scene=${step#eval_}; run "$step" $B eval --scene "$scene" --width 256 --height 256 --reference-spp 4096 --experiments --out "$R/$step" --cache /tmp/cache$TAG ;;
+    # evalplain_SCENE: the evaluation without the experiments (the configurations every binary has).
+    evalplain_*) scene=${step#evalplain_}; run "$step" $B eval --scene "$scene" --width 256 --height 256 --reference-spp 4096 --out "$R/$step" --cache /tmp/cache$TAG ;;
+    # camera_SCENE-AO: the camera path at 1920x1080 as the demo shows it (DDGI, TAA, contact
+    # occlusion with AO rays a pixel, AgX, auto-exposure), 120 frames: timings.json per pass.
+    camera_*) IFS=- read -r scene ao <<< "${step#camera_}"; run "$step" $B render --scene "$scene" --mode ddgi --width 1920 --height 1080 --contact-occlusion "$ao" --display-transform agx --auto-exposure --out "$R/$step" ;;
+    # shots-FRAMES-EVERY: the demo's scripted walk at 1920x1080, a PNG every EVERY frames.
+    shots-*) IFS=- read -r _ frames every <<< "$step"; run "$step" $B play --headless --width 1920 --height 1080 --frames "$frames" --every "$every" --out "$R/$step" ;;
     # SERIES_ARGS: more eval options for every series step (e.g. "--hysteresis-exponent 0.5").
-    series_*) scene=${step#series_}; run "$step" $B eval --scene "$scene" --time-series --width 256 --height 256 --reference-spp 4096 --out "$R/$step" --cache /tmp/cache ${SERIES_ARGS:-} ;;
+    series_*) scene=${step#series_}; run "$step" $B eval --scene "$scene" --time-series --width 256 --height 256 --reference-spp 4096 --out "$R/$step" --cache /tmp/cache$TAG ${SERIES_ARGS:-} ;;
     # seriesrest-SCENE-FRAMES-ERROR: the time series with other resting parameters for the adaptive budgets.
     # seriesgrid-SCENE-X,Y,Z-FRAMES-ERROR: the same on another probe grid.
-    seriesgrid-*) IFS=- read -r _ scene grid rest error <<< "$step"; run "$step" $B eval --scene "$scene" --time-series --width 256 --height 256 --reference-spp 4096 --probes "$grid" --rest-frames "$rest" --rest-error "$error" --out "$R/$step" --cache /tmp/cache ${SERIES_ARGS:-} ;;
-    seriesrest-*) IFS=- read -r _ scene rest error <<< "$step"; run "$step" $B eval --scene "$scene" --time-series --width 256 --height 256 --reference-spp 4096 --rest-frames "$rest" --rest-error "$error" --out "$R/$step" --cache /tmp/cache ${SERIES_ARGS:-} ;;
+    seriesgrid-*) IFS=- read -r _ scene grid rest error <<< "$step"; run "$step" $B eval --scene "$scene" --time-series --width 256 --height 256 --reference-spp 4096 --probes "$grid" --rest-frames "$rest" --rest-error "$error" --out "$R/$step" --cache /tmp/cache$TAG ${SERIES_ARGS:-} ;;
+    seriesrest-*) IFS=- read -r _ scene rest error <<< "$step"; run "$step" $B eval --scene "$scene" --time-series --width 256 --height 256 --reference-spp 4096 --rest-frames "$rest" --rest-error "$error" --out "$R/$step" --cache /tmp/cache$TAG ${SERIES_ARGS:-} ;;
     trace_*) scene=${step#trace_}; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild ;;
     tracecpu_*) scene=${step#tracecpu_}; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild --cpu-only ;;
     classify_*) scene=${step#classify_}; run "$step" $B bench classify --scene "$scene" ;;
-    classifyfine_*) scene=${step#classifyfine_}; run "$step" $B bench classify --scene "$scene" --grid 32,16,32 ;;
+    classifyfine_*) scene=${step#classifyfine_}; run "$step" $B bench classify --scene "$scene" --probes 32,16,32 ;;
     reference_*) scene=${step#reference_}; run "$step" $B render --scene "$scene" --mode pathtrace --spp 4096 --width 96 --height 96 --out "$R/$step" ;;
     # walk-CASCADES-X,Y,Z: the open world's tour at 1920x1080, adaptive budgets; CASCADES 0 is one
     # volume over the scene's GI bounds with X,Y,Z probes. WALK_ARGS: more bench walk options.
-    walk-*) IFS=- read -r _ cascades grid <<< "$step"; run "$step" $B bench walk --cascades "$cascades" --probes "$grid" --out "$R/$step" ${WALK_ARGS:-} ;;
+    walk-*) IFS=- read -r _ cascades grid <<< "$step"; run "$step" $B bench walk --cascades "$cascades" --probes "$grid" --cascade-probes "$grid" --out "$R/$step" ${WALK_ARGS:-} ;;
     # offset-SCENE-X,Y,Z: the still evaluation of SCENE placed at X,Y,Z (the reference is the
     # scene's at the origin: the cache key leaves the placement out).
-    offset-*) IFS=- read -r _ scene at <<< "$step"; run "$step" $B eval --scene "$scene" --width 256 --height 256 --reference-spp 4096 --offset "$at" --out "$R/$step" --cache /tmp/cache ;;
+    offset-*) IFS=- read -r _ scene at <<< "$step"; run "$step" $B eval --scene "$scene" --width 256 --height 256 --reference-spp 4096 --offset "$at" --out "$R/$step" --cache /tmp/cache$TAG ;;
     # view-D: the open world seen from the tour at D metres (positions in tools' VIEWS), one
     # volume of 32x8x32 probes against 4 cascades of 16x8x16 (the same rays per frame).
     # VIEW_CASCADES: other cascade options (e.g. "--cascades 8 --cascade-probes 16,4,16 --cascade-blend 1").
-    view-*) d=${step#view-}; read -r eye target <<< "${VIEWS[$d]}"; run "$step" $B eval --scene open_world --width 256 --height 256 --reference-spp 4096 --probes 32,8,32 --cascade-spacing 1.5 ${VIEW_CASCADES:---cascades 4 --cascade-probes 16,8,16} --camera-position "$eye" --camera-target "$target" --fov 70 --out "$R/$step" --cache /tmp/cache ;;
+    view-*) d=${step#view-}; read -r eye target <<< "${VIEWS[$d]}"; run "$step" $B eval --scene open_world --width 256 --height 256 --reference-spp 4096 --probes 32,8,32 --cascade-spacing 1.5 ${VIEW_CASCADES:---cascades 4 --cascade-probes 16,8,16} --camera-position "$eye" --camera-target "$target" --fov 70 --out "$R/$step" --cache /tmp/cache$TAG ;;
     # walkseries-FROM-SPEED-FRAMES: eval --time-series --walk on the open world's tour from FROM
     # metres at SPEED m/s for FRAMES frames, 256x256, every frame against a 256-spp reference of
     # its view, under the pale sky; one volume of 32x8x32 (fixed and adaptive) and 8 cascades of
     # 16x4x16 (SERIES_CASCADES: other cascade options).
-    walkseries-*) IFS=- read -r _ from speed frames <<< "$step"; run "$step" $B eval --scene open_world --time-series --walk --walk-from "$from" --walk-speed "$speed" --frames "$frames" --settle-frames 120 --width 256 --height 256 --reference-spp 256 --probes 32,8,32 --cascade-spacing 1.5 ${SERIES_CASCADES:---cascades 8 --cascade-probes 16,4,16 --cascade-blend 1} --sky 0.35,0.45,0.6 --out "$R/$step" --cache /tmp/cache ;;
+    walkseries-*) IFS=- read -r _ from speed frames <<< "$step"; run "$step" $B eval --scene open_world --time-series --walk --walk-from "$from" --walk-speed "$speed" --frames "$frames" --settle-frames 120 --width 256 --height 256 --reference-spp 256 --probes 32,8,32 --cascade-spacing 1.5 ${SERIES_CASCADES:---cascades 8 --cascade-probes 16,4,16 --cascade-blend 1} --sky 0.35,0.45,0.6 --out "$R/$step" --cache /tmp/cache$TAG ;;
     esac
 done
 # Reports, tables and plots only (the per-configuration strips would pass the 16 MiB a file that
 # comes back).
 # STRIPS=1: the views' strips too (direct | method | reference | FLIP map, 256 px high).
-(cd "$OUT" && { find "r$TAG" -name '*.md' -o -name '*.txt' -o -name '*.csv' -o -name '*.json' -o -name 'error_vs_time.png' -o -name 'time_series.png' -o -name 'image.png'; [ -n "${STRIPS:-}" ] && find "r$TAG" -path '*view-*' -name 'ddgi*.png'; } | tar czf "results$TAG.tgz" -T -) && rm -rf "$R"
+(cd "$OUT" && { find "r$TAG" -name '*.md' -o -name '*.txt' -o -name '*.csv' -o -name '*.json' -o -name 'error_vs_time.png' -o -name 'time_series.png' -o -name 'image.png'; [ -n "${STRIPS:-}" ] && find "r$TAG" -path '*view-*' -name 'ddgi*.png'; [ -n "${SHOTS:-}" ] && find "r$TAG" -path '*shots-*' -name 'frame_*.png'; } | tar czf "results$TAG.tgz" -T -) && rm -rf "$R"

@@ -14,6 +14,29 @@ use engine::headless::HeadlessSettings;
 use engine::scene::{Camera, NodeContent, SceneDescription, Transform};
 use lab::{bench, eval};
 
+const RENDER_EXAMPLES: &str = "Examples:
+  game_demo render --scene cornell --mode ddgi                       # direct light + DDGI
+  game_demo render --scene cornell --mode pathtrace --spp 1024       # the reference
+  game_demo render --scene level --mode ddgi --display-transform agx --auto-exposure --width 1920 --height 1080
+  game_demo render --scene scene.glb --mode ddgi --probes 16,8,16 --no-adaptive --dump-atlases
+  game_demo render --scene open_world --mode ddgi --cascades 8       # camera-following cascades
+  game_demo render --scene cornell --offset 1e5,0,0                  # far from the origin
+  game_demo render --list-scenes";
+
+const EVAL_EXAMPLES: &str = "Examples:
+  game_demo eval --scene cornell                                     # report.md, strips, error_vs_time.png
+  game_demo eval --scene cathedral --experiments                     # densities and the weight ablation
+  game_demo eval --scene door_room --time-series                     # error per frame after the door opens
+  game_demo eval --scene open_world --time-series --walk --cascades 8 --sky 0.35,0.45,0.6
+  game_demo eval --scene cornell --offset 1e5,1e5,1e5                # large-world coordinates";
+
+const PLAY_EXAMPLES: &str = "Examples:
+  game_demo play                                                     # the demo level in a window
+  game_demo play --headless --frames 600 --every 60 --out out/play   # its scripted walk to PNGs
+  game_demo play --headless --soak --frames 10000                    # the soak test
+  game_demo play --scene open_world                                  # the open world's tour
+  game_demo play --scene cornell                                     # any scene in a window";
+
 /// Counts the heap the program holds (the soak test bounds its growth).
 #[global_allocator]
 static ALLOCATOR: engine::memory::CountingAllocator = engine::memory::CountingAllocator;
@@ -29,17 +52,21 @@ struct Cli {
 enum Command {
     /// Render a scene without a window: writes image.png (tonemapped sRGB), image.exr (linear
     /// radiance) and timings.json (GPU milliseconds per pass and frame) into --out.
+    #[command(after_long_help = RENDER_EXAMPLES)]
     Render(RenderArgs),
     /// Error against a path-traced reference and GPU time for a list of configurations (direct
     /// light, the path tracer at 1, 4, 16, 64 paths per pixel): report.md, results.json,
     /// error_vs_time.png and strips. With --time-series: the error of every frame after a change
     /// in the scene (time_series.csv, time_series.png, report.md).
+    #[command(after_long_help = EVAL_EXAMPLES)]
     Eval {
         /// A built-in scene name, `level` (the demo level) or a scene file.
         #[arg(long, default_value = "cornell")]
         scene: String,
+        /// Image width in pixels (every configuration and the reference).
         #[arg(long, default_value_t = 256)]
         width: u32,
+        /// Image height in pixels.
         #[arg(long, default_value_t = 256)]
         height: u32,
         /// Paths per pixel of the reference (cached on disk by scene, camera, size and this number).
@@ -142,6 +169,7 @@ enum Command {
     /// run, Space jump, E door, F1 probe overlay, F12 screenshot, Esc release/quit. With
     /// --headless: a scripted walk writing frames and a per-frame timing CSV. With --scene: a
     /// viewer of any scene (no level, no player).
+    #[command(after_long_help = PLAY_EXAMPLES)]
     Play(PlayArgs),
 }
 
@@ -167,13 +195,19 @@ struct PlayArgs {
     /// the surface and lose the GPU device; each must be survived (the fault-injection test).
     #[arg(long, requires = "script")]
     inject_faults: bool,
+    /// Window (or headless image) width in pixels.
     #[arg(long, default_value_t = play::PlayOptions::default().width, value_parser = clap::value_parser!(u32).range(1..=16384))]
     width: u32,
+    /// Window (or headless image) height in pixels.
     #[arg(long, default_value_t = play::PlayOptions::default().height, value_parser = clap::value_parser!(u32).range(1..=16384))]
     height: u32,
-    /// Probe spacing of the level's DDGI volume (metres).
-    #[arg(long, default_value_t = play::PlayOptions::default().probe_spacing)]
-    probe_spacing: f32,
+    /// Probes along x, y and z of the level's DDGI volume, `X,Y,Z` (default: every 1.5 m over the
+    /// level, play::level::level_probe_counts).
+    #[arg(long, value_parser = parse_uvec3)]
+    probes: Option<glam::UVec3>,
+    /// With --cascades: probe spacing of the finest cascade, in metres.
+    #[arg(long, default_value_t = play::PROBE_SPACING)]
+    cascade_spacing: f32,
     /// Rays per probe per frame.
     #[arg(long, default_value_t = play::PlayOptions::default().rays_per_probe, value_parser = clap::value_parser!(u32).range(1..=1024))]
     rays: u32,
@@ -181,10 +215,10 @@ struct PlayArgs {
     #[arg(long)]
     no_adaptive: bool,
     /// Camera-following cascades instead of one volume over the level (0): N nested volumes of
-    /// 16×8×16 probes, the finest at --probe-spacing, each next twice as coarse.
+    /// 16×8×16 probes, the finest at --cascade-spacing, each next twice as coarse.
     #[arg(long, default_value_t = play::PlayOptions::default().cascades, value_parser = clap::value_parser!(u32).range(0..=8))]
     cascades: u32,
-    /// Build the level from procedural geometry only, without the shared Kenney models.
+    /// Build the level from procedural geometry only, without the Kenney models.
     #[arg(long)]
     no_assets: bool,
     /// Without temporal anti-aliasing: every frame as rendered (aliased edges, no jitter).
@@ -242,13 +276,14 @@ fn play(args: PlayArgs) -> Result<(), String> {
     if let Some(scene) = &args.scene {
         return load(scene).and_then(|s| engine::window::run_windowed(s).map_err(|e| e.to_string()));
     }
-    if !(args.probe_spacing.is_finite() && args.probe_spacing >= 0.1) {
-        return Err(format!("--probe-spacing {} must be at least 0.1 m", args.probe_spacing));
+    if !(args.cascade_spacing.is_finite() && args.cascade_spacing >= 0.1) {
+        return Err(format!("--cascade-spacing {} must be at least 0.1 m", args.cascade_spacing));
     }
     let options = play::PlayOptions {
         width: args.width,
         height: args.height,
-        probe_spacing: args.probe_spacing,
+        probe_counts: args.probes.unwrap_or(play::PlayOptions::default().probe_counts),
+        cascade_spacing: args.cascade_spacing,
         rays_per_probe: args.rays,
         adaptive: !args.no_adaptive,
         use_assets: !args.no_assets,
@@ -292,21 +327,26 @@ enum BenchCommand {
     /// DDGI's GPU time per frame while the camera walks the open world's tour (out of the house,
     /// 500 m into the forest and back): median, slowest frame and frames over twice the median,
     /// per-cascade times, scrolls and rebases; every frame in --out/walk.csv.
+    #[command(after_long_help = "Examples:\n  game_demo bench walk --cascades 8 --cascade-probes 16,8,16 --frames 1200 --speed 30\n  game_demo bench walk --cascades 0 --probes 32,8,32   # one scene-wide volume\n  game_demo bench walk --width 256 --height 256 --error-every 100   # and FLIP every 100th frame")]
     Walk {
+        /// A built-in scene with a tour (open_world) or any scene (its camera carried sideways).
         #[arg(long, default_value = "open_world")]
         scene: String,
         /// Camera-following cascades (0: one volume over the scene's GI bounds with --probes).
         #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(0..=8))]
         cascades: u32,
-        /// Probes of each cascade (or of the fixed volume).
-        #[arg(long, value_parser = parse_uvec3, default_value = "16,8,16")]
+        /// Probes of the one volume with --cascades 0, `X,Y,Z`.
+        #[arg(long, value_parser = parse_uvec3, default_value = "32,8,32")]
         probes: glam::UVec3,
+        /// Probes of each cascade, `X,Y,Z`.
+        #[arg(long, value_parser = parse_uvec3, default_value = "16,8,16")]
+        cascade_probes: glam::UVec3,
         /// Probe spacing of the finest cascade (metres).
         #[arg(long, default_value_t = 1.5)]
-        spacing: f32,
-        /// Width of the cascades' blend bands, in cells.
+        cascade_spacing: f32,
+        /// Width of the cascades' blend bands, in cells (DdgiCascades::blend_cells).
         #[arg(long, default_value_t = ddgi::DdgiCascades::default().blend_cells)]
-        blend: f32,
+        cascade_blend: f32,
         /// Longest update period of a cascade in frames (DdgiCascades::max_update_period).
         #[arg(long, default_value_t = ddgi::DdgiCascades::default().max_update_period, value_parser = clap::value_parser!(u32).range(1..))]
         cascade_period: u32,
@@ -329,8 +369,10 @@ enum BenchCommand {
         /// Walking speed, metres per second.
         #[arg(long, default_value_t = 1.5)]
         speed: f32,
+        /// Image width in pixels.
         #[arg(long, default_value_t = 1920)]
         width: u32,
+        /// Image height in pixels.
         #[arg(long, default_value_t = 1080)]
         height: u32,
         /// Place the scene this far from the world's origin, `x,y,z`.
@@ -355,7 +397,9 @@ enum BenchCommand {
     },
     /// Closest-hit throughput of probe-like rays (grids 16×8×16 … 32×32×32, 32 … 256 rays per probe;
     /// GPU timestamps of the trace pass alone) and the CPU cost of TLAS updates when instances move.
+    #[command(after_long_help = "Examples:\n  game_demo bench trace --scene cathedral --iterations 15 --no-flat-rebuild\n  game_demo bench trace --scene forest --cpu-only   # the TLAS refit for moving instances only")]
     Trace {
+        /// A built-in scene or a scene file.
         #[arg(long, default_value = "cathedral")]
         scene: String,
         /// Timed dispatches per cell (after 3 warm-up dispatches); the median is reported.
@@ -371,7 +415,9 @@ enum BenchCommand {
     /// Full DDGI update throughput (rays per second of the budget, generation, trace, shading, map
     /// updates, borders, relocation and classification; every probe active) for grids 16×8×16 … 32×32×32
     /// and 32 … 256 rays per probe, the per-pass times, and the final gather at the camera's size.
+    #[command(after_long_help = "Examples:\n  game_demo bench ddgi --scene cathedral\n  game_demo bench ddgi --scene level --probes 16,8,16 --probes 32,8,32 --rays 128")]
     Ddgi {
+        /// A built-in scene or a scene file.
         #[arg(long, default_value = "cathedral")]
         scene: String,
         /// Timed frames per cell (after 3 warm-up frames); medians are reported.
@@ -380,11 +426,12 @@ enum BenchCommand {
         /// Camera resolution (the final gather's cost).
         #[arg(long, default_value_t = 1920)]
         width: u32,
+        /// Camera height in pixels.
         #[arg(long, default_value_t = 1080)]
         height: u32,
         /// Probe grids `X,Y,Z` to measure instead of the published four (repeatable).
         #[arg(long, value_parser = parse_uvec3)]
-        grid: Vec<glam::UVec3>,
+        probes: Vec<glam::UVec3>,
         /// Rays per probe to measure instead of 32, 64, 128, 256 (repeatable).
         #[arg(long)]
         rays: Vec<u32>,
@@ -392,21 +439,39 @@ enum BenchCommand {
     /// DDGI's classification (adaptive budgets on) against an independent test with GPU rays: how
     /// many probes inside solid geometry are switched off, and how many probes that a visible
     /// surface depends on are.
+    #[command(after_long_help = "Examples:\n  game_demo bench classify --scene cathedral\n  game_demo bench classify --scene cathedral --probes 32,16,32")]
     Classify {
+        /// A built-in scene or a scene file.
         #[arg(long, default_value = "cathedral")]
         scene: String,
         /// Probes along x, y and z (default: the published grid of the scene).
         #[arg(long, value_parser = parse_uvec3)]
-        grid: Option<glam::UVec3>,
+        probes: Option<glam::UVec3>,
+        /// Frames DDGI runs (classifying its probes) before the check.
         #[arg(long, default_value_t = 60)]
         frames: u32,
     },
 }
 
+/// `render --mode`.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, clap::ValueEnum)]
+enum ModeArg {
+    /// Direct light with hard shadows.
+    Direct,
+    /// Direct light and DDGI's indirect light.
+    Ddgi,
+    /// DDGI's indirect light alone.
+    Indirect,
+    /// The reference path tracer (--spp paths per pixel).
+    Pathtrace,
+}
+
 /// `render --display-transform`.
 #[derive(Clone, Copy, clap::ValueEnum)]
 enum DisplayArg {
+    /// The radiometric values clipped at 1 (what the golden images and eval use).
     Clamp,
+    /// AgX: a filmic roll-off of highlights into white.
     Agx,
 }
 
@@ -424,8 +489,10 @@ struct RenderArgs {
     /// A built-in scene name (see --list-scenes; `level` is the demo level) or a .gltf, .glb or .obj file.
     #[arg(long, default_value = "cornell")]
     scene: String,
+    /// Image width in pixels.
     #[arg(long, default_value_t = 640)]
     width: u32,
+    /// Image height in pixels.
     #[arg(long, default_value_t = 480)]
     height: u32,
     /// Frames to run with a fixed 1/60 s step; the image is the last frame (default: 120 with
@@ -434,10 +501,9 @@ struct RenderArgs {
     /// `--spp` are added.
     #[arg(long)]
     frames: Option<u32>,
-    /// What renders the image: `direct` (direct light with shadows), `ddgi` (direct light + DDGI's
-    /// indirect light), `indirect` (DDGI's indirect light alone) or `pathtrace` (the reference).
-    #[arg(long, default_value = "direct", value_parser = ["direct", "ddgi", "indirect", "pathtrace"])]
-    mode: String,
+    /// What renders the image.
+    #[arg(long, value_enum, default_value = "direct")]
+    mode: ModeArg,
     #[command(flatten)]
     ddgi: DdgiArgs,
     /// Paths per pixel for `--mode pathtrace`.
@@ -503,10 +569,14 @@ impl CameraArgs {
 /// DDGI volume settings from the command line (the volume fills the scene's bounds).
 #[derive(clap::Args, Clone, Debug)]
 struct DdgiArgs {
-    /// Probes along x, y and z, `X,Y,Z` (default: fitted to the volume's box, a sixteenth of its
-    /// longest side apart: ddgi::auto_probe_counts; with --cascades, 16,8,16 per cascade).
+    /// Probes along x, y and z of the volume, `X,Y,Z` (default: fitted to the volume's box,
+    /// ddgi::auto_probe_counts: 16 along its longest side, at least 8 along any side an eighth as
+    /// long).
     #[arg(long, value_parser = parse_uvec3)]
     probes: Option<glam::UVec3>,
+    /// With --cascades: probes of each cascade, `X,Y,Z`.
+    #[arg(long, value_parser = parse_uvec3, default_value = "16,8,16")]
+    cascade_probes: glam::UVec3,
     /// Rays per probe per frame.
     #[arg(long, default_value_t = ddgi::DdgiVolume::default().rays_per_probe)]
     rays: u32,
@@ -526,13 +596,13 @@ struct DdgiArgs {
     /// their reach the finest probe spacing.
     #[arg(long, default_value_t = ddgi::DdgiContactOcclusion::default().rays, value_parser = clap::value_parser!(u32).range(0..=64))]
     contact_occlusion: u32,
-    /// Adaptive ray budgets: each probe's rays follow its temporal error (between DdgiAdaptive's
-    /// min_rays and --rays),
-    /// and dark probes are switched off. `timings.json` records the rays traced per frame.
+    /// The fixed ray budget (every probe --rays rays a frame) instead of the default adaptive one,
+    /// where each probe's rays follow its temporal error (between DdgiAdaptive's min_rays and
+    /// --rays) and dark probes are switched off. `timings.json` records the rays traced per frame.
     #[arg(long)]
-    adaptive: bool,
+    no_adaptive: bool,
     /// Camera-following cascades instead of one volume over the scene (0: today's fixed volume):
-    /// N nested volumes of --probes probes each, centred on the camera, each with twice the
+    /// N nested volumes of --cascade-probes probes each, centred on the camera, each with twice the
     /// spacing of the one inside it, the coarsest as wide as the scene.
     #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=8))]
     cascades: u32,
@@ -544,8 +614,7 @@ impl DdgiArgs {
     fn cascades(&self, scene: &SceneDescription) -> Option<ddgi::DdgiCascades> {
         (self.cascades > 0).then(|| {
             let extent = scene.bounds().map_or(1.0, |(lo, hi)| (hi - lo).x.max((hi - lo).z));
-            let probes = self.probes.unwrap_or(ddgi::DdgiCascades::default().probe_counts);
-            ddgi::DdgiCascades::fitted(self.cascades, probes, extent, self.volume())
+            ddgi::DdgiCascades::fitted(self.cascades, self.cascade_probes, extent, self.volume())
         })
     }
 
@@ -557,7 +626,7 @@ impl DdgiArgs {
             distance_texels: self.distance_texels,
             hysteresis: self.hysteresis,
             adaptive: ddgi::DdgiAdaptive {
-                enabled: self.adaptive,
+                enabled: !self.no_adaptive,
                 min_rays: ddgi::DdgiAdaptive::default().min_rays.min(self.rays.max(1)),
                 ..Default::default()
             },
@@ -660,10 +729,10 @@ fn render(args: RenderArgs) -> Result<(), String> {
     }
     let display = engine::render::DisplayTransform::from(args.display_transform);
     let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
-    let ddgi_mode = matches!(args.mode.as_str(), "ddgi" | "indirect");
-    let default_frames = match (ddgi_mode, args.mode.as_str(), args.no_taa) {
+    let ddgi_mode = matches!(args.mode, ModeArg::Ddgi | ModeArg::Indirect);
+    let default_frames = match (ddgi_mode, args.mode, args.no_taa) {
         (true, _, _) => 120,
-        (false, "direct", false) => 32,
+        (false, ModeArg::Direct, false) => 32,
         _ => 1,
     };
     let frames = args.frames.unwrap_or(default_frames);
@@ -683,7 +752,7 @@ fn render(args: RenderArgs) -> Result<(), String> {
         if let Some(c) = &cascades {
             c.validate().map_err(|e| e.to_string())?;
         }
-        let output = if args.mode == "indirect" { ddgi::DdgiOutput::Indirect } else { ddgi::DdgiOutput::Full };
+        let output = if args.mode == ModeArg::Indirect { ddgi::DdgiOutput::Indirect } else { ddgi::DdgiOutput::Full };
         let mut dumped: Result<Vec<PathBuf>, String> = Ok(Vec::new());
         let dump = args.ddgi.dump_atlases;
         let occlusion = ddgi::DdgiContactOcclusion { rays: args.ddgi.contact_occlusion, ..Default::default() };
@@ -714,7 +783,7 @@ fn render(args: RenderArgs) -> Result<(), String> {
             println!("  {}", path.display());
         }
         Ok(frame)
-    } else if args.mode == "pathtrace" {
+    } else if args.mode == ModeArg::Pathtrace {
         let per_frame = args.spp.clamp(1, 16);
         // The last frame of the run holds all the samples: earlier frames are only for animation.
         settings.frames = frames.max(1) + args.spp.max(1).div_ceil(per_frame) - 1;
@@ -742,9 +811,9 @@ fn render(args: RenderArgs) -> Result<(), String> {
     }
     .map_err(|e| e.to_string())?;
     frame.write(&args.out).map_err(|e| e.to_string())?;
-    let spp = if args.mode == "pathtrace" { format!(", {} paths per pixel", args.spp) } else { String::new() };
+    let spp = if args.mode == ModeArg::Pathtrace { format!(", {} paths per pixel", args.spp) } else { String::new() };
     println!(
-        "rendered '{}' ({}) on {} ({}×{}, {} frames{spp})",
+        "rendered '{}' ({:?}) on {} ({}×{}, {} frames{spp})",
         args.scene, args.mode, frame.adapter, args.width, args.height, settings.frames
     );
     println!("  {}", args.out.join("image.png").display());
@@ -890,7 +959,7 @@ fn bench_walk(
 fn bench(command: BenchCommand) -> Result<(), String> {
     let (name, iterations, no_flat_rebuild, cpu_only) = match command {
         BenchCommand::Trace { scene, iterations, no_flat_rebuild, cpu_only } => (scene, iterations, no_flat_rebuild, cpu_only),
-        BenchCommand::Classify { scene, grid, frames } => {
+        BenchCommand::Classify { scene, probes: grid, frames } => {
             let description = load(&scene)?;
             let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
             let grid = grid.map_or(eval_scenes::scene_facts(&scene).paper_grid, |g| g.to_array());
@@ -920,8 +989,9 @@ fn bench(command: BenchCommand) -> Result<(), String> {
             scene,
             cascades,
             probes,
-            spacing,
-            blend,
+            cascade_probes,
+            cascade_spacing: spacing,
+            cascade_blend: blend,
             cascade_period,
             frame_budget,
             rays,
@@ -940,11 +1010,12 @@ fn bench(command: BenchCommand) -> Result<(), String> {
         } => {
             let sky = ddgi::DdgiSkyLight { rays: sky_rays, max_distance: sky_reach };
             let measure = (error_every, reference_spp);
+            let probes = if cascades > 0 { cascade_probes } else { probes };
             let grid = (cascades, probes, spacing, blend, cascade_period, frame_budget);
             return bench_walk(&scene, grid, rays, !no_adaptive, (frames, warmup, speed), (width, height), offset, sky, measure, &out);
         }
-        BenchCommand::Ddgi { scene, iterations, width, height, grid, rays } => {
-            return bench_ddgi(&scene, iterations, engine::render::RenderSize { width, height }, &grid, &rays);
+        BenchCommand::Ddgi { scene, iterations, width, height, probes, rays } => {
+            return bench_ddgi(&scene, iterations, engine::render::RenderSize { width, height }, &probes, &rays);
         }
     };
     let scene = load(&name)?;
@@ -1098,5 +1169,61 @@ fn main() -> ExitCode {
             eprintln!("error: {e}");
             ExitCode::FAILURE
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::CommandFactory;
+
+    use super::Cli;
+
+    /// Every argument of every subcommand, as `path --flag`, for which `f` holds.
+    fn arguments(command: &clap::Command, path: &str, f: &impl Fn(&clap::Arg) -> bool, found: &mut Vec<String>) {
+        for arg in command.get_arguments() {
+            if !matches!(arg.get_id().as_str(), "help" | "version") && f(arg) {
+                found.push(format!("{path} --{}", arg.get_long().unwrap_or(arg.get_id().as_str())));
+            }
+        }
+        for sub in command.get_subcommands() {
+            arguments(sub, &format!("{path} {}", sub.get_name()), f, found);
+        }
+    }
+
+    /// `--help` explains every argument of every subcommand.
+    #[test]
+    fn every_argument_has_help() {
+        Cli::command().debug_assert();
+        let mut missing = Vec::new();
+        arguments(&Cli::command(), "game_demo", &|arg| arg.get_help().is_none() && arg.get_long_help().is_none(), &mut missing);
+        assert!(missing.is_empty(), "arguments without help text:\n  {}", missing.join("\n  "));
+    }
+
+    /// One concept, one flag: the probe grid is `--probes` (and `--cascade-probes` per cascade)
+    /// wherever it is taken, never `--grid` or a spacing under another name.
+    #[test]
+    fn the_same_concept_has_the_same_flag_everywhere() {
+        let mut found = Vec::new();
+        let retired = ["grid", "spacing", "blend", "probe-spacing", "adaptive"];
+        arguments(&Cli::command(), "game_demo", &|arg| arg.get_long().is_some_and(|l| retired.contains(&l)), &mut found);
+        assert!(found.is_empty(), "retired flag names: {found:?}");
+    }
+
+    /// Each subcommand's long help carries examples.
+    #[test]
+    fn every_subcommand_has_examples() {
+        let mut without = Vec::new();
+        fn walk(command: &clap::Command, path: &str, without: &mut Vec<String>) {
+            for sub in command.get_subcommands() {
+                let path = format!("{path} {}", sub.get_name());
+                if sub.get_subcommands().next().is_some() {
+                    walk(sub, &path, without);
+                } else if !sub.get_after_long_help().is_some_and(|h| h.to_string().contains("Examples")) {
+                    without.push(path);
+                }
+            }
+        }
+        walk(&Cli::command(), "game_demo", &mut without);
+        assert!(without.is_empty(), "subcommands without examples: {without:?}");
     }
 }

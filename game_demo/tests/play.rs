@@ -7,7 +7,7 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 /// Small and quick on lavapipe: 160×96 pixels, sparse probes, few rays.
-const SMALL: &[&str] = &["--width", "160", "--height", "96", "--probe-spacing", "3", "--rays", "32"];
+const SMALL: &[&str] = &["--width", "160", "--height", "96", "--probes", "13,3,13", "--rays", "32"];
 const FRAMES: u32 = 48;
 
 fn game_demo() -> Command {
@@ -184,7 +184,7 @@ fn short_soak_keeps_images_and_atlases_finite_and_memory_and_timings_bounded() {
     let output = game_demo()
         .args(["play", "--headless", "--soak", "--frames", "300", "--check-every", "50", "--warmup", "100", "--out"])
         .arg(&out)
-        .args(["--width", "64", "--height", "48", "--probe-spacing", "4", "--rays", "16"])
+        .args(["--width", "64", "--height", "48", "--probes", "10,2,10", "--rays", "16"])
         .output()
         .expect("run game_demo play --headless --soak");
     let stdout = String::from_utf8_lossy(&output.stdout);

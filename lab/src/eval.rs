@@ -119,10 +119,11 @@ impl Config {
         Config::Ddgi { name, volume: Box::new(ddgi::DdgiVolume { bounds, ..volume }), occlusion: Default::default(), taa: true }
     }
 
-    /// DDGI with `grid` (default: the published grid for `scene`) and the default settings.
+    /// DDGI with `grid` (default: the published grid for `scene`), the fixed ray budget and the
+    /// default settings otherwise.
     pub fn ddgi_default(scene: &SceneFacts, grid: Option<[u32; 3]>) -> Config {
         let probes = grid.unwrap_or(scene.paper_grid);
-        let volume = ddgi::DdgiVolume { probe_counts: Some(probes.into()), ..Default::default() };
+        let volume = ddgi::DdgiVolume { probe_counts: Some(probes.into()), adaptive: ddgi::DdgiAdaptive::off(), ..Default::default() };
         Config::ddgi(format!("ddgi_{}x{}x{}", probes[0], probes[1], probes[2]), scene, volume)
     }
 
@@ -142,6 +143,7 @@ impl Config {
             for texels in DDGI_RESOLUTIONS {
                 let volume = ddgi::DdgiVolume {
                     probe_counts: Some(grid.into()),
+                    adaptive: ddgi::DdgiAdaptive::off(),
                     irradiance_texels: texels,
                     distance_texels: 2 * texels,
                     ..Default::default()
@@ -158,12 +160,14 @@ impl Config {
         ];
         for (step, weights) in steps {
             let grid = scene.paper_grid;
-            let volume = ddgi::DdgiVolume { probe_counts: Some(grid.into()), weights, ..Default::default() };
+            let volume =
+                ddgi::DdgiVolume { probe_counts: Some(grid.into()), weights, adaptive: ddgi::DdgiAdaptive::off(), ..Default::default() };
             list.push(Config::ddgi(format!("ddgi_weights_{step}"), scene, volume));
         }
         // The last step of the ablation: every weight, and contact occlusion of the indirect light
         // (8 rays a pixel reaching the probe spacing).
-        let volume = ddgi::DdgiVolume { probe_counts: Some(scene.paper_grid.into()), ..Default::default() };
+        let volume =
+            ddgi::DdgiVolume { probe_counts: Some(scene.paper_grid.into()), adaptive: ddgi::DdgiAdaptive::off(), ..Default::default() };
         if let Config::Ddgi { name, volume, .. } = Config::ddgi("ddgi_weights_contact_occlusion".into(), scene, volume) {
             list.push(Config::Ddgi { name, volume, occlusion: ddgi::DdgiContactOcclusion { rays: 8, radius: None }, taa: true });
         }
@@ -177,9 +181,10 @@ impl Config {
         Config::ddgi("ddgi_defaults".into(), scene, ddgi::DdgiVolume::default())
     }
 
-    /// What each default contributes, one step at a time from the published grid without temporal
-    /// anti-aliasing (the defaults before them): + temporal anti-aliasing (the published grid's own
-    /// row), + the grid fitted to the box ([`Config::ddgi_defaults`], in the main list), + contact
+    /// What each default contributes, one step at a time from the published grid with the fixed
+    /// budget and without temporal anti-aliasing (the defaults before them): + temporal
+    /// anti-aliasing (the published grid's own row), + the grid fitted to the box (the fixed
+    /// budget still), + adaptive budgets ([`Config::ddgi_defaults`], in the main list), + contact
     /// occlusion.
     pub fn ddgi_contributions(scene: &SceneFacts) -> Vec<Config> {
         let published = |name: &str, taa| match Config::ddgi_default(scene, None) {
@@ -195,7 +200,12 @@ impl Config {
             },
             other => other,
         };
-        vec![published("ddgi_published_grid_no_taa", false), occluded]
+        let fitted = Config::ddgi(
+            "ddgi_defaults_fixed_budget".into(),
+            scene,
+            ddgi::DdgiVolume { adaptive: ddgi::DdgiAdaptive::off(), ..Default::default() },
+        );
+        vec![published("ddgi_published_grid_no_taa", false), fitted, occluded]
     }
 }
 

@@ -161,15 +161,18 @@ pub fn view_of_the_door_from_inside() -> Transform {
 pub fn kenney_assets_or_note() -> Option<PathBuf> {
     let dir = kenney_assets_dir();
     if dir.is_none() {
-        eprintln!("note: ../shared/assets/kenney_fps is absent; the level is built from procedural geometry only");
+        eprintln!("note: assets/kenney_fps is absent; the level is built from procedural geometry only");
     }
     dir
 }
 
-/// The Kenney FPS kit folder, `<repo>/../shared/assets/kenney_fps`, if it exists.
+/// The Kenney FPS kit (CC0, vendored with its licence in `<repo>/assets/kenney_fps`), if it is there:
+/// under the working directory (a binary run from a checkout's root), else in the checkout the
+/// binary was built from.
 pub fn kenney_assets_dir() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/assets/kenney_fps");
-    dir.is_dir().then_some(dir)
+    let here = Path::new("assets/kenney_fps").to_path_buf();
+    let built = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/kenney_fps");
+    [here, built].into_iter().find(|d| d.join("Textures").is_dir())
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -39,14 +39,17 @@ pub const PROBE_SPACING: f32 = 1.5;
 pub struct PlayOptions {
     pub width: u32,
     pub height: u32,
-    /// Probe spacing of the level's DDGI volume in metres (the grid follows from the level's size).
-    pub probe_spacing: f32,
+    /// Probes along x, y and z of the level's DDGI volume (default: every [`PROBE_SPACING`]
+    /// metres, [`level::level_probe_counts`]).
+    pub probe_counts: glam::UVec3,
+    /// Probe spacing of the finest cascade in metres (with `cascades`).
+    pub cascade_spacing: f32,
     pub rays_per_probe: u32,
     pub adaptive: bool,
-    /// Load the Kenney models (when the shared assets are present).
+    /// Load the Kenney models (vendored in assets/kenney_fps).
     pub use_assets: bool,
     /// Camera-following cascades (0: one volume over the level): this many nested volumes of
-    /// [`CASCADE_PROBES`] probes, the finest at `probe_spacing`.
+    /// [`CASCADE_PROBES`] probes, the finest at `cascade_spacing`.
     pub cascades: u32,
     /// Temporal anti-aliasing ([`engine::render::TemporalAntiAliasing`]).
     pub taa: bool,
@@ -60,7 +63,8 @@ impl Default for PlayOptions {
         Self {
             width: 1280,
             height: 720,
-            probe_spacing: PROBE_SPACING,
+            probe_counts: level::level_probe_counts(PROBE_SPACING),
+            cascade_spacing: PROBE_SPACING,
             rays_per_probe: ddgi::DdgiVolume::default().rays_per_probe,
             adaptive: true,
             use_assets: true,
@@ -77,6 +81,9 @@ pub fn setup_play(app: &mut App, options: &PlayOptions, scripted: bool) -> Resul
     if !options.taa {
         app.insert_resource(engine::render::DefaultTemporalAntiAliasing(engine::render::TemporalAntiAliasing::off()));
     }
+    // What a player sees: the filmic transform and an exposure that follows day and night, indoors
+    // and out (image files of the engine's own commands keep the radiometric clamp).
+    app.insert_resource(engine::render::DisplayTransform::AgX).insert_resource(engine::render::DefaultAutoExposure::default());
     let assets = if options.use_assets { level::kenney_assets_or_note() } else { None };
     let level = demo_level(assets.as_deref());
     let player = PlayerPlugin::new(level.layout.clone(), PlayerSettings::default()).map_err(|e| format!("navigation mesh: {e}"))?;
@@ -93,7 +100,7 @@ pub fn setup_play(app: &mut App, options: &PlayOptions, scripted: bool) -> Resul
 
     let mut volume = DdgiVolume {
         bounds: Some((level.layout.gi_bounds.0.as_dvec3(), level.layout.gi_bounds.1.as_dvec3())),
-        probe_counts: Some(level::level_probe_counts(options.probe_spacing)),
+        probe_counts: Some(options.probe_counts),
         rays_per_probe: options.rays_per_probe,
         ..Default::default()
     };
@@ -103,7 +110,7 @@ pub fn setup_play(app: &mut App, options: &PlayOptions, scripted: bool) -> Resul
         let cascades = ddgi::DdgiCascades {
             count: Some(options.cascades),
             probe_counts: CASCADE_PROBES,
-            spacing: options.probe_spacing,
+            spacing: options.cascade_spacing,
             volume: DdgiVolume { bounds: None, probe_counts: Some(CASCADE_PROBES), warm_up: true, ..volume },
             ..Default::default()
         };

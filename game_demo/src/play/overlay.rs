@@ -668,7 +668,8 @@ mod tests {
         let options = crate::play::PlayOptions {
             width: 128,
             height: 72,
-            probe_spacing: 4.0,
+            probe_counts: crate::play::level::level_probe_counts(4.0),
+            cascade_spacing: crate::play::PROBE_SPACING,
             rays_per_probe: 16,
             adaptive: true,
             use_assets: false,

@@ -357,7 +357,7 @@ impl DdgiVolumeGpu {
             recheck: u32::from(recheck),
             irradiance_atlas_size: layout.irradiance_atlas.as_vec2().to_array(),
             distance_atlas_size: layout.distance_atlas.as_vec2().to_array(),
-            min_rays: a.min_rays,
+            min_rays: a.min_rays.clamp(1, volume.rays_per_probe.max(1)),
             recheck_rays: volume.recheck_rays,
             error_target: a.error_target,
             error_decay: a.decay,

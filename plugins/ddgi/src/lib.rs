@@ -86,8 +86,8 @@ pub use pipelines::DdgiPipelines;
 pub use resources::{DdgiGpuVolumes, VolumeGpu};
 pub use sync::{rays_counter, rays_traced, volume_suffix};
 pub use volume::{
-    AUTO_PROBES_LONGEST, DdgiAdaptive, DdgiLayout, DdgiProbe, DdgiProbePin, DdgiProbeState, DdgiSettingsError, DdgiVolume, DdgiWeights,
-    auto_probe_counts,
+    AUTO_PROBES_LONGEST, AUTO_PROBES_MIN, DdgiAdaptive, DdgiLayout, DdgiProbe, DdgiProbePin, DdgiProbeState, DdgiSettingsError, DdgiVolume,
+    DdgiWeights, auto_probe_counts,
 };
 
 /// DDGI's WGSL (`plugins/ddgi/shaders/`): one file per pass, named after the pass label, and the

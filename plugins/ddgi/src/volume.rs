@@ -37,8 +37,11 @@ impl Default for DdgiWeights {
     }
 }
 
-/// Adaptive ray budgets (off by default): rays go where the lighting changes, and probes that
-/// contribute nothing stop costing anything.
+/// Adaptive ray budgets (on by default; [`DdgiAdaptive::off`] for the fixed budget): rays go where
+/// the lighting changes, and probes that contribute nothing stop costing anything. Measured
+/// (BENCHMARKS.md, H200, the six evaluation scenes after 120 frames): as accurate or more than the
+/// fixed budget everywhere — much more where light builds up over many bounces (a probe still
+/// converging blends faster), at fewer rays.
 ///
 /// Each probe's *temporal error*: per texel of its irradiance map, the change each frame's estimate
 /// asks of the texel, smoothed over frames (so that noise averages out and a lasting change stands
@@ -57,7 +60,8 @@ impl Default for DdgiWeights {
 #[derive(Clone, Debug, PartialEq)]
 pub struct DdgiAdaptive {
     pub enabled: bool,
-    /// Fewest rays of an active probe (≥ 1).
+    /// Fewest rays of an active probe (≥ 1; at most the volume's `rays_per_probe`, which it is
+    /// held to when larger).
     pub min_rays: u32,
     /// Smoothed error at which a probe gets the volume's full `rays_per_probe`. Lower: more rays
     /// everywhere (closer to a fixed budget).
@@ -122,7 +126,7 @@ pub struct DdgiAdaptive {
 impl Default for DdgiAdaptive {
     fn default() -> Self {
         Self {
-            enabled: false,
+            enabled: true,
             min_rays: 16,
             error_target: 0.1,
             decay: 0.9,
@@ -143,6 +147,11 @@ impl DdgiAdaptive {
     pub fn on() -> Self {
         Self { enabled: true, ..Default::default() }
     }
+
+    /// The fixed budget: every active probe traces `rays_per_probe` rays every update.
+    pub fn off() -> Self {
+        Self { enabled: false, ..Default::default() }
+    }
 }
 
 /// A volume of irradiance probes. Add it to an entity to light the scene inside its bounds with
@@ -160,7 +169,8 @@ pub struct DdgiVolume {
     /// `probe_counts` equal cells of the box.
     pub bounds: Option<(DVec3, DVec3)>,
     /// Probes along x, y and z (any size ≥ 1, not only powers of two); `None` (the default): the
-    /// grid [`auto_probe_counts`] fits to the box — a sixteenth of its longest side apart. More
+    /// grid [`auto_probe_counts`] fits to the box (16 along its longest side, at least 8 along
+    /// the others unless they are thin). More
     /// probes: finer light and sharper shadows of it, proportionally more rays, memory and update
     /// time.
     pub probe_counts: Option<UVec3>,
@@ -288,20 +298,27 @@ pub enum DdgiSettingsError {
 
 /// Probes along the longest side of a volume whose grid is left to [`auto_probe_counts`].
 pub const AUTO_PROBES_LONGEST: u32 = 16;
-/// The grid of a volume of `extent` whose [`DdgiVolume::probe_counts`] is `None`: cubic cells a
-/// sixteenth of the longest side ([`AUTO_PROBES_LONGEST`]) across, as many along each side as fit
-/// (rounded, at least 2: a flat floor gets a grid two probes thick): the density the literature's
-/// room grids have (16×8×16 for a room twice as long as it is high), where a fixed 8×8×8 put probes
-/// a metre apart in one scene and ten in the next. A cube gets the most, 16³ = 4,096 probes
-/// (524,288 rays a frame at 128 rays per probe, 1.3 MiB of atlases).
+/// Fewest probes [`auto_probe_counts`] puts along a side at least an eighth as long as the longest.
+pub const AUTO_PROBES_MIN: u32 = 8;
+
+/// The grid of a volume of `extent` whose [`DdgiVolume::probe_counts`] is `None`: 16 probes along
+/// its longest side and in proportion along the others, but at least 8 along any side an eighth as
+/// long or more (a field 44 m wide and 7 m high gets 16×8×16, not 16×3×16: the light changes most
+/// near the ground, and a flat grid holds it in two layers), and at least 2 along a thinner one (a
+/// floor gets a grid two probes thick). Measured (BENCHMARKS.md, H200, FLIP against the path
+/// tracer with the fixed budget): the densities of 16 along the longest side beat 8 and 32 in the
+/// door room, the demo level and Cornell's box, and 16×8×16 beat the demo level's own
+/// 1.5-metre grid (26×5×26, 0.0339 against 0.0400). At most 16³ = 4,096 probes: 524,288 rays a
+/// frame at 128 rays a probe (fewer with adaptive budgets), 1.3 MiB of atlases.
 pub fn auto_probe_counts(extent: Vec3) -> UVec3 {
     let extent = Vec3::select(extent.is_finite_mask(), extent.max(Vec3::ZERO), Vec3::ZERO);
     let longest = extent.max_element();
     if longest <= 0.0 {
         return UVec3::splat(2);
     }
-    let spacing = longest / AUTO_PROBES_LONGEST as f32;
-    (extent / spacing).round().as_uvec3().clamp(UVec3::splat(2), UVec3::splat(AUTO_PROBES_LONGEST))
+    let proportional = (extent / longest * AUTO_PROBES_LONGEST as f32).round().as_uvec3();
+    let floor = UVec3::select(extent.cmpge(Vec3::splat(longest / 8.0)), UVec3::splat(AUTO_PROBES_MIN), UVec3::splat(2));
+    proportional.max(floor).min(UVec3::splat(AUTO_PROBES_LONGEST))
 }
 
 fn invalid(field: &'static str, value: impl std::fmt::Debug, reason: &'static str) -> DdgiSettingsError {
@@ -356,9 +373,9 @@ impl DdgiVolume {
         if !(a.error_floor.is_finite() && a.error_floor >= 0.0) {
             return Err(invalid("adaptive.error_floor", a.error_floor, "must be finite and not negative"));
         }
-        // Only adaptive budgets use min_rays: a fixed budget of fewer rays than its default (16) is fine.
-        if a.enabled && (a.min_rays == 0 || a.min_rays > self.rays_per_probe) {
-            return Err(invalid("adaptive.min_rays", a.min_rays, "must be between 1 and rays_per_probe"));
+        // Above rays_per_probe it is held there (a volume of 8 rays a probe keeps the default 16).
+        if a.enabled && a.min_rays == 0 {
+            return Err(invalid("adaptive.min_rays", a.min_rays, "must be at least 1"));
         }
         if !(a.rest_error.is_finite() && a.rest_error >= 0.0) {
             return Err(invalid("adaptive.rest_error", a.rest_error, "must be finite and not negative"));

@@ -52,8 +52,9 @@ fn floor(scale: f32, albedo: f32) -> SceneDescription {
     s
 }
 
-/// A volume for tests: `counts` probes over `bounds`, `rays` rays, hysteresis `h`; relocation and
-/// classification off unless a test asks (so that every probe updates every frame).
+/// A volume for tests: `counts` probes over `bounds`, `rays` rays, hysteresis `h`; relocation,
+/// classification and adaptive budgets off unless a test asks (so that every probe updates every
+/// frame with all its rays).
 fn volume(bounds: (Vec3, Vec3), counts: UVec3, rays: u32, h: f32) -> DdgiVolume {
     DdgiVolume {
         bounds: Some((bounds.0.into(), bounds.1.into())),
@@ -62,6 +63,7 @@ fn volume(bounds: (Vec3, Vec3), counts: UVec3, rays: u32, h: f32) -> DdgiVolume 
         hysteresis: h,
         relocation: false,
         classification: false,
+        adaptive: ddgi::DdgiAdaptive::off(),
         firefly_threshold: 0.0,
         ..Default::default()
     }

@@ -50,7 +50,14 @@ fn render(
     let settings = HeadlessSettings { width: SIZE, height: SIZE, frames: FRAMES, ..Default::default() };
     let mut app = scene_app(gpu, scene, &settings, |app| {
         app.insert_resource(origin);
-        let volume = DdgiVolume { probe_counts: Some(UVec3::splat(4)), rays_per_probe: 64, ..Default::default() };
+        // The fixed budget: what is compared is the coordinates, frame by frame, and the adaptive
+        // budgets' shares come back from the GPU a frame or two late, not on a fixed frame.
+        let volume = DdgiVolume {
+            probe_counts: Some(UVec3::splat(4)),
+            rays_per_probe: 64,
+            adaptive: ddgi::DdgiAdaptive::off(),
+            ..Default::default()
+        };
         match mode {
             Mode::Direct => {}
             Mode::Ddgi => use_ddgi(app, volume, DdgiOutput::Full),
