@@ -9,9 +9,9 @@ SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 # lavapipe's window-system code complains when this is unset, even headless.
 export XDG_RUNTIME_DIR ?= /tmp/xdg-runtime-$(shell id -u)
 
-.PHONY: run render test lint vulkan-driver xvfb bless fuzz soak
+.PHONY: run render test lint toolchain vulkan-driver xvfb bless fuzz soak
 
-run: vulkan-driver
+run: toolchain vulkan-driver
 	@mkdir -p $(XDG_RUNTIME_DIR) && chmod 700 $(XDG_RUNTIME_DIR)
 	@if [ -n "$$DISPLAY$$WAYLAND_DISPLAY" ]; then \
 		$(CARGO) run --release -p game_demo -- play; \
@@ -21,27 +21,27 @@ run: vulkan-driver
 	fi
 
 # Renders one scene headless (SCENE=cornell by default).
-render: vulkan-driver
+render: toolchain vulkan-driver
 	@mkdir -p $(XDG_RUNTIME_DIR) && chmod 700 $(XDG_RUNTIME_DIR)
 	$(CARGO) run --release -p game_demo -- render --scene $(SCENE) --width 1280 --height 720 --out $(OUT)
 	@echo "images: $(OUT)/image.png (tonemapped sRGB), $(OUT)/image.exr (linear radiance); GPU times: $(OUT)/timings.json"
 
-test: vulkan-driver xvfb
+test: toolchain vulkan-driver xvfb
 	@mkdir -p $(XDG_RUNTIME_DIR) && chmod 700 $(XDG_RUNTIME_DIR)
 	$(CARGO) test --workspace --no-fail-fast
 
 # The full soak: 10,000 frames of the demo level headless, everything moving; fails if an image or
 # atlas holds a NaN or Inf, memory grows or frame times drift beyond their bounds (out/soak/soak.csv).
 SOAK_FRAMES ?= 10000
-SOAK_ARGS ?= --width 320 --height 180 --probe-spacing 2 --rays 64
-soak: vulkan-driver
+SOAK_ARGS ?= --width 320 --height 180 --probes 19,4,19 --rays 64
+soak: toolchain vulkan-driver
 	@mkdir -p $(XDG_RUNTIME_DIR) && chmod 700 $(XDG_RUNTIME_DIR)
 	$(CARGO) run --release -p game_demo -- play --headless --soak --frames $(SOAK_FRAMES) $(SOAK_ARGS) --out out/soak
 
 # Re-makes every reference image in tests/golden/ (testkit): the golden images from the current
 # renderer, and the path-traced references from the path tracer at 4096 paths per pixel (minutes on
 # a software driver).
-bless: vulkan-driver xvfb
+bless: toolchain vulkan-driver xvfb
 	@mkdir -p $(XDG_RUNTIME_DIR) && chmod 700 $(XDG_RUNTIME_DIR)
 	BLESS=1 $(CARGO) test --workspace --no-fail-fast
 
@@ -56,9 +56,21 @@ fuzz:
 	$(CARGO) +nightly fuzz run -s $(FUZZ_SANITIZER) gltf -- -max_total_time=$(FUZZ_SECONDS) -rss_limit_mb=4096 -timeout=10
 	$(CARGO) +nightly fuzz run -s $(FUZZ_SANITIZER) obj -- -max_total_time=$(FUZZ_SECONDS) -rss_limit_mb=4096 -timeout=10
 
-lint:
+lint: toolchain
 	$(CARGO) fmt --all --check
 	$(CARGO) clippy --workspace --all-targets -- -D warnings
+
+# rust-toolchain.toml pins the toolchain; rustup installs it when it can download. A machine that
+# cannot, whose `stable` toolchain is that same release, gets `stable` linked under the pinned name
+# (a symbolic link in rustup's toolchains folder: `rustup toolchain link` refuses release names).
+TOOLCHAIN := $(shell sed -n 's/^channel *= *"\(.*\)"/\1/p' rust-toolchain.toml)
+toolchain:
+	@if command -v rustup >/dev/null 2>&1 && ! rustup toolchain list | grep -q '^$(TOOLCHAIN)-' \
+		&& rustc +stable -V 2>/dev/null | grep -q '^rustc $(TOOLCHAIN) '; then \
+		host=$$(rustc +stable -vV | sed -n 's/^host: //p'); \
+		echo "linking the stable toolchain ($(TOOLCHAIN)) as $(TOOLCHAIN)-$$host"; \
+		ln -s "$$(rustc +stable --print sysroot)" "$${RUSTUP_HOME:-$$HOME/.rustup}/toolchains/$(TOOLCHAIN)-$$host"; \
+	fi
 
 # Installs Mesa's Vulkan drivers (lavapipe, a software rasterizer) and the Vulkan loader with apt,
 # only when no Vulkan driver manifest or loader is present.
