@@ -5,7 +5,8 @@
 //! hysteresis 0 to 1, 1 to 1024 rays per probe, 1×1×1 grids and grids far larger than the scene,
 //! probe spacing thinner than walls and wider than rooms, probes and camera inside geometry,
 //! degenerate and sliver triangles, albedo 0 and 1, spot lights with equal cones, emission at the
-//! largest half float, probe grids beyond the adapter's buffers and non-finite scene data.
+//! largest half float, probe grids beyond the adapter's buffers and non-finite scene data; and
+//! the temporal anti-aliasing and contact occlusion over the stiffest of these.
 //!
 //! Every case asserts that neither atlas (read back raw, as half floats) nor the final HDR image
 //! holds a NaN or an infinity, that irradiance stays under the analytic upper bound where there is
@@ -140,12 +141,24 @@ fn snapshot(gpu: &GpuContext, world: &mut engine::bevy_ecs::world::World) -> Sna
 }
 
 /// Runs `scene` with `volume` for `frames` frames at 32×32 and returns a snapshot after each frame.
-fn run(gpu: &GpuContext, mut scene: SceneDescription, volume: DdgiVolume, frames: u32) -> Vec<Snapshot> {
+fn run(gpu: &GpuContext, scene: SceneDescription, volume: DdgiVolume, frames: u32) -> Vec<Snapshot> {
+    run_with(gpu, scene, volume, frames, |_| {})
+}
+
+/// [`run`] with more setup of the app (e.g. contact occlusion) before the scene is spawned.
+fn run_with(
+    gpu: &GpuContext,
+    mut scene: SceneDescription,
+    volume: DdgiVolume,
+    frames: u32,
+    setup: impl FnOnce(&mut engine::bevy_app::App),
+) -> Vec<Snapshot> {
     if !scene.has_camera() {
         add_default_camera(&mut scene);
     }
     let mut app = headless_app(gpu, RenderSize { width: SIZE, height: SIZE }, 1.0 / 60.0);
     use_ddgi(&mut app, volume, DdgiOutput::Full);
+    setup(&mut app);
     scene.spawn(app.world_mut());
     let mut out = Vec::new();
     run_frames(&mut app, frames, |_, world| out.push(snapshot(gpu, world)));
@@ -521,6 +534,59 @@ fn emission_at_the_largest_half_float_stays_bright_and_finite() {
         let last = frames.last().unwrap();
         assert!(last.mean_pixel() >= emissive, "{what}: image {} darker than the emission", last.mean_pixel());
         assert!(last.mean() >= PI * emissive, "{what}: probes {} darker than the first bounce", last.mean());
+    }
+}
+
+#[test]
+fn taa_and_contact_occlusion_stay_finite_and_under_the_bounds_in_the_stiff_cases() {
+    let Some(gpu) = gpu("taa_and_contact_occlusion_extremes") else { return };
+    // The image checked is the temporal anti-aliasing's resolved output (on by default); contact
+    // occlusion's rays (2 a pixel, reaching the probe spacing) darken the indirect light only, so
+    // every bound of the cases without it still holds, and in a closed furnace room, whose corners
+    // it finds, the image is darker than without it (but not black).
+    let occlusion = |app: &mut engine::bevy_app::App| {
+        app.insert_resource(ddgi::DdgiContactOcclusion { rays: 2, ..Default::default() });
+    };
+    let (albedo, emission) = (0.5f32, 0.3f32);
+    for (scale, le, offset) in [(1e-3f32, emission, None), (1e4, emission, None), (1.0, 65504.0 * 2.0, None), (1.0, emission, Some(1e5))] {
+        let what = format!("furnace room, scale {scale:e}, Le {le}, offset {offset:?}");
+        let (lo, hi) = (Vec3::new(-1.0, 0.0, -1.0) * scale, Vec3::new(1.0, 1.5, 1.0) * scale);
+        let mut scene = closed_room(lo, hi, 0.2 * scale, material(albedo, le));
+        scene.origin = offset.map_or(DVec3::ZERO, DVec3::splat);
+        let mut v = volume((lo, hi), UVec3::splat(3), 32, 0.0);
+        v.bounds = Some((lo.as_dvec3() + scene.origin, hi.as_dvec3() + scene.origin));
+        let with = run_with(&gpu, scene.clone(), v.clone(), 6, occlusion);
+        let without = run(&gpu, scene, v, 6);
+        for (k, f) in with.iter().enumerate() {
+            f.assert_finite(&format!("{what}, frame {k}"));
+            assert!(f.max_pixel() <= le / (1.0 - albedo) * 1.02, "{what}, frame {k}: pixel {}", f.max_pixel());
+        }
+        let (a, b) = (with.last().unwrap().mean_pixel(), without.last().unwrap().mean_pixel());
+        assert!(a < b * 0.999 && a > 0.5 * b, "{what}: with contact occlusion {a}, without {b}");
+    }
+    for (intensity, scale) in [(1e-6f32, 1e-3f32), (1e6, 1e4)] {
+        let what = format!("floor under a point light, I = {intensity:e}, scale {scale:e}");
+        let mut scene = floor(scale, albedo);
+        let light = PointLight { color: Vec3::ONE, intensity, range: None };
+        scene.add_node("light", Transform::from_xyz(0.0, scale, 0.0), None, vec![NodeContent::PointLight(light)]);
+        let bounds = (Vec3::new(-2.0, 0.05, -2.0) * scale, Vec3::new(2.0, 1.5, 2.0) * scale);
+        let frames = run_with(&gpu, scene, volume(bounds, UVec3::new(3, 2, 3), 64, 0.5), 4, occlusion);
+        let pixel_bound = albedo / PI * (1.0 + albedo) * intensity / (scale * scale);
+        for (k, f) in frames.iter().enumerate() {
+            f.assert_finite(&format!("{what}, frame {k}"));
+            assert!(f.max_pixel() <= pixel_bound * 1.01, "{what}, frame {k}: pixel {} over {pixel_bound}", f.max_pixel());
+        }
+        assert!(frames.last().unwrap().centre_pixel() > 0.0, "{what}: the lit floor went black");
+    }
+    // Slivers and zero-area triangles, and a closed box of albedo 1 (divergent, clamped).
+    let (lo, hi) = (Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 1.5, 1.0));
+    let mut slivers = closed_room(lo, hi, 0.2, material(albedo, emission));
+    let mesh = slivers.add_mesh(degenerate_mesh());
+    slivers.add_node("slivers", Transform::IDENTITY, None, vec![NodeContent::Meshes(vec![(mesh, 0)])]);
+    for (what, scene) in [("slivers", slivers), ("albedo 1", closed_room(lo, hi, 0.2, material(1.0, emission)))] {
+        for (k, f) in run_with(&gpu, scene, volume((lo, hi), UVec3::splat(3), 32, 0.0), 6, occlusion).iter().enumerate() {
+            f.assert_finite(&format!("{what}, frame {k}"));
+        }
     }
 }
 
