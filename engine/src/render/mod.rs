@@ -111,6 +111,12 @@ pub enum DisplayTransform {
     /// AgX ([`crate::color::agx`]): highlights roll off into white and desaturate like film, shadows
     /// keep their detail; the filmic transform Blender 4 and Bevy offer. Costs a few dozen
     /// arithmetic operations a pixel.
+    ///
+    /// Chosen over Tony McMapface (Bevy's default) because it is analytic: a matrix, a log2 and a
+    /// polynomial, with no 48³ lookup table to ship, load and bind as a 3D texture, so a CPU
+    /// mirror tests it (monotone, 0 to 0, never NaN, `tests/camera_path.rs`) and any app gets it
+    /// without an asset. Both give saturated highlights a path to white; McMapface keeps hues a
+    /// little more faithfully, which a LUT could add later beside this variant.
     AgX,
 }
 
