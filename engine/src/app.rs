@@ -61,7 +61,9 @@ pub fn run_render_stages(world: &mut World) {
 /// deterministic: frame `n` sees `elapsed_seconds = n · step`.
 #[derive(Resource, Clone, Debug, PartialEq)]
 pub struct Time {
+    /// Seconds since the previous frame: the fixed step, or the measured wall time on a real clock.
     pub delta_seconds: f64,
+    /// Seconds since the first frame (the sum of every `delta_seconds`).
     pub elapsed_seconds: f64,
     /// Index of the current frame, from 0.
     pub frame: u64,

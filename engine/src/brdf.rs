@@ -26,7 +26,9 @@ pub const DIELECTRIC_F0: f32 = 0.04;
 /// What the BRDF needs of a surface.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Surface {
+    /// Linear base colour: the albedo of a dielectric, the reflectance at normal incidence of a metal.
     pub base_color: Vec3,
+    /// Metalness in [0, 1]: 0 dielectric, 1 metal; values between blend the two.
     pub metallic: f32,
     /// Perceptual roughness (GGX's α is its square).
     pub roughness: f32,
@@ -35,18 +37,24 @@ pub struct Surface {
 }
 
 impl Surface {
+    /// Specular reflectance at normal incidence: 4 % times `specular` for a dielectric, the base colour
+    /// for a metal.
     pub fn f0(&self) -> Vec3 {
         Vec3::splat(DIELECTRIC_F0 * self.specular).lerp(self.base_color, self.metallic)
     }
 
+    /// Specular reflectance at grazing incidence: `specular` for a dielectric, 1 for a metal.
     pub fn f90(&self) -> f32 {
         self.specular + (1.0 - self.specular) * self.metallic
     }
 
+    /// The Lambertian lobe's albedo: the base colour, none of it for a metal.
     pub fn diffuse_color(&self) -> Vec3 {
         self.base_color * (1.0 - self.metallic)
     }
 
+    /// Whether the surface has a specular lobe at all (metallic or a non-zero `specular`); without one
+    /// it is purely Lambertian.
     pub fn has_specular(&self) -> bool {
         self.metallic > 0.0 || self.specular > 0.0
     }

@@ -18,10 +18,21 @@ pub enum GpuError {
          `make test`, which installs it); on a machine with a GPU install its vendor's driver. WGPU_BACKEND and \
          WGPU_ADAPTER_NAME choose among several."
     )]
-    NoAdapter { backends: wgpu::Backends, name_note: String, seen: String },
+    /// No adapter of the allowed backends (and name, if `WGPU_ADAPTER_NAME` asks for one) was found.
+    NoAdapter {
+        /// The backends searched (`WGPU_BACKEND`, or wgpu's primary ones).
+        backends: wgpu::Backends,
+        /// `", name containing '…'"` when `WGPU_ADAPTER_NAME` narrowed the search, else empty.
+        name_note: String,
+        /// Every adapter found, as `name (backend)`, comma separated; `"none"` if there were none.
+        seen: String,
+    },
+    /// The chosen adapter would not open a device with the features and limits asked for.
     #[error("the GPU adapter '{adapter}' refused to create a device: {source}")]
     RequestDevice {
+        /// The adapter's name.
         adapter: String,
+        /// wgpu's reason.
         #[source]
         source: wgpu::RequestDeviceError,
     },
@@ -40,6 +51,7 @@ pub enum ValidationErrors {
 /// Options for [`GpuContext::new`].
 #[derive(Default)]
 pub struct GpuOptions<'a> {
+    /// What an uncaught wgpu validation error does: log (default) or panic.
     pub validation_errors: ValidationErrors,
     /// A surface the adapter must be able to present to (windowed runner).
     pub compatible_surface: Option<&'a wgpu::Surface<'a>>,
@@ -53,9 +65,13 @@ pub struct GpuOptions<'a> {
 /// The device everything renders with. Cheap to clone (wgpu handles are reference counted).
 #[derive(Resource, Clone)]
 pub struct GpuContext {
+    /// The wgpu instance the adapter came from (surfaces of the windowed runner are made with it).
     pub instance: wgpu::Instance,
+    /// The adapter chosen (see the module docs for how).
     pub adapter: wgpu::Adapter,
+    /// The device: every buffer, texture and pipeline is created on it.
     pub device: wgpu::Device,
+    /// The device's queue: uploads and command submission.
     pub queue: wgpu::Queue,
     /// Whether GPU timestamps can be written between commands (per-pass timing spans).
     pub timestamps: bool,

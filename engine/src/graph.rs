@@ -53,6 +53,7 @@ copy_access!(Write);
 
 /// Anything that names a resource of kind `K` in a pass closure.
 pub trait Access<K>: Copy {
+    /// The resource's index in the graph.
     fn id(self) -> usize;
 }
 impl<K> Access<K> for Read<K> {
@@ -69,16 +70,22 @@ impl<K> Access<K> for Write<K> {
 /// Description of a transient 2D texture (one mip, one layer).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct TextureDesc {
+    /// Width in texels.
     pub width: u32,
+    /// Height in texels.
     pub height: u32,
+    /// Texel format.
     pub format: wgpu::TextureFormat,
+    /// How passes may use it; the graph pools textures by their whole description.
     pub usage: wgpu::TextureUsages,
 }
 
 /// Description of a transient buffer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct BufferDesc {
+    /// Size in bytes.
     pub size: u64,
+    /// How passes may use it; the graph pools buffers by their whole description.
     pub usage: wgpu::BufferUsages,
 }
 
@@ -118,8 +125,16 @@ pub struct RenderGraph {
 
 /// A resource that every pass of a frame may read, given by reference to [`RenderGraph::import_named`].
 pub enum NamedResource<'a> {
+    /// A storage or uniform buffer, bound whole.
     Buffer(&'a wgpu::Buffer),
-    Texture { texture: &'a wgpu::Texture, view: &'a wgpu::TextureView },
+    /// A texture and the view passes bind.
+    Texture {
+        /// The texture (for copies and its size).
+        texture: &'a wgpu::Texture,
+        /// The view bind groups take.
+        view: &'a wgpu::TextureView,
+    },
+    /// A sampler.
     Sampler(&'a wgpu::Sampler),
 }
 
@@ -130,6 +145,7 @@ enum Named {
 }
 
 impl RenderGraph {
+    /// An empty graph.
     pub fn new() -> Self {
         Self::default()
     }
@@ -303,11 +319,13 @@ pub struct PassBuilder<'g> {
 }
 
 impl PassBuilder<'_> {
+    /// Declares that the pass reads `handle`, and returns the access its closure reads it through.
     pub fn read<K>(&mut self, handle: &Handle<K>) -> Read<K> {
         self.node.reads.push(handle.id);
         Read { id: handle.id, _kind: PhantomData }
     }
 
+    /// Declares that the pass writes `handle`, and returns the access its closure writes it through.
     pub fn write<K>(&mut self, handle: &mut Handle<K>) -> Write<K> {
         self.node.writes.push(handle.id);
         Write { id: handle.id, _kind: PhantomData }
@@ -366,12 +384,15 @@ impl Resolved {
 pub struct PassContext<'a> {
     /// The pass label: use it for the wgpu passes the closure begins.
     pub label: &'a str,
+    /// The command encoder of the frame: the closure records its passes and copies into it.
     pub encoder: &'a mut wgpu::CommandEncoder,
+    /// The device, for bind groups and the like.
     pub gpu: &'a GpuContext,
     resources: &'a [Resolved],
 }
 
 impl<'a> PassContext<'a> {
+    /// The texture behind a texture access.
     pub fn texture(&self, access: impl Access<Texture>) -> &'a wgpu::Texture {
         let resources: &'a [Resolved] = self.resources;
         match &resources[access.id()] {
@@ -389,6 +410,7 @@ impl<'a> PassContext<'a> {
         }
     }
 
+    /// The buffer behind a buffer access.
     pub fn buffer(&self, access: impl Access<Buffer>) -> &'a wgpu::Buffer {
         let resources: &'a [Resolved] = self.resources;
         match &resources[access.id()] {
@@ -404,16 +426,22 @@ impl<'a> PassContext<'a> {
 /// ordering see every resource a pass binds.
 #[derive(Clone)]
 pub enum Bind {
+    /// A graph buffer, by its index in the graph (made by [`Bind::buffer`]), bound whole.
     Buffer(usize),
+    /// A graph texture, by its index in the graph (made by [`Bind::texture`]), bound through its
+    /// default view.
     Texture(usize),
+    /// A sampler, which is not a graph resource.
     Sampler(wgpu::Sampler),
 }
 
 impl Bind {
+    /// Binds the buffer that `access` names.
     pub fn buffer(access: impl Access<Buffer>) -> Self {
         Bind::Buffer(access.id())
     }
 
+    /// Binds the default view of the texture that `access` names.
     pub fn texture(access: impl Access<Texture>) -> Self {
         Bind::Texture(access.id())
     }
@@ -495,6 +523,7 @@ impl TransientPool {
 /// Whether each pass of a frame ran, and its GPU time once the timestamps have come back.
 #[derive(Default)]
 pub struct FrameReport {
+    /// Every pass added, in order, with whether it ran.
     pub passes: Vec<PassRecord>,
     pending_timings: Option<PendingTimings>,
 }
@@ -502,7 +531,9 @@ pub struct FrameReport {
 /// One pass of a frame report.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PassRecord {
+    /// The label the pass was added under.
     pub label: String,
+    /// Whether the pass ran (false: the graph culled it, see `note`).
     pub ran: bool,
     /// Why it was left out, when it was; how it was specialized, when it ran.
     pub note: String,

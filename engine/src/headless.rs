@@ -16,7 +16,9 @@ use crate::scene::{Camera, NodeContent, SceneDescription, Transform};
 /// How to render headless.
 #[derive(Clone, Debug)]
 pub struct HeadlessSettings {
+    /// Image width in pixels.
     pub width: u32,
+    /// Image height in pixels.
     pub height: u32,
     /// Frames to run; the image is the last one.
     pub frames: u32,
@@ -32,25 +34,44 @@ impl Default for HeadlessSettings {
 
 /// The last frame of a headless run.
 pub struct RenderedFrame {
+    /// Image width in pixels.
     pub width: u32,
+    /// Image height in pixels.
     pub height: u32,
     /// Linear radiance, RGBA, row-major from the top-left.
     pub hdr: Vec<f32>,
     /// Tonemapped sRGB, RGBA8.
     pub ldr: Vec<u8>,
+    /// Per-pass timings of the frames run, oldest first (GPU times absent without timestamp queries).
     pub timings: Vec<FrameTiming>,
+    /// The name of the adapter that rendered it.
     pub adapter: String,
 }
 
 /// Errors of a headless render.
 #[derive(Debug, thiserror::Error)]
 pub enum RenderError {
+    /// The image is empty or larger than the device's largest 2D texture.
     #[error("image size {width}×{height} is not supported: each side must be between 1 and {max}")]
-    BadSize { width: u32, height: u32, max: u32 },
+    BadSize {
+        /// The width asked for, in pixels.
+        width: u32,
+        /// The height asked for, in pixels.
+        height: u32,
+        /// The device's largest texture side, in texels.
+        max: u32,
+    },
+    /// `frames` was 0.
     #[error("frame count must be at least 1")]
     NoFrames,
+    /// An output file could not be written.
     #[error("cannot write {path}: {message}")]
-    Write { path: String, message: String },
+    Write {
+        /// The file.
+        path: String,
+        /// What the encoder or the file system said.
+        message: String,
+    },
 }
 
 /// Adds a camera that frames the scene's bounds in a three-quarter view from the front (+Z) and

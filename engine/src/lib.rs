@@ -16,6 +16,8 @@
 //! and `obj` (the importers and their parsers). Without them the engine still renders headless and
 //! imports nothing: loading a file of a left-out format is an error that names the feature.
 
+#![warn(missing_docs)]
+
 pub mod app;
 pub mod brdf;
 pub mod color;

@@ -14,8 +14,11 @@ use glam::{Affine3A, DAffine3, DVec3, Mat3, Quat, Vec2, Vec3};
 #[derive(Component, Clone, Copy, Debug, PartialEq)]
 #[require(GlobalTransform)]
 pub struct Transform {
+    /// Position relative to the parent (world units).
     pub translation: Vec3,
+    /// Orientation relative to the parent.
     pub rotation: Quat,
+    /// Scale along the local axes, applied before the rotation.
     pub scale: Vec3,
 }
 
@@ -26,21 +29,26 @@ impl Default for Transform {
 }
 
 impl Transform {
+    /// No translation, no rotation, unit scale.
     pub const IDENTITY: Self = Self { translation: Vec3::ZERO, rotation: Quat::IDENTITY, scale: Vec3::ONE };
 
+    /// A transform that only moves by `translation`.
     pub fn from_translation(translation: Vec3) -> Self {
         Self { translation, ..Self::IDENTITY }
     }
 
+    /// A transform that only moves to (`x`, `y`, `z`).
     pub fn from_xyz(x: f32, y: f32, z: f32) -> Self {
         Self::from_translation(Vec3::new(x, y, z))
     }
 
+    /// The transform with its rotation replaced by `rotation`.
     pub fn with_rotation(mut self, rotation: Quat) -> Self {
         self.rotation = rotation;
         self
     }
 
+    /// The transform with its scale replaced by `scale`.
     pub fn with_scale(mut self, scale: Vec3) -> Self {
         self.scale = scale;
         self
@@ -55,6 +63,7 @@ impl Transform {
         self
     }
 
+    /// The local-to-parent matrix: scale, then rotation, then translation.
     pub fn to_affine(&self) -> Affine3A {
         Affine3A::from_scale_rotation_translation(self.scale, self.rotation, self.translation)
     }
@@ -70,6 +79,7 @@ impl Transform {
 pub struct GlobalTransform(pub Affine3A);
 
 impl GlobalTransform {
+    /// The entity's position in render space.
     pub fn translation(&self) -> Vec3 {
         self.0.translation.into()
     }
@@ -105,8 +115,9 @@ pub struct RenderOrigin {
     /// precision near the camera, more frequent rebases (each one uploads every instance and refits
     /// the TLAS once). `f64::INFINITY`: never rebase (render space is world space).
     pub rebase_distance: f64,
-    /// Rebases so far, and the frame ([`crate::app::Time::frame`]) of the last one.
+    /// Rebases so far.
     pub rebases: u64,
+    /// The frame ([`crate::app::Time::frame`]) of the last rebase; `None` before the first.
     pub last_rebase_frame: Option<u64>,
 }
 
@@ -216,7 +227,9 @@ impl Default for Camera {
 #[derive(Component, Clone, Copy, Debug, PartialEq)]
 #[require(Transform)]
 pub struct DirectionalLight {
+    /// Linear RGB colour; multiplied by `intensity`.
     pub color: Vec3,
+    /// Irradiance (W/m²) on a surface facing the light, per unit of `color`.
     pub intensity: f32,
 }
 
@@ -224,7 +237,9 @@ pub struct DirectionalLight {
 #[derive(Component, Clone, Copy, Debug, PartialEq)]
 #[require(Transform)]
 pub struct PointLight {
+    /// Linear RGB colour; multiplied by `intensity`.
     pub color: Vec3,
+    /// Radiant intensity (W/sr) per unit of `color`.
     pub intensity: f32,
     /// Distance past which the light is cut off smoothly (glTF's window); `None` is unlimited.
     pub range: Option<f32>,
@@ -235,10 +250,16 @@ pub struct PointLight {
 #[derive(Component, Clone, Copy, Debug, PartialEq)]
 #[require(Transform)]
 pub struct SpotLight {
+    /// Linear RGB colour; multiplied by `intensity`.
     pub color: Vec3,
+    /// Radiant intensity (W/sr) on the axis, per unit of `color`.
     pub intensity: f32,
+    /// Distance (world units) past which the light is cut off smoothly (glTF's window); `None` is
+    /// unlimited.
     pub range: Option<f32>,
+    /// Angle (radians, from the axis) inside which the cone is at full intensity.
     pub inner_cone_angle: f32,
+    /// Angle (radians, from the axis) past which the cone gives no light; at least `inner_cone_angle`.
     pub outer_cone_angle: f32,
 }
 
@@ -246,14 +267,18 @@ pub struct SpotLight {
 #[derive(Component, Clone, Copy, Debug, PartialEq, Eq)]
 #[require(Transform)]
 pub struct MeshInstance {
+    /// The mesh drawn, in the world's [`Assets<Mesh>`].
     pub mesh: Handle<Mesh>,
+    /// The material it is drawn with, in the world's [`Assets<Material>`].
     pub material: Handle<Material>,
 }
 
 /// Moves an entity along a circle over time (used by built-in scenes for moving lights).
 #[derive(Component, Clone, Copy, Debug, PartialEq)]
 pub struct Orbit {
+    /// Centre of the circle (parent space, world units); the circle lies in the horizontal (xz) plane.
     pub center: Vec3,
+    /// Radius of the circle (world units).
     pub radius: f32,
     /// Seconds per revolution.
     pub period: f32,
@@ -272,10 +297,13 @@ pub struct Handle<T> {
 }
 
 impl<T> Handle<T> {
+    /// The handle of the asset at `index` in its store (not checked: [`Assets::get`] returns `None`
+    /// for an index past the end).
     pub const fn from_index(index: u32) -> Self {
         Self { index, _marker: PhantomData }
     }
 
+    /// The asset's index in its store.
     pub const fn index(self) -> u32 {
         self.index
     }
@@ -319,12 +347,14 @@ impl<T> Default for Assets<T> {
 }
 
 impl<T> Assets<T> {
+    /// Adds `item` and returns its handle.
     pub fn add(&mut self, item: T) -> Handle<T> {
         self.items.push(item);
         self.generation += 1;
         Handle::from_index(self.items.len() as u32 - 1)
     }
 
+    /// The asset behind `handle`, or `None` if the store has no such asset.
     pub fn get(&self, handle: Handle<T>) -> Option<&T> {
         self.items.get(handle.index as usize)
     }
@@ -335,14 +365,17 @@ impl<T> Assets<T> {
         self.items.get_mut(handle.index as usize)
     }
 
+    /// Every asset with its handle, in the order they were added.
     pub fn iter(&self) -> impl Iterator<Item = (Handle<T>, &T)> {
         self.items.iter().enumerate().map(|(i, t)| (Handle::from_index(i as u32), t))
     }
 
+    /// How many assets the store holds.
     pub fn len(&self) -> usize {
         self.items.len()
     }
 
+    /// Whether the store holds no asset.
     pub fn is_empty(&self) -> bool {
         self.items.is_empty()
     }
@@ -357,11 +390,16 @@ impl<T> Assets<T> {
 /// are unit length, and every index is below `positions.len()`.
 #[derive(Clone, Debug, PartialEq, Default)]
 pub struct Mesh {
+    /// The mesh's name (from the file, or given by the scene builder), for messages.
     pub name: String,
+    /// Vertex positions in local space (world units).
     pub positions: Vec<Vec3>,
+    /// Unit vertex normals in local space, one per position.
     pub normals: Vec<Vec3>,
     /// Texture coordinates; empty when the mesh has none (then all are zero).
     pub uvs: Vec<Vec2>,
+    /// Triangle list: three indices into `positions` per triangle (front faces counter-clockwise, as
+    /// in glTF).
     pub indices: Vec<u32>,
     /// Tangents for normal maps: xyz along increasing u, w the handedness (±1) of the bitangent
     /// `w · cross(normal, tangent)` along increasing v; empty when the mesh has none (see
@@ -370,6 +408,7 @@ pub struct Mesh {
 }
 
 impl Mesh {
+    /// Triangles in the mesh (a third of its indices).
     pub fn triangle_count(&self) -> usize {
         self.indices.len() / 3
     }
@@ -444,17 +483,24 @@ impl Mesh {
 /// An RGBA8 image whose colour channels are sRGB-encoded (as glTF base colour and emissive textures are).
 #[derive(Clone, Debug, PartialEq, Default)]
 pub struct Image {
+    /// The image's name (from the file, or given by the scene builder), for messages.
     pub name: String,
+    /// Width in pixels.
     pub width: u32,
+    /// Height in pixels.
     pub height: u32,
+    /// The pixels, four bytes (R, G, B, A) each, row-major from the top-left.
     pub rgba8: Vec<u8>,
 }
 
 /// An affine transform of texture coordinates (glTF's `KHR_texture_transform`): `uv' = T·R·S·uv`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct UvTransform {
+    /// Translation, added last (in texture-coordinate units).
     pub offset: Vec2,
+    /// Counter-clockwise rotation (radians), applied after the scale.
     pub rotation: f32,
+    /// Scale, applied first.
     pub scale: Vec2,
 }
 
@@ -476,7 +522,9 @@ impl UvTransform {
 /// A texture reference inside a material.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TextureRef {
+    /// The image sampled, in the scene's (or the world's) image list.
     pub image: Handle<Image>,
+    /// How the mesh's texture coordinates are transformed before the lookup.
     pub transform: UvTransform,
 }
 
@@ -487,11 +535,18 @@ pub struct TextureRef {
 /// glTF's specular lobe (`specular` 1: F0 = 0.04).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
+    /// The material's name (from the file, or given by the scene builder), for messages.
     pub name: String,
+    /// Linear base colour factor (RGB) and alpha (kept as imported; every surface renders opaque);
+    /// times the texture.
     pub base_color: glam::Vec4,
+    /// Base colour texture (sRGB); `None`: the factor alone.
     pub base_color_texture: Option<TextureRef>,
+    /// Emitted radiance factor (linear RGB, W/(m²·sr) before `emissive_strength`); times the texture.
     pub emissive: Vec3,
+    /// Emission texture (sRGB); `None`: the factor alone.
     pub emissive_texture: Option<TextureRef>,
+    /// Multiplier of the emitted radiance (glTF's `KHR_materials_emissive_strength`); 1 by default.
     pub emissive_strength: f32,
     /// 0: a dielectric (base colour is its diffuse colour), 1: a metal (base colour is its
     /// specular reflectance, no diffuse); times the texture's blue channel.
@@ -506,6 +561,7 @@ pub struct Material {
     pub specular: f32,
     /// A tangent-space normal map (linear; xy scaled by `normal_scale`); needs the mesh's tangents.
     pub normal_texture: Option<TextureRef>,
+    /// Scale of the normal map's x and y (glTF's `normalTexture.scale`); 1 by default.
     pub normal_scale: f32,
 }
 
@@ -529,14 +585,17 @@ impl Default for Material {
 }
 
 impl Material {
+    /// A Lambertian material of base colour `color` (linear RGB), named `name`.
     pub fn diffuse(name: &str, color: Vec3) -> Self {
         Self { name: name.into(), base_color: color.extend(1.0), ..Default::default() }
     }
 
+    /// A black material that emits `radiance` (linear RGB, W/(m²·sr)), named `name`.
     pub fn emissive(name: &str, radiance: Vec3) -> Self {
         Self { name: name.into(), base_color: glam::Vec4::new(0.0, 0.0, 0.0, 1.0), emissive: radiance, ..Default::default() }
     }
 
+    /// Whether the material emits any light (some emissive channel and the strength above 0).
     pub fn is_emissive(&self) -> bool {
         self.emissive.max_element() * self.emissive_strength > 0.0
     }
@@ -561,22 +620,32 @@ impl Material {
 /// What a node of a scene description carries besides its transform.
 #[derive(Clone, Debug, PartialEq)]
 pub enum NodeContent {
+    /// Nothing: a node that only places its children.
     Empty,
     /// One instance per primitive: (mesh, material) pairs in the scene's own asset lists.
     Meshes(Vec<(usize, usize)>),
+    /// A camera.
     Camera(Camera),
+    /// A directional light.
     DirectionalLight(DirectionalLight),
+    /// A point light.
     PointLight(PointLight),
+    /// A spot light.
     SpotLight(SpotLight),
 }
 
 /// A node of a scene description.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SceneNode {
+    /// The node's name, given to its entity as a [`Name`].
     pub name: String,
+    /// Placement relative to the parent node (or the scene's root).
     pub transform: Transform,
+    /// The parent node's index in [`SceneDescription::nodes`]; `None`: a child of the scene's root.
     pub parent: Option<usize>,
+    /// What the node carries: meshes, a camera, lights.
     pub content: Vec<NodeContent>,
+    /// An orbit that moves the node over time, if any.
     pub orbit: Option<Orbit>,
 }
 
@@ -585,9 +654,13 @@ pub struct SceneNode {
 /// intact. Mesh, material and image references are indices into the description's own lists.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct SceneDescription {
+    /// The scene's name (importers: the file stem); given to its [`SceneRoot`].
     pub name: String,
+    /// Every mesh, indexed by [`NodeContent::Meshes`].
     pub meshes: Vec<Mesh>,
+    /// Every material, indexed by [`NodeContent::Meshes`].
     pub materials: Vec<Material>,
+    /// Every image, indexed by the materials' [`TextureRef`]s.
     pub images: Vec<Image>,
     /// Nodes in an order where every parent comes before its children.
     pub nodes: Vec<SceneNode>,
@@ -599,10 +672,12 @@ pub struct SceneDescription {
 /// Marks the root entity of a spawned scene; despawning it removes the whole scene.
 #[derive(Component, Clone, Debug)]
 pub struct SceneRoot {
+    /// The scene's name, as [`SceneDescription::name`] gave it.
     pub name: String,
 }
 
 impl SceneDescription {
+    /// Adds a node with no orbit and returns its index.
     pub fn add_node(&mut self, name: &str, transform: Transform, parent: Option<usize>, content: Vec<NodeContent>) -> usize {
         self.nodes.push(SceneNode { name: name.into(), transform, parent, content, orbit: None });
         self.nodes.len() - 1
@@ -614,16 +689,19 @@ impl SceneDescription {
         self.add_node(name, transform, None, vec![NodeContent::Meshes(vec![(mesh, material)])])
     }
 
+    /// Adds `mesh` to the scene's meshes and returns its index.
     pub fn add_mesh(&mut self, mesh: Mesh) -> usize {
         self.meshes.push(mesh);
         self.meshes.len() - 1
     }
 
+    /// Adds `material` to the scene's materials and returns its index.
     pub fn add_material(&mut self, material: Material) -> usize {
         self.materials.push(material);
         self.materials.len() - 1
     }
 
+    /// Triangles of every mesh, each counted once however many nodes draw it.
     pub fn triangle_count(&self) -> usize {
         self.meshes.iter().map(Mesh::triangle_count).sum()
     }
@@ -642,6 +720,7 @@ impl SceneDescription {
             .sum()
     }
 
+    /// Whether any node carries a camera.
     pub fn has_camera(&self) -> bool {
         self.nodes.iter().any(|n| n.content.iter().any(|c| matches!(c, NodeContent::Camera(_))))
     }
@@ -785,13 +864,39 @@ pub enum SceneDataError {
     /// `item` names the mesh, material, light, camera or node (`mesh 'Box'`, `light entity 4v1 'Sun'`),
     /// `field` the value (`positions[17]`, `intensity`) and `value` what it holds.
     #[error("{item}: {field} = {value} is not finite")]
-    NonFinite { item: String, field: String, value: String },
+    NonFinite {
+        /// The mesh, material, light, camera or node, e.g. `mesh 'Box'`.
+        item: String,
+        /// The value's field, e.g. `positions[17]`.
+        field: String,
+        /// What it holds, as `Debug` prints it.
+        value: String,
+    },
     /// A value is finite but outside its valid range (a negative intensity, a zero-length normal, …).
     #[error("{item}: {field} = {value}: {reason}")]
-    OutOfRange { item: String, field: String, value: String, reason: &'static str },
+    OutOfRange {
+        /// The mesh, material, light, camera or node, e.g. `light entity 4v1 'Sun'`.
+        item: String,
+        /// The value's field, e.g. `intensity`.
+        field: String,
+        /// What it holds, as `Debug` prints it.
+        value: String,
+        /// Why it is out of range, e.g. `must not be negative`.
+        reason: &'static str,
+    },
     /// The scene needs a GPU buffer larger than the adapter allows.
     #[error("{item}: the {buffer} needs {needed} bytes, over the adapter's limit of {limit} bytes")]
-    OverLimit { item: String, buffer: &'static str, needed: u64, limit: u64 },
+    OverLimit {
+        /// What needs the buffer, e.g. `scene geometry (largest: mesh 3 'Terrain')`.
+        item: String,
+        /// The buffer, e.g. `vertex buffer (48 bytes per vertex)`.
+        buffer: &'static str,
+        /// Its size, in bytes.
+        needed: u64,
+        /// The largest storage buffer the adapter binds, in bytes
+        /// ([`crate::render::gpu_scene::max_storage_buffer_bytes`]).
+        limit: u64,
+    },
 }
 
 fn non_finite(item: &str, field: impl Into<String>, value: impl std::fmt::Debug) -> SceneDataError {

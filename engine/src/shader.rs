@@ -51,16 +51,36 @@ static REGISTRY: LazyLock<RwLock<BTreeMap<&'static str, &'static str>>> =
 /// A shader that failed to load; the message carries naga's report with file and line.
 #[derive(Debug, thiserror::Error)]
 pub enum ShaderError {
+    /// No module of this name is registered.
     #[error("shader '{0}' is not registered (is the crate that owns it registered with engine::shader::register?)")]
     Missing(String),
+    /// An `#include` names a module that is not registered.
     #[error("{file}: include of '{include}' cannot be resolved")]
-    BadInclude { file: String, include: String },
+    BadInclude {
+        /// The module with the `#include` and the line of it, `name:line`.
+        file: String,
+        /// The module it names.
+        include: String,
+    },
+    /// A module name was registered again with another source.
     #[error("shader module '{0}' is registered twice with different sources (module names are global: prefix them with the crate)")]
     Conflict(String),
+    /// naga could not parse the expanded module.
     #[error("{file}: WGSL parse error:\n{report}")]
-    Parse { file: String, report: String },
+    Parse {
+        /// The module parsed.
+        file: String,
+        /// naga's report, with the module and line of each fault (included modules too).
+        report: String,
+    },
+    /// naga parsed the module, but its validator rejected it.
     #[error("{file}: WGSL validation error:\n{report}")]
-    Validation { file: String, report: String },
+    Validation {
+        /// The module validated.
+        file: String,
+        /// naga's report, with the module and line of each fault (included modules too).
+        report: String,
+    },
 }
 
 /// Adds `modules` to the registry, so that pipelines and `#include` find them. Registering the
@@ -121,6 +141,7 @@ pub fn check_shader_folder(dir: &Path, modules: &[ShaderModule]) -> Result<(), S
 
 /// A module with its includes expanded, and where each of its lines came from.
 pub struct Preprocessed {
+    /// The WGSL, every `#include` replaced by the module it names (each module once).
     pub source: String,
     /// For each line of `source`: the module it came from and its line there (1-based).
     origins: Vec<(&'static str, u32)>,
@@ -190,9 +211,13 @@ pub fn preprocess(name: &str) -> Result<Preprocessed, ShaderError> {
 
 /// A parsed and validated shader module.
 pub struct ParsedShader {
+    /// The registered module's name, e.g. `taa.wgsl`.
     pub name: String,
+    /// Its WGSL with the includes expanded (what the GPU compiles).
     pub source: String,
+    /// naga's IR of it.
     pub module: naga::Module,
+    /// naga's validation results (expression types, global uses per entry point).
     pub info: naga::valid::ModuleInfo,
 }
 
@@ -281,6 +306,7 @@ impl ParsedShader {
 /// Which named globals an entry point binds, per group, and which of them it writes.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct BindingMap {
+    /// For each bind group the entry points use: each bound global's name and its binding index.
     pub groups: BTreeMap<u32, BTreeMap<String, u32>>,
     /// The bound globals the entry points write (storage buffers and textures), as naga's analysis
     /// finds them: a render-graph pass declares these as writes, the others as reads.
@@ -289,13 +315,17 @@ pub struct BindingMap {
 
 /// A pipeline with the binding names its shader declares.
 pub struct Program<P> {
+    /// The pipeline's label (its wgpu label and the pass it is usually used by).
     pub label: String,
+    /// The wgpu compute or render pipeline, with automatic bind group layouts.
     pub pipeline: P,
+    /// What its entry points bind, by WGSL name.
     pub bindings: BindingMap,
 }
 
 /// Pipelines that can hand out their automatic bind group layouts.
 pub trait AutoLayout {
+    /// The layout wgpu derived for bind group `group` from the shader.
     fn layout(&self, group: u32) -> wgpu::BindGroupLayout;
 }
 
@@ -370,8 +400,11 @@ pub fn compute_program_with_constants(
 
 /// What a render pipeline draws into.
 pub struct RenderTargets<'a> {
+    /// The colour attachments, in `@location` order (format, blending, write mask).
     pub colors: &'a [Option<wgpu::ColorTargetState>],
+    /// The depth attachment and its test, if any.
     pub depth: Option<wgpu::DepthStencilState>,
+    /// Topology, winding and culling.
     pub primitive: wgpu::PrimitiveState,
 }
 
@@ -404,11 +437,15 @@ pub fn render_program(
 }
 
 /// A host mirror of a WGSL struct: its WGSL name, size and each field's offset, from
-/// [`gpu_struct_layout!`]. [`check_struct_layout`] compares it with naga's layout.
+/// [`gpu_struct_layout!`](crate::gpu_struct_layout!). [`check_struct_layout`] compares it with
+/// naga's layout.
 #[derive(Clone, Debug)]
 pub struct HostStruct {
+    /// The struct's name, the same on the host and in WGSL.
     pub name: &'static str,
+    /// `size_of` the host type, in bytes.
     pub size: usize,
+    /// Each field's WGSL member name and byte offset in the host type, in declaration order.
     pub fields: Vec<(&'static str, usize)>,
     /// A registered module that declares the struct.
     pub module: &'static str,

@@ -141,9 +141,13 @@ pub fn box_with_hole(min: Vec3, max: Vec3, hole_min: Vec3, hole_max: Vec3) -> Ve
 /// The slabs around an interior box. Every slab spans the whole outer box along the two axes it does
 /// not close, so neighbouring slabs overlap along the room's edges and corners.
 pub struct Shell {
+    /// The interior's lowest corner (world units).
     pub inner_min: Vec3,
+    /// The interior's highest corner (world units).
     pub inner_max: Vec3,
+    /// The outer box's lowest corner: `inner_min` less the thickness.
     pub outer_min: Vec3,
+    /// The outer box's highest corner: `inner_max` plus the thickness.
     pub outer_max: Vec3,
 }
 
@@ -185,7 +189,9 @@ pub fn closed_shell(name: &str, inner_min: Vec3, inner_max: Vec3, thickness: f32
     merge(name, &parts)
 }
 
-/// Axis indices for [`Shell::slab`] and its kin.
+/// The X axis: axis indices for [`Shell::slab`] and its kin.
 pub const X: usize = 0;
+/// The Y axis (up).
 pub const Y: usize = 1;
+/// The Z axis.
 pub const Z: usize = 2;

@@ -83,10 +83,15 @@ impl Default for PhysicalSky {
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct GpuSky {
     /// Perez coefficients A–E: `.x` for luminance Y, `.y` and `.z` for chromaticities x and y.
+    /// A: darkening or brightening towards the horizon.
     pub perez_a: [f32; 4],
+    /// Perez B: the luminance gradient near the horizon.
     pub perez_b: [f32; 4],
+    /// Perez C: the relative intensity of the circumsolar region.
     pub perez_c: [f32; 4],
+    /// Perez D: the width of the circumsolar region.
     pub perez_d: [f32; 4],
+    /// Perez E: the relative backscattered light.
     pub perez_e: [f32; 4],
     /// Zenith Y (radiance units, twilight and intensity applied), x, y; `.w`: 1 for the physical
     /// sky, 0 for the uniform one.
@@ -99,13 +104,17 @@ pub struct GpuSky {
     pub sun_radiance: [f32; 4],
     /// The uniform sky's radiance, or the physical sky's night floor.
     pub uniform: [f32; 4],
+    /// What the horizon's radiance is multiplied by below it (RGB, [`PhysicalSky::ground_albedo`];
+    /// unused by the uniform sky); `.w` unused.
     pub ground_albedo: [f32; 4],
 }
 
 /// The scene's sun as the sky sees it: a unit vector towards it and its irradiance.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sun {
+    /// Unit vector towards the sun (world space, y up).
     pub direction: Vec3,
+    /// The sun's irradiance (W/m², the luminance of a directional light's `color × intensity`).
     pub irradiance: f32,
 }
 

@@ -35,14 +35,24 @@ use crate::scene::SceneDescription;
 /// Why the window could not run.
 #[derive(Debug, thiserror::Error)]
 pub enum WindowError {
+    /// winit could not open its event loop (no display), with its message.
     #[error("cannot open a window (is a display available? set DISPLAY or WAYLAND_DISPLAY): {0}")]
     EventLoop(String),
+    /// The window, its surface or the surface's blit pipeline could not be made, with the reason.
     #[error("cannot create the window or its surface: {0}")]
     Surface(String),
+    /// No GPU could present to the window.
     #[error(transparent)]
     Gpu(#[from] crate::gpu::GpuError),
+    /// The device was lost more than [`MAX_DEVICE_RECOVERIES`] times in a row (each loss reopens it
+    /// and rebuilds the app).
     #[error("the GPU device was lost {count} times in a row (last: {reason}); giving up")]
-    DeviceLost { count: u32, reason: String },
+    DeviceLost {
+        /// Losses in a row.
+        count: u32,
+        /// Why the last one happened, as wgpu said.
+        reason: String,
+    },
     /// An error of the app's hooks.
     #[error("{0}")]
     App(String),
@@ -134,6 +144,7 @@ impl WindowHooks for SceneViewer {
 
 /// The window and the app presenting to it, as the hooks see them.
 pub struct WindowContext {
+    /// The winit window.
     pub window: Arc<Window>,
     /// The engine, the camera path and the window's surface, plus what the hooks built.
     pub app: App,

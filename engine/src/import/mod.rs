@@ -48,21 +48,29 @@ pub enum ImportError {
     /// A file (the scene itself or one it refers to) exists but could not be read.
     #[error("{}: cannot read {}: {source}", file.display(), path.display())]
     Io {
+        /// The scene file being imported.
         file: PathBuf,
         /// The file that failed to read (the scene file itself, or a buffer, image or material library).
         path: PathBuf,
+        /// The operating system's error.
         #[source]
         source: std::io::Error,
     },
 
     /// The extension is none of `.gltf`, `.glb` and `.obj`.
     #[error("{}: unsupported file extension {extension:?} (expected .gltf, .glb or .obj)", file.display())]
-    UnsupportedExtension { file: PathBuf, extension: String },
+    UnsupportedExtension {
+        /// The scene file being imported.
+        file: PathBuf,
+        /// The extension with its dot, e.g. `.fbx`; empty when the name has none.
+        extension: String,
+    },
 
     /// The file's format is known, but the engine was built without the cargo feature of its
     /// importer.
     #[error("{}: cannot import {format} files: the engine was built without its `{feature}` feature", file.display())]
     FormatDisabled {
+        /// The scene file being imported.
         file: PathBuf,
         /// The format, e.g. `glTF`.
         format: &'static str,
@@ -72,16 +80,25 @@ pub enum ImportError {
 
     /// The file has no content at all.
     #[error("{}: file is empty", file.display())]
-    EmptyFile { file: PathBuf },
+    EmptyFile {
+        /// The scene file being imported.
+        file: PathBuf,
+    },
 
     /// The file's syntax or structure is broken (bad JSON, truncated GLB, glTF validation errors,
     /// OBJ/MTL syntax errors with their line numbers).
     #[error("{}: cannot parse: {message}", file.display())]
-    Parse { file: PathBuf, message: String },
+    Parse {
+        /// The scene file being imported.
+        file: PathBuf,
+        /// The parser's message (with the line number, for OBJ and MTL).
+        message: String,
+    },
 
     /// A buffer, texture image or material library the file refers to does not exist.
     #[error("{}: {what} '{uri}' not found (resolved to {})", file.display(), resolved.display())]
     MissingFile {
+        /// The scene file being imported.
         file: PathBuf,
         /// What the missing file is, e.g. `texture image` or `material library`.
         what: String,
@@ -94,46 +111,101 @@ pub enum ImportError {
     /// A glTF buffer is missing or shorter than its declared `byteLength`, or a buffer view reaches
     /// past its end.
     #[error("{}: buffer {buffer}: {message}", file.display())]
-    Buffer { file: PathBuf, buffer: usize, message: String },
+    Buffer {
+        /// The scene file being imported.
+        file: PathBuf,
+        /// The index of the glTF buffer.
+        buffer: usize,
+        /// What is wrong with it.
+        message: String,
+    },
 
     /// The data of a glTF accessor is malformed: out of bounds, wrong format, non-finite values,
     /// indices out of range.
     #[error("{}: accessor {accessor} ({context}): {message}", file.display())]
     Accessor {
+        /// The scene file being imported.
         file: PathBuf,
+        /// The index of the glTF accessor.
         accessor: usize,
         /// Where the accessor is used, e.g. `mesh 'Box' primitive 0 POSITION`.
         context: String,
+        /// What is wrong with its data, e.g. which vertex has a non-finite position.
         message: String,
     },
 
     /// An imported mesh breaks the invariants of [`Mesh`] (see [`validate_mesh`]).
     #[error("{}: {mesh}: {message}", file.display())]
-    InvalidMesh { file: PathBuf, mesh: String, message: String },
+    InvalidMesh {
+        /// The scene file being imported.
+        file: PathBuf,
+        /// The mesh, as the file names it (with its primitive for glTF).
+        mesh: String,
+        /// The invariant it breaks.
+        message: String,
+    },
 
     /// A glTF primitive is made of points or lines.
     #[error(
         "{}: {primitive}: unsupported primitive mode {mode} (only triangles, triangle strips and triangle fans)",
         file.display()
     )]
-    UnsupportedPrimitiveMode { file: PathBuf, primitive: String, mode: String },
+    UnsupportedPrimitiveMode {
+        /// The scene file being imported.
+        file: PathBuf,
+        /// The primitive, e.g. `mesh 'Box' primitive 0`.
+        primitive: String,
+        /// Its glTF mode, e.g. `Points` or `Lines`.
+        mode: String,
+    },
 
     /// A texture image could not be decoded.
     #[error("{}: {image}: cannot decode image: {message}", file.display())]
-    Image { file: PathBuf, image: String, message: String },
+    Image {
+        /// The scene file being imported.
+        file: PathBuf,
+        /// The image, e.g. `texture image 'albedo.png'`.
+        image: String,
+        /// The decoder's message.
+        message: String,
+    },
 
     /// A value is out of its valid range (non-finite transform, negative light intensity, bad cone
     /// angles, node hierarchy with a cycle, …).
     #[error("{}: {what}: {message}", file.display())]
-    InvalidValue { file: PathBuf, what: String, message: String },
+    InvalidValue {
+        /// The scene file being imported.
+        file: PathBuf,
+        /// What holds the value, e.g. `node 3 'Lamp'` or `light 0`.
+        what: String,
+        /// Why the value is out of range.
+        message: String,
+    },
 
-    /// A count read from the file exceeds [`MAX_ELEMENTS`] (or an image exceeds [`MAX_IMAGE_SIZE`]).
+    /// A count read from the file exceeds [`MAX_ELEMENTS`] (an image over [`MAX_IMAGE_SIZE`] is an
+    /// [`ImportError::Image`]).
     #[error("{}: {what}: {count} exceeds the limit of {limit}", file.display())]
-    TooLarge { file: PathBuf, what: String, count: u64, limit: u64 },
+    TooLarge {
+        /// The scene file being imported.
+        file: PathBuf,
+        /// What was counted, e.g. `mesh 'Box' primitive 0: vertex count`.
+        what: String,
+        /// The count the file asks for.
+        count: u64,
+        /// The largest count allowed ([`MAX_ELEMENTS`]).
+        limit: u64,
+    },
 
     /// A third-party parser panicked on this input; reported instead of unwinding into the caller.
     #[error("{}: internal error in the {parser} parser: {message}", file.display())]
-    Internal { file: PathBuf, parser: String, message: String },
+    Internal {
+        /// The scene file being imported.
+        file: PathBuf,
+        /// The parser that panicked, e.g. `gltf`.
+        parser: String,
+        /// The panic's message.
+        message: String,
+    },
 }
 
 impl ImportError {
@@ -223,12 +295,15 @@ fn importer(path: &Path) -> Result<Importer, ImportError> {
 /// Why [`load_scene_into`] left the world as it was.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneLoadError {
+    /// The file did not import.
     #[error(transparent)]
     Import(#[from] ImportError),
     /// The file imported, but its scene holds data that cannot be rendered.
     #[error("{}: {source}", file.display())]
     Data {
+        /// The scene file.
         file: PathBuf,
+        /// What cannot be rendered.
         #[source]
         source: crate::scene::SceneDataError,
     },

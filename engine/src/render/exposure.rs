@@ -28,17 +28,21 @@ pub struct AutoExposure {
     /// The range of exposure values (EV100) it may choose: darker scenes than `min_ev100` stay dark,
     /// brighter than `max_ev100` burn.
     pub min_ev100: f32,
+    /// The largest exposure value (EV100) it may choose: scenes brighter than it burn.
     pub max_ev100: f32,
     /// Luminance below and above these shares of the pixels does not count (0.1 and 0.9: the
     /// darkest 10% — shadows, the night sky — and the brightest 10% — the sun, lamps — leave the
     /// exposure alone).
     pub low_percentile: f32,
+    /// The share of the pixels, darkest first, above which luminance does not count; see
+    /// `low_percentile`.
     pub high_percentile: f32,
     /// Exposure compensation in stops: positive brightens.
     pub compensation: f32,
     /// How fast the exposure follows, in stops per second, when the scene gets brighter and
     /// darker (eyes adapt to light faster than to dark).
     pub speed_brighten: f32,
+    /// How fast the exposure follows a scene that gets darker, in stops per second.
     pub speed_darken: f32,
 }
 
@@ -60,10 +64,10 @@ impl Default for AutoExposure {
 #[derive(Resource, Clone, Copy, Debug, PartialEq, Default)]
 pub struct DefaultAutoExposure(pub AutoExposure);
 
-/// `ExposureParams` of the exposure shaders.
+/// `ExposureParams` of the exposure shaders: the fields of [`AutoExposure`] and the frame's step.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
-pub struct ExposureParams {
+pub(crate) struct ExposureParams {
     pub min_ev100: f32,
     pub max_ev100: f32,
     pub low_percentile: f32,
@@ -94,6 +98,7 @@ pub fn ev100_for_luminance(log_luminance: f32) -> f32 {
 }
 
 impl ExposureState {
+    /// The buffers, with no settings yet (off until [`prepare_exposure`] reads a camera's).
     pub fn new(gpu: &GpuContext) -> Self {
         let buffer = |label, size, usage| {
             gpu.device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size, usage, mapped_at_creation: false })

@@ -26,13 +26,15 @@ pub fn max_storage_buffer_bytes(device: &wgpu::Device) -> u64 {
 
 /// A storage or uniform buffer that grows when its contents do. Never empty: an empty array is
 /// bound as one zeroed element, so shaders can always bind it.
-pub struct GrowableBuffer {
+pub(crate) struct GrowableBuffer {
+    /// The current buffer; replaced (its contents not kept) when a write grows it.
     pub buffer: wgpu::Buffer,
     label: &'static str,
     usage: wgpu::BufferUsages,
 }
 
 impl GrowableBuffer {
+    /// A 256-byte buffer of `usage` (plus `COPY_DST`).
     pub fn new(device: &wgpu::Device, label: &'static str, usage: wgpu::BufferUsages) -> Self {
         let usage = usage | wgpu::BufferUsages::COPY_DST;
         let buffer = device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size: 256, usage, mapped_at_creation: false });
@@ -63,57 +65,78 @@ impl GrowableBuffer {
 
 /// Where a mesh lives in the shared vertex and index buffers.
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub struct MeshRange {
+pub(crate) struct MeshRange {
+    /// The mesh's indices in the shared index buffer.
     pub indices: Range<u32>,
+    /// Where its vertices start in the shared vertex buffer (added to each index).
     pub base_vertex: i32,
 }
 
 /// One indexed draw of one instance.
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Draw {
+pub(crate) struct Draw {
+    /// The mesh's indices in the shared index buffer.
     pub indices: Range<u32>,
+    /// Where its vertices start in the shared vertex buffer.
     pub base_vertex: i32,
+    /// The instance slot (the draw's instance index).
     pub instance: u32,
 }
 
 /// The size of the image the camera renders.
 #[derive(Resource, Clone, Copy, Debug, PartialEq, Eq)]
 pub struct RenderSize {
+    /// Width in pixels.
     pub width: u32,
+    /// Height in pixels.
     pub height: u32,
 }
 
 /// Everything a pass needs to look at the scene: bind group 0 of `scene.inc.wgsl`.
 #[derive(Resource)]
 pub struct GpuScene {
-    pub view: GrowableBuffer,
-    pub lights: GrowableBuffer,
-    pub materials: GrowableBuffer,
-    pub vertices: GrowableBuffer,
-    pub indices: GrowableBuffer,
-    pub instances: GrowableBuffer,
+    /// The [`ViewUniform`] (WGSL `view`).
+    pub(crate) view: GrowableBuffer,
+    /// The [`GpuLight`]s (WGSL `lights`).
+    pub(crate) lights: GrowableBuffer,
+    /// The [`GpuMaterial`]s (WGSL `materials`).
+    pub(crate) materials: GrowableBuffer,
+    /// Every mesh's [`GpuVertex`]es, one after the other (WGSL `vertices`).
+    pub(crate) vertices: GrowableBuffer,
+    /// Every mesh's indices, one after the other (WGSL `indices`).
+    pub(crate) indices: GrowableBuffer,
+    /// A [`GpuInstance`] per instance slot (WGSL `instances`).
+    pub(crate) instances: GrowableBuffer,
     /// Each instance slot's `world_from_local` of the previous frame (motion vectors).
-    pub instance_history: GrowableBuffer,
-    pub atlas: wgpu::Texture,
-    pub atlas_view: wgpu::TextureView,
+    pub(crate) instance_history: GrowableBuffer,
+    /// Every base-colour image, sRGB, packed into one texture.
+    pub(crate) atlas: wgpu::Texture,
+    /// The default view of `atlas`.
+    pub(crate) atlas_view: wgpu::TextureView,
     /// The same images in linear 8-bit, for data textures (metallic-roughness, normal maps); 1×1
     /// while no material has one.
-    pub data_atlas: wgpu::Texture,
-    pub data_atlas_view: wgpu::TextureView,
+    pub(crate) data_atlas: wgpu::Texture,
+    /// The default view of `data_atlas`.
+    pub(crate) data_atlas_view: wgpu::TextureView,
     /// The BRDF's split-sum table ([`crate::brdf::dfg_table`]).
-    pub brdf_table: wgpu::Buffer,
-    pub sampler: wgpu::Sampler,
-    pub mesh_ranges: Vec<MeshRange>,
-    pub draws: Vec<Draw>,
+    pub(crate) brdf_table: wgpu::Buffer,
+    /// The atlases' sampler.
+    pub(crate) sampler: wgpu::Sampler,
+    /// Where each mesh asset lives in `vertices` and `indices`, by mesh index.
+    pub(crate) mesh_ranges: Vec<MeshRange>,
+    /// The G-buffer's draws, one per live instance.
+    pub(crate) draws: Vec<Draw>,
     slots: InstanceSlots,
     changes: InstanceChanges,
-    pub light_count: u32,
+    /// How many lights `lights` holds.
+    pub(crate) light_count: u32,
     /// This frame's lights as uploaded (lets accumulating renderers notice a change).
     pub light_data: Vec<GpuLight>,
     /// Which light kinds the scene has, so passes can leave out what it does not need.
     pub has_spot_lights: bool,
     /// Whether any material emits light (shaders may leave out the emission lookup when none does).
     pub has_emissive: bool,
+    /// This frame's view as uploaded (camera matrices, position, exposure, jitter).
     pub view_uniform: ViewUniform,
     /// The last frame's unjittered `clip_from_world` (motion vectors).
     previous_clip_from_world: Option<Mat4>,
@@ -131,6 +154,7 @@ pub struct GpuScene {
 }
 
 impl GpuScene {
+    /// An empty scene: no geometry, lights or instances, 1×1 white atlases, and the BRDF table.
     pub fn new(gpu: &GpuContext) -> Self {
         let storage = wgpu::BufferUsages::STORAGE;
         let white = PackedAtlas { width: 1, height: 1, rgba8: vec![255; 4], rects: Vec::new() };
@@ -375,9 +399,12 @@ fn create_atlas_texture(gpu: &GpuContext, packed: &PackedAtlas, format: wgpu::Te
 
 /// Every image of the scene packed into one texture, so that raster and compute passes sample any
 /// texture through one binding.
-pub struct PackedAtlas {
+pub(crate) struct PackedAtlas {
+    /// Width in texels.
     pub width: u32,
+    /// Height in texels.
     pub height: u32,
+    /// The texels, RGBA8 row-major from the top-left.
     pub rgba8: Vec<u8>,
     /// Per image: (x, y, width, height) in atlas coordinates [0, 1].
     pub rects: Vec<[f32; 4]>,
@@ -385,7 +412,7 @@ pub struct PackedAtlas {
 
 /// Shelf-packs images (tallest first) into an atlas at most `max_dim` on a side, halving every image
 /// until they fit when they do not.
-pub fn pack_atlas(images: &[&Image], max_dim: u32) -> PackedAtlas {
+pub(crate) fn pack_atlas(images: &[&Image], max_dim: u32) -> PackedAtlas {
     let mut scale_down = 0u32;
     loop {
         let sizes: Vec<(u32, u32)> = images.iter().map(|i| ((i.width >> scale_down).max(1), (i.height >> scale_down).max(1))).collect();
@@ -569,6 +596,7 @@ pub struct Uploads {
 }
 
 impl Uploads {
+    /// An empty queue of uploads with a 1 MiB staging belt.
     pub fn new(gpu: &GpuContext) -> Self {
         Self { belt: wgpu::util::StagingBelt::new(gpu.device.clone(), 1 << 20), encoder: None }
     }
@@ -583,7 +611,7 @@ impl Uploads {
     }
 
     /// Uploads the elements of `data` listed in `dirty` (sorted and deduplicated here) to `buffer`:
-    /// runs closer than [`MERGE_GAP_BYTES`] are merged, and when the runs cover most of the array it
+    /// runs less than 1 KiB apart are merged, and when the runs cover most of the array it
     /// is copied whole.
     pub fn write_dirty_ranges<T: bytemuck::Pod>(&mut self, gpu: &GpuContext, buffer: &wgpu::Buffer, data: &[T], dirty: &mut Vec<usize>) {
         dirty.sort_unstable();

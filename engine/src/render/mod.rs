@@ -32,13 +32,17 @@ pub use exposure::{AutoExposure, DefaultAutoExposure, ExposureState};
 pub use gpu_scene::{GpuScene, RenderSize, prepare_gpu_scene};
 pub use taa::{DefaultTemporalAntiAliasing, TaaState, TemporalAntiAliasing};
 
-/// Formats of the G-buffer and outputs.
+/// Depth of the G-buffer: reversed Z (1 at the near plane, cleared to 0), full float.
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+/// The G-buffer's shading normal (xyz, world space, normal map applied, facing the viewer) and
+/// perceptual roughness (w).
 pub const NORMAL_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 /// Half floats, not 8-bit: an albedo quantized to 1/255 shifts every lit surface's colour by up to
 /// a few per cent in dark channels (0.065 → 17/255 is +2.6%), against the path tracer, which reads
-/// the materials' exact values.
+/// the materials' exact values. Base colour (rgb) and metallic (w).
 pub const ALBEDO_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+/// The G-buffer's emitted radiance (rgb, clamped to the largest half float) and specular weight
+/// (w).
 pub const EMISSIVE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 /// Screen motion since the previous frame (screen units), for the temporal anti-aliasing.
 pub const MOTION_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rg16Float;
@@ -49,7 +53,9 @@ pub const LDR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
 
 /// Adds the camera path. Needs a [`GpuContext`]; inserts the GPU scene, pipelines, outputs and timings.
 pub struct RenderPlugin {
+    /// The device to render with (inserted as a resource).
     pub gpu: GpuContext,
+    /// The size of the image the camera renders, in pixels (inserted as [`RenderSize`]).
     pub size: RenderSize,
 }
 
@@ -87,7 +93,7 @@ impl Plugin for RenderPlugin {
 
 /// The pipelines of the camera path.
 #[derive(Resource)]
-pub struct CameraPipelines {
+pub(crate) struct CameraPipelines {
     pub gbuffer: Arc<Program<wgpu::RenderPipeline>>,
     pub direct_lighting: Arc<Program<wgpu::ComputePipeline>>,
     /// The tonemap pass with each [`DisplayTransform`] (in the order of its variants), with the
@@ -121,6 +127,7 @@ pub enum DisplayTransform {
 }
 
 impl CameraPipelines {
+    /// Builds every pipeline of the camera path.
     pub fn new(gpu: &GpuContext) -> Result<Self, crate::shader::ShaderError> {
         let color = |format| Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL });
         let gbuffer = render_program(
@@ -160,12 +167,17 @@ impl CameraPipelines {
 /// The frame's outputs, kept between frames: linear radiance and the tonemapped image.
 #[derive(Resource)]
 pub struct RenderOutputs {
+    /// Their size in pixels; they are made again when [`RenderSize`] changes.
     pub size: RenderSize,
+    /// Linear radiance ([`HDR_FORMAT`]), before exposure: what `image.exr` and the metrics read.
     pub hdr: wgpu::Texture,
+    /// The exposed, tonemapped, sRGB-encoded image ([`LDR_FORMAT`]): what `image.png` and the
+    /// window show.
     pub ldr: wgpu::Texture,
 }
 
 impl RenderOutputs {
+    /// Both textures at `size` (at least 1×1).
     pub fn new(gpu: &GpuContext, size: RenderSize) -> Self {
         let texture = |label, format, usage| {
             gpu.device.create_texture(&wgpu::TextureDescriptor {
@@ -198,8 +210,11 @@ fn prepare_render_outputs(gpu: Res<GpuContext>, size: Res<RenderSize>, mut outpu
 /// A window surface the frame is presented to (windowed runner).
 #[derive(Resource)]
 pub struct SurfaceTarget {
+    /// The window's surface.
     pub surface: wgpu::Surface<'static>,
+    /// How it is configured (format, size in pixels, present mode); resized with the window.
     pub config: wgpu::SurfaceConfiguration,
+    /// The `present_blit` pipeline for the surface's format ([`blit_program`]).
     pub blit: Arc<Program<wgpu::RenderPipeline>>,
     /// Set when the surface reported itself lost: the windowed runner ([`crate::window`]) creates
     /// a new one from its window after the frame; frames are not presented until then.
@@ -222,6 +237,7 @@ pub struct SurfaceOverlayHook(pub Arc<dyn SurfaceOverlay>);
 /// Per-pass GPU time of each frame, and which passes were left out and why.
 #[derive(Resource, Default)]
 pub struct FrameTimings {
+    /// Every frame whose timings have come back, oldest first (at most `keep` of them).
     pub frames: Vec<FrameTiming>,
     /// Block at the end of each frame until its timings are back (headless, deterministic runs).
     pub wait_each_frame: bool,
@@ -232,19 +248,26 @@ pub struct FrameTimings {
     pending_counters: Vec<(u64, String, f64)>,
 }
 
+/// One frame's GPU timings: what `timings.json` lists per frame.
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct FrameTiming {
+    /// The frame's index ([`Time::frame`]).
     pub frame: u64,
+    /// Every pass the frame's graph had, in order.
     pub passes: Vec<PassTiming>,
     /// Per-frame counts that plugins report (e.g. `ddgi_rays`: rays traced), by name.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub counters: Vec<(String, f64)>,
 }
 
+/// One pass of a [`FrameTiming`].
 #[derive(Clone, Debug, Serialize, PartialEq)]
 pub struct PassTiming {
+    /// The pass label (also its wgpu label and timing span).
     pub label: String,
+    /// Whether it ran (false: the graph culled it, see `note`).
     pub ran: bool,
+    /// Why it was left out, when it was; how it was specialized, when it ran.
     #[serde(skip_serializing_if = "String::is_empty")]
     pub note: String,
     /// GPU time of the pass in milliseconds; absent without timestamp queries.
@@ -366,9 +389,13 @@ pub fn frame_script_is(name: &'static str) -> impl Fn(Res<FrameScript>) -> bool 
 
 /// The G-buffer of a frame.
 pub struct GBuffer {
+    /// Reversed-Z depth ([`DEPTH_FORMAT`]).
     pub depth: Handle<GraphTexture>,
+    /// Shading normal and roughness ([`NORMAL_FORMAT`]).
     pub normal: Handle<GraphTexture>,
+    /// Base colour and metallic ([`ALBEDO_FORMAT`]).
     pub albedo: Handle<GraphTexture>,
+    /// Emitted radiance and specular weight ([`EMISSIVE_FORMAT`]).
     pub emissive: Handle<GraphTexture>,
     /// Where each pixel's surface was on the screen in the previous frame, as an offset (screen
     /// units) from where it is now.
@@ -377,9 +404,11 @@ pub struct GBuffer {
 
 /// One camera frame being scripted: its graph and its two outputs.
 pub struct FrameGraph {
+    /// The frame's graph: add passes to it.
     pub graph: RenderGraph,
     /// Linear radiance: the passes that light the image write it.
     pub hdr: Handle<GraphTexture>,
+    /// The tonemapped image: [`CameraFrame::finish`] writes it.
     pub ldr: Handle<GraphTexture>,
 }
 
@@ -387,11 +416,17 @@ pub struct FrameGraph {
 /// the passes top to bottom: `begin`, `add_*` passes, `finish` (tonemap, present, execute).
 #[derive(SystemParam)]
 pub struct CameraFrame<'w> {
+    /// The device.
     pub gpu: Res<'w, GpuContext>,
+    /// The scene on the GPU (bind group 0 of scene-reading shaders).
     pub scene: Res<'w, GpuScene>,
+    /// The scene's BVHs (bound with the scene by [`CameraFrame::begin`]).
     pub rt: Res<'w, crate::rt::RayTracingScene>,
-    pub pipelines: Res<'w, CameraPipelines>,
+    /// The camera path's pipelines.
+    pub(crate) pipelines: Res<'w, CameraPipelines>,
+    /// The frame's output textures.
     pub outputs: Res<'w, RenderOutputs>,
+    /// The frame's time (its index, for per-frame random sequences).
     pub time: Res<'w, Time>,
     pool: ResMut<'w, TransientPool>,
     timer: ResMut<'w, GpuTimer>,
@@ -404,6 +439,7 @@ pub struct CameraFrame<'w> {
 }
 
 impl CameraFrame<'_> {
+    /// The size of the image, in pixels.
     pub fn size(&self) -> RenderSize {
         self.outputs.size
     }

@@ -80,10 +80,14 @@ pub fn jitter(sample: u32) -> Vec2 {
 /// `TaaParams` of `taa.wgsl` and `taa_output.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
-pub struct TaaParams {
+pub(crate) struct TaaParams {
+    /// Most samples a history pixel averages; past it the running mean is an exponential one.
     pub max_samples: f32,
+    /// 0: no history (the first frame, a camera cut or a new size): the frame is taken as it is.
     pub history_valid: u32,
+    /// Sharpening of the output (pass `taa_output`), 0–1.
     pub sharpness: f32,
+    /// Padding to the WGSL layout.
     pub _pad: u32,
 }
 
@@ -123,6 +127,7 @@ fn history_texture(gpu: &GpuContext, size: RenderSize, label: &str) -> wgpu::Tex
 }
 
 impl TaaState {
+    /// Two empty history textures of `size` (no history yet) and the parameter buffer.
     pub fn new(gpu: &GpuContext, size: RenderSize) -> Self {
         Self {
             history: [history_texture(gpu, size, "taa_history_a"), history_texture(gpu, size, "taa_history_b")],

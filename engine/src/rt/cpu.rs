@@ -8,9 +8,13 @@ use crate::scene::Mesh;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable, PartialEq)]
 pub struct GpuRay {
+    /// Origin in world space (world units).
     pub origin: [f32; 3],
+    /// Distance along `direction` where the ray starts (in lengths of `direction`).
     pub tmin: f32,
+    /// Direction in world space; need not be normalized (`t` is measured in its lengths).
     pub direction: [f32; 3],
+    /// Distance along `direction` where the ray ends.
     pub tmax: f32,
 }
 
@@ -18,15 +22,20 @@ pub struct GpuRay {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable, PartialEq)]
 pub struct TraceResult {
+    /// Hit distance along the ray, in lengths of its direction (meaningless for a miss).
     pub t: f32,
     /// Instance slot, or `u32::MAX` for a miss.
     pub instance: u32,
+    /// Triangle index within the instance's mesh.
     pub primitive: u32,
     /// Bit 0: front face.
     pub flags: u32,
+    /// Barycentric weights of the triangle's second and third vertices at the hit (the first gets
+    /// 1 − x − y).
     pub barycentrics: [f32; 2],
     /// 1 when any-hit reported an occluder.
     pub any_hit: u32,
+    /// Padding to the WGSL layout.
     pub _pad: u32,
     /// Base colour at the hit (RGB, w unused), textures applied.
     pub albedo: [f32; 4],
@@ -37,9 +46,13 @@ pub struct TraceResult {
 /// The closest hit found by the CPU reference.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CpuHit {
+    /// Hit distance along the ray, in lengths of its direction.
     pub t: f32,
+    /// Instance slot of the hit.
     pub instance: u32,
+    /// Triangle index within the instance's mesh.
     pub primitive: u32,
+    /// Whether the ray hit the triangle's front face (counter-clockwise winding).
     pub front_face: bool,
 }
 

@@ -55,6 +55,7 @@ pub const TLAS_REBUILD_COST_RATIO: f64 = 1.5;
 /// A bottom-level BVH: a CWBVH over one mesh in its local space.
 #[derive(Clone, Debug)]
 pub struct Blas {
+    /// The 8-wide nodes, root first (obvhs's CWBVH encoding, 80 bytes each on the GPU).
     pub nodes: Vec<obvhs::cwbvh::node::CwBvhNode>,
     /// Triangles in leaf order: `[v0.xyz, mesh triangle index as bits], [e1.xyz, 0], [e2.xyz, 0]`.
     pub triangles: Vec<[f32; 12]>,
@@ -99,7 +100,7 @@ impl Blas {
 /// Where a BLAS lives in the shared GPU buffers. Mirrors WGSL `GpuBlas`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
-pub struct GpuBlas {
+pub(crate) struct GpuBlas {
     /// First node in `blas_nodes` (in nodes, 80 bytes each); `u32::MAX` when not built.
     pub node_offset: u32,
     /// First triangle in `blas_triangles`.
@@ -113,14 +114,18 @@ pub struct GpuBlas {
     pub _pad1: u32,
 }
 
-/// A TLAS leaf: the instance a ray enters there and where its BLAS lives (as in [`GpuBlas`]), so
+/// A TLAS leaf: the instance a ray enters there and where its BLAS lives (as in WGSL `GpuBlas`), so
 /// that entering does not wait for the mesh's record. Mirrors WGSL `TlasEntry`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct TlasEntry {
+    /// The instance slot a ray that reaches this leaf enters.
     pub instance: u32,
+    /// First node of the instance's BLAS in `blas_nodes` (`u32::MAX`: not built, the leaf is skipped).
     pub node_offset: u32,
+    /// First triangle of the instance's BLAS in `blas_triangles`.
     pub triangle_offset: u32,
+    /// Padding to the WGSL layout.
     pub _pad: u32,
 }
 
@@ -148,8 +153,11 @@ const NONE: u32 = u32::MAX;
 /// Progress of BLAS builds, for loading screens and logs.
 #[derive(Resource, Clone, Default)]
 pub struct BlasBuildProgress {
+    /// Triangles of every mesh whose BLAS was requested.
     pub total_triangles: Arc<AtomicUsize>,
+    /// Triangles of the meshes whose BLAS is built.
     pub built_triangles: Arc<AtomicUsize>,
+    /// Meshes whose BLAS is requested and not yet built.
     pub pending_meshes: Arc<AtomicUsize>,
 }
 
@@ -160,6 +168,7 @@ impl BlasBuildProgress {
         if total == 0 { 1.0 } else { self.built_triangles.load(Ordering::Relaxed) as f32 / total as f32 }
     }
 
+    /// Whether every requested BLAS is built.
     pub fn is_done(&self) -> bool {
         self.pending_meshes.load(Ordering::Relaxed) == 0
     }
@@ -168,20 +177,30 @@ impl BlasBuildProgress {
 /// CPU cost of the last frame's BVH work, for benchmarks and the overlay.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct BvhFrameStats {
+    /// Whether the TLAS was rebuilt from scratch this frame.
     pub tlas_rebuilt: bool,
+    /// TLAS leaves refitted this frame (instances that moved).
     pub tlas_refitted_leaves: usize,
+    /// Wide TLAS nodes uploaded this frame.
     pub tlas_nodes_uploaded: usize,
+    /// Uploads of the BLAS buffers this frame (all of them at once, when new BLASes arrived): 0 or 1.
     pub blas_uploaded: usize,
+    /// CPU time of the frame's BVH work (BLAS requests and uploads, TLAS build or refit); zero on a
+    /// frame that did none.
     pub cpu_time: Duration,
 }
 
 /// The scene's BVHs on the CPU and the GPU.
 #[derive(Resource)]
 pub struct RayTracingScene {
-    pub blas_nodes: GrowableBuffer,
-    pub blas_triangles: GrowableBuffer,
-    pub blas_info: GrowableBuffer,
-    pub tlas_nodes: GrowableBuffer,
+    /// Every BLAS's nodes, one after the other (WGSL `blas_nodes`).
+    pub(crate) blas_nodes: GrowableBuffer,
+    /// Every BLAS's triangles in leaf order (WGSL `blas_triangles`).
+    pub(crate) blas_triangles: GrowableBuffer,
+    /// A [`GpuBlas`] per mesh (WGSL `blas_info`).
+    pub(crate) blas_info: GrowableBuffer,
+    /// The wide TLAS: nodes, then their entries (WGSL `tlas_nodes`).
+    pub(crate) tlas_nodes: GrowableBuffer,
     blas: Vec<Option<Arc<Blas>>>,
     gpu_blas: Vec<GpuBlas>,
     requested_meshes: usize,
@@ -189,6 +208,7 @@ pub struct RayTracingScene {
     outstanding: usize,
     results: Mutex<Receiver<(usize, Arc<Blas>)>>,
     sender: Sender<(usize, Arc<Blas>)>,
+    /// Triangles built and pending, shared with the worker threads that build large BLASes.
     pub progress: BlasBuildProgress,
     /// The BVH over the adapter's buffer limits, when it is (nothing is traced then).
     pub over_limit: Option<crate::scene::SceneDataError>,
@@ -216,10 +236,12 @@ pub struct RayTracingScene {
     /// Scratch: inner nodes already queued for refit, and wide nodes to re-encode.
     marked: Vec<bool>,
     wide_marked: Vec<bool>,
+    /// What this frame's BVH work did and cost (reset by every prepare stage).
     pub stats: BvhFrameStats,
 }
 
 impl RayTracingScene {
+    /// An empty scene: no BLAS, an empty TLAS uploaded.
     pub fn new(gpu: &GpuContext) -> Self {
         let storage = wgpu::BufferUsages::STORAGE;
         let (sender, results) = channel();
@@ -745,6 +767,7 @@ pub fn prepare_ray_tracing_scene(
 /// Traces arbitrary rays with `engine/shaders/trace_rays.wgsl`: the GPU side of the CPU-reference tests and
 /// of the trace benchmark.
 pub struct RayTracer {
+    /// The `trace_rays` compute pipeline and its bindings.
     pub program: crate::shader::Program<wgpu::ComputePipeline>,
 }
 
@@ -755,6 +778,7 @@ pub fn ray_workgroups(count: u32) -> (u32, u32) {
 }
 
 impl RayTracer {
+    /// Builds the pipeline of `trace_rays.wgsl`.
     pub fn new(gpu: &GpuContext) -> Result<Self, crate::shader::ShaderError> {
         Ok(Self { program: crate::shader::compute_program(&gpu.device, "trace_rays.wgsl", "main", "trace_rays")? })
     }

@@ -11,11 +11,14 @@ use crate::resources::VolumeGpu;
 
 /// An atlas read back from the GPU, row-major from the top-left.
 pub struct Atlas<T> {
+    /// Width and height in texels.
     pub size: UVec2,
+    /// The texels, row-major from the top-left.
     pub texels: Vec<T>,
 }
 
 impl<T: Copy> Atlas<T> {
+    /// The texel at column `x`, row `y` (panics outside the atlas).
     pub fn get(&self, x: u32, y: u32) -> T {
         self.texels[(y * self.size.x + x) as usize]
     }
@@ -51,7 +54,7 @@ pub fn count_non_finite(gpu: &GpuContext, volume: &VolumeGpu) -> usize {
         .sum()
 }
 
-/// This frame's probe rays (direction and probe index with the skip bit).
+/// This frame's probe rays (direction and probe index), in the order the trace packed them.
 pub fn read_rays(gpu: &GpuContext, volume: &VolumeGpu) -> Vec<DdgiRay> {
     let bytes = engine::render::readback::read_buffer(gpu, &volume.rays);
     bytemuck::pod_collect_to_vec(&bytes)

@@ -33,8 +33,10 @@ pub enum DdgiOutput {
 }
 
 impl DdgiOutput {
+    /// Every output, in the order a menu lists them.
     pub const ALL: [DdgiOutput; 6] = [Self::Full, Self::Direct, Self::Indirect, Self::Albedo, Self::Normals, Self::Occlusion];
 
+    /// A short name for menus and logs, e.g. `indirect light only`.
     pub fn name(self) -> &'static str {
         match self {
             Self::Full => "full",
@@ -119,8 +121,10 @@ pub enum DdgiProbeColor {
 }
 
 impl DdgiProbeColor {
+    /// Every colouring, in the order a menu lists them.
     pub const ALL: [DdgiProbeColor; 5] = [Self::Off, Self::Irradiance, Self::State, Self::Rays, Self::Error];
 
+    /// A short name for menus and logs, e.g. `ray budget`.
     pub fn name(self) -> &'static str {
         match self {
             Self::Off => "off",
@@ -137,6 +141,7 @@ impl DdgiProbeColor {
 /// instanced draw of 576 vertices per probe when on, nothing when off.
 #[derive(Resource, Clone, Copy, Debug, PartialEq)]
 pub struct DdgiProbeView {
+    /// What the spheres show; [`DdgiProbeColor::Off`] draws nothing.
     pub color: DdgiProbeColor,
     /// Sphere radius as a fraction of the smallest probe spacing.
     pub radius: f32,

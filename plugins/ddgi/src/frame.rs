@@ -34,18 +34,29 @@ pub struct VolumeHandles {
     pub index: usize,
     /// Appended to pass labels when there are several volumes (`_0`, `_1`, …), else empty.
     pub suffix: String,
+    /// The volume's uniform (WGSL `ddgi_volume`).
     pub uniform: Handle<GraphBuffer>,
+    /// Per-probe state, a [`crate::gpu::DdgiProbeData`] each (WGSL `ddgi_probes`).
     pub probes: Handle<GraphBuffer>,
+    /// The budget pass's results and indirect dispatches (WGSL `ddgi_counters`).
     pub counters: Handle<GraphBuffer>,
+    /// The budget pass's per-block prefix sums (WGSL `ddgi_blocks`).
     pub blocks: Handle<GraphBuffer>,
+    /// The probes with rays this frame (WGSL `ddgi_updated`).
     pub updated: Handle<GraphBuffer>,
+    /// Each probe's luma (−1: switched off) for the dark test.
     pub lit: Handle<GraphBuffer>,
+    /// The frame's packed probe rays (WGSL `ddgi_rays`).
     pub rays: Handle<GraphBuffer>,
+    /// Each ray's radiance and stored hit distance (WGSL `ddgi_radiance`).
     pub radiance: Handle<GraphBuffer>,
+    /// The full-precision irradiance maps (WGSL `ddgi_irradiance_history`).
     pub irradiance_history: Handle<GraphBuffer>,
+    /// The full-precision distance moments (WGSL `ddgi_distance_history`).
     pub distance_history: Handle<GraphBuffer>,
-    /// The atlases that sampling reads.
+    /// The irradiance atlas that sampling reads (WGSL `ddgi_irradiance`).
     pub irradiance: Handle<GraphTexture>,
+    /// The distance atlas that sampling reads (WGSL `ddgi_distance`).
     pub distance: Handle<GraphTexture>,
     /// The boxes around this frame's movers whose probes wake ([`crate::gpu::MAX_WAKE_BOXES`]).
     pub wake: Handle<GraphBuffer>,
@@ -174,11 +185,17 @@ fn merged(programs: &[&ComputeProgram]) -> BindingMap {
 /// [`DdgiFrame::finish`].
 #[derive(SystemParam)]
 pub struct DdgiFrame<'w> {
+    /// DDGI's pipelines and sampler.
     pub pipelines: ResMut<'w, DdgiPipelines>,
+    /// Every volume's GPU state.
     pub volumes: ResMut<'w, DdgiGpuVolumes>,
+    /// What the composite writes: the full image, one of its parts or a debug view.
     pub output: Res<'w, DdgiOutput>,
+    /// The probe spheres overlay, when the app asks for it.
     pub probe_view: Option<Res<'w, DdgiProbeView>>,
+    /// Sky light where no volume reaches, when set.
     pub sky_light: Option<Res<'w, crate::DdgiSkyLight>>,
+    /// Contact occlusion of the indirect light, when set.
     pub contact_occlusion: Option<Res<'w, crate::DdgiContactOcclusion>>,
 }
 

@@ -7,9 +7,12 @@ use bytemuck::{Pod, Zeroable};
 
 use crate::volume::{DdgiLayout, DdgiVolume};
 
+/// The uniform of one volume (WGSL `DdgiVolumeGpu`, `ddgi_volume`): its grid, settings and this
+/// frame's ray rotation, as [`DdgiVolumeGpu::new`] derives them from a [`DdgiVolume`] and its
+/// [`DdgiLayout`].
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
-pub struct DdgiVolumeGpu {
+pub(crate) struct DdgiVolumeGpu {
     pub origin: [f32; 3],
     pub rays_per_probe: u32,
     pub spacing: [f32; 3],
@@ -57,14 +60,25 @@ pub struct DdgiVolumeGpu {
     pub _pad2: u32,
 }
 
+/// One probe's GPU state (WGSL `DdgiProbeData`, `ddgi_probes`): relocation and classification
+/// write the offset and state, the irradiance update the error, the budget pass the rays; the
+/// pins come from the application ([`crate::DdgiProbePin`]).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct DdgiProbeData {
+    /// Relocation offset from the grid position, in world units (within ±0.45 of a cell).
     pub offset: [f32; 3],
+    /// `PROBE_*` bits: [`PROBE_INACTIVE`], [`PROBE_FRESH`], [`PROBE_RELOCATED`],
+    /// [`PROBE_RECHECK`], [`PROBE_EMPTY`], [`PROBE_SEEN`].
     pub state: u32,
+    /// Temporal error: the mean over the map's texels of the SMAPE, in YCoCg, between the map and
+    /// the map plus the smoothed change that each frame's estimate asks of it.
     pub error: f32,
+    /// Rays traced for the probe this frame (0: resting or switched off).
     pub ray_count: u32,
+    /// Where the probe's rays start among the frame's packed rays.
     pub ray_offset: u32,
+    /// Mean luma (YCoCg Y, W/m²) of the irradiance the probe's rays last saw.
     pub luma: f32,
     /// [`NO_PIN`] or a ray count.
     pub pinned_rays: u32,
@@ -78,7 +92,9 @@ pub struct DdgiProbeData {
     pub settled_error: f32,
     /// Irradiance updates since the probe was last fresh.
     pub updates: u32,
+    /// Padding to the WGSL layout.
     pub _pad0: u32,
+    /// Padding to the WGSL layout.
     pub _pad1: u32,
 }
 
@@ -102,25 +118,34 @@ impl DdgiProbeData {
     };
 }
 
+/// What the budget pass leaves for the rest of the frame (WGSL `DdgiCounters`, `ddgi_counters`);
+/// read back for the `ddgi_rays` counter.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct DdgiCounters {
     /// Workgroups of the indirect dispatch of the ray passes.
     pub dispatch: [u32; 3],
+    /// Rays traced this frame, over every probe of the volume.
     pub total_rays: u32,
     /// Workgroups of the indirect dispatch of the per-probe passes (one per probe with rays).
     pub probe_dispatch: [u32; 3],
+    /// Probes with rays this frame (updated by the per-probe passes).
     pub updated_probes: u32,
+    /// The brightest probe's luma (W/m²), against which [`crate::DdgiAdaptive::dark_fraction`]
+    /// judges dark probes.
     pub max_luma: f32,
+    /// The share of each probe's rays kept this frame under the frame budget (1: none cut).
     pub budget_scale: f32,
+    /// Padding to the WGSL layout.
     pub _pad0: u32,
+    /// Padding to the WGSL layout.
     pub _pad1: u32,
 }
 
 /// One block of 256 probes in the budget pass's prefix sums (written and read on the GPU only).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
-pub struct DdgiBlock {
+pub(crate) struct DdgiBlock {
     pub rays: u32,
     pub unscaled_rays: u32,
     pub max_luma: f32,
@@ -129,16 +154,21 @@ pub struct DdgiBlock {
     pub probe_offset: u32,
 }
 
+/// One probe ray of the frame's packed rays (WGSL `DdgiRay`, `ddgi_rays`), as the trace generated
+/// it.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct DdgiRay {
+    /// Unit direction in world space: a spherical Fibonacci direction under the frame's rotation.
     pub direction: [f32; 3],
+    /// The index of the probe that traces it.
     pub probe: u32,
 }
 
+/// Parameters of the camera's gather and composite (WGSL `DdgiGatherParams`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
-pub struct DdgiGatherParams {
+pub(crate) struct DdgiGatherParams {
     pub first_volume: u32,
     /// `composite_debug`: 1 direct light only, 2 albedo, 3 normals, 4 contact occlusion.
     pub debug_view: u32,
@@ -157,7 +187,7 @@ pub struct DdgiGatherParams {
 /// Parameters of the probe debug view (`ddgi_probe_spheres.wgsl`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct DdgiProbeViewParams {
+pub(crate) struct DdgiProbeViewParams {
     /// 1 irradiance, 2 state, 3 ray budget, 4 temporal error.
     pub mode: u32,
     /// The highlighted probe; `u32::MAX`: none.
@@ -176,26 +206,36 @@ pub struct DdgiProbeViewParams {
 // Constants shared with the WGSL: each is defined here once and written into the generated
 // module `ddgi_constants.inc.wgsl` ([`wgsl_constants`]) under the name `DDGI_<NAME>`.
 
-/// `DdgiVolumeGpu::flags`: the sampling function's weights ([`crate::DdgiWeights`]) and features.
-pub const WEIGHT_BACKFACE: u32 = 1;
-pub const WEIGHT_CHEBYSHEV: u32 = 2;
-pub const WEIGHT_NORMAL_BIAS: u32 = 4;
-pub const WEIGHT_CRUSH: u32 = 8;
-pub const WEIGHT_TRILINEAR: u32 = 16;
-pub const RELOCATION: u32 = 32;
-pub const CLASSIFICATION: u32 = 64;
-pub const ADAPTIVE: u32 = 128;
-/// A fresh probe's first updates blend as a running mean ([`crate::DdgiVolume::warm_up`]).
-pub const WARM_UP: u32 = 256;
-/// Probe rays that miss see `DdgiVolumeGpu::sky_radiance` instead of the scene's sky.
-pub const SKY_OVERRIDE: u32 = 512;
+// `DdgiVolumeGpu::flags` bits: the sampling function's weights (`DdgiWeights`) and features.
 
-/// `DdgiProbeData::pinned_rays` of a probe whose ray count is not pinned.
+/// The wrap-shading back-face weight.
+pub(crate) const WEIGHT_BACKFACE: u32 = 1;
+/// The Chebyshev visibility weight.
+pub(crate) const WEIGHT_CHEBYSHEV: u32 = 2;
+/// The normal and view bias of the lookup point.
+pub(crate) const WEIGHT_NORMAL_BIAS: u32 = 4;
+/// The log-perception crush of small weights.
+pub(crate) const WEIGHT_CRUSH: u32 = 8;
+/// Trilinear interpolation.
+pub(crate) const WEIGHT_TRILINEAR: u32 = 16;
+/// Probe relocation ([`crate::DdgiVolume::relocation`]).
+pub(crate) const RELOCATION: u32 = 32;
+/// Probe classification ([`crate::DdgiVolume::classification`]).
+pub(crate) const CLASSIFICATION: u32 = 64;
+/// Adaptive ray budgets ([`crate::DdgiAdaptive`]).
+pub(crate) const ADAPTIVE: u32 = 128;
+/// A fresh probe's first updates blend as a running mean ([`crate::DdgiVolume::warm_up`]).
+pub(crate) const WARM_UP: u32 = 256;
+/// Probe rays that miss see `DdgiVolumeGpu::sky_radiance` instead of the scene's sky.
+pub(crate) const SKY_OVERRIDE: u32 = 512;
+
+/// [`DdgiProbeData::pinned_rays`] of a probe whose ray count is not pinned.
 pub const NO_PIN: u32 = u32::MAX;
 /// No probe (a neighbour beyond the grid's edge).
 pub const NO_PROBE: u32 = u32::MAX;
-/// `DdgiProbeData::pinned_state`: pinned on or off.
+/// [`DdgiProbeData::pinned_state`] of a probe pinned on: classification never switches it off.
 pub const PIN_ACTIVE: u32 = 1;
+/// [`DdgiProbeData::pinned_state`] of a probe pinned off: it traces no rays and gets no weight.
 pub const PIN_INACTIVE: u32 = 2;
 
 /// `DdgiProbeData::state` bits. Switched off (inside geometry, no surface in reach, or dark).
@@ -207,6 +247,8 @@ pub const PROBE_FRESH: u32 = 2;
 /// next frame from its new place, not at the next periodic re-check, so it escapes (and lights
 /// again) within a frame per wall.
 pub const PROBE_RELOCATED: u32 = 4;
+/// Switched off while relocation had moved it through a back face (set by classification from
+/// [`PROBE_RELOCATED`]): the budget gives it its re-check rays at the next frame.
 pub const PROBE_RECHECK: u32 = 8;
 /// Switched off because its rays found no surface in its region ([`EMPTY_RAYS`]).
 pub const PROBE_EMPTY: u32 = 16;
@@ -384,7 +426,7 @@ impl DdgiVolumeGpu {
 /// one (the settled error).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
-pub struct DdgiTexel {
+pub(crate) struct DdgiTexel {
     pub irradiance: [f32; 3],
     pub settle_rg: u32,
     pub change: [f32; 3],

@@ -62,6 +62,29 @@
 //! the volumes' dispatches side by side so that the GPU overlaps them — then per camera
 //! `ddgi_gather` (one per volume) `→ ddgi_composite`. Shaders: `plugins/ddgi/shaders/`, one file
 //! per pass ([`SHADERS`]).
+//!
+//! ## Minimal setup
+//!
+//! Load a scene, light it with one volume fitted to its bounds, and write the last of 120 frames
+//! (`out/image.png`, `out/image.exr`, `out/timings.json`); [`prelude`] has what an app needs:
+//!
+//! ```rust,no_run
+//! use std::path::Path;
+//! use ddgi::prelude::*;
+//! use engine::gpu::{GpuContext, GpuOptions};
+//! use engine::headless::{render_scene_with, HeadlessSettings};
+//!
+//! fn main() -> Result<(), Box<dyn std::error::Error>> {
+//!     let scene = engine::import::load_scene(Path::new("level.glb"))?;
+//!     let volume = DdgiVolume::default();
+//!     let gpu = GpuContext::new(GpuOptions::default())?;
+//!     let settings = HeadlessSettings { width: 1280, height: 720, frames: 120, ..Default::default() };
+//!     let frame = render_scene_with(&gpu, scene, &settings, |app| use_ddgi(app, volume, DdgiOutput::Full))?;
+//!     Ok(frame.write(Path::new("out"))?)
+//! }
+//! ```
+
+#![warn(missing_docs)]
 
 pub mod atlas;
 pub mod cascades;
@@ -89,6 +112,16 @@ pub use volume::{
     AUTO_PROBES_LONGEST, AUTO_PROBES_MIN, DdgiAdaptive, DdgiLayout, DdgiProbe, DdgiProbePin, DdgiProbeState, DdgiSettingsError, DdgiVolume,
     DdgiWeights, auto_probe_counts,
 };
+
+/// What an app needs to light a scene with DDGI: the plugin and its setup functions, the volume
+/// and cascade settings, the output and lighting options, the probe components and the settings
+/// error. `use ddgi::prelude::*;`
+pub mod prelude {
+    pub use crate::{
+        DdgiAdaptive, DdgiCascades, DdgiContactOcclusion, DdgiOutput, DdgiPlugin, DdgiProbe, DdgiProbePin, DdgiProbeState,
+        DdgiSettingsError, DdgiSkyLight, DdgiVolume, use_ddgi, use_ddgi_cascades,
+    };
+}
 
 /// DDGI's WGSL (`plugins/ddgi/shaders/`): one file per pass, named after the pass label, and the
 /// modules they share — `ddgi_common.inc.wgsl` (structs, bindings, helpers), `ddgi_sampling.inc.wgsl`

@@ -57,6 +57,8 @@ pub struct DdgiPipelines {
 }
 
 impl DdgiPipelines {
+    /// Registers DDGI's shaders and builds every pass's pipeline (the trace's specialized variants
+    /// and the probe debug view's later, on first use).
     pub fn new(gpu: &GpuContext) -> Result<Self, ShaderError> {
         crate::register_shaders()?;
         let p = |file: &str, entry: &str| compute_program(&gpu.device, file, entry, entry).map(Arc::new);

@@ -24,31 +24,41 @@ pub const ATLAS_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
 
 /// The GPU resources and state of one volume.
 pub struct VolumeGpu {
+    /// Where every probe and atlas tile is, in render space (see `world_bounds`).
     pub layout: DdgiLayout,
     /// This frame's settings (copied from the volume's component each frame; those that size the
     /// resources — grid, rays, map sizes, bounds, seed — rebuild them when they change).
     pub settings: DdgiVolume,
-    pub uniform: wgpu::Buffer,
+    /// This frame's uniform (WGSL `DdgiVolumeGpu`: grid, settings, ray rotation).
+    pub(crate) uniform: wgpu::Buffer,
+    /// A [`DdgiProbeData`] per probe, by probe index: offsets, states, errors, ray counts, pins.
     pub probes: wgpu::Buffer,
-    /// The budget pass's results: the indirect dispatches of the ray passes and of the per-probe
-    /// passes, the ray count and the count of probes with rays.
+    /// The budget pass's results ([`DdgiCounters`]): the indirect dispatches of the ray passes and
+    /// of the per-probe passes, the ray count and the count of probes with rays.
     pub counters: wgpu::Buffer,
     /// The budget pass's per-block sums (one `DdgiBlock` per 256 probes).
-    pub blocks: wgpu::Buffer,
+    pub(crate) blocks: wgpu::Buffer,
     /// The probes with rays this frame, listed by the budget pass for the per-probe passes.
-    pub updated: wgpu::Buffer,
+    pub(crate) updated: wgpu::Buffer,
     /// Each probe's luma (−1: switched off) as the budget pass found it, for the dark test.
-    pub lit: wgpu::Buffer,
+    pub(crate) lit: wgpu::Buffer,
     /// This frame's boxes around movers (two vec4 corners each, [`crate::gpu::MAX_WAKE_BOXES`]).
-    pub wake: wgpu::Buffer,
-    pub rays: wgpu::Buffer,
-    pub radiance: wgpu::Buffer,
+    pub(crate) wake: wgpu::Buffer,
+    /// The frame's packed probe rays, a [`crate::gpu::DdgiRay`] each ([`crate::atlas::read_rays`]).
+    pub(crate) rays: wgpu::Buffer,
+    /// Each ray's shading: radiance (rgb) and stored distance (w: `t`, `−BACKFACE_SCALE · t` for
+    /// a back face, `MISS` for a miss).
+    pub(crate) radiance: wgpu::Buffer,
     /// The maps at full precision (see `ddgi_common.inc.wgsl`): irradiance and its smoothed change (two
     /// vec4 per texel) and distance moments (vec2 per texel), in probe order.
     pub irradiance_history: wgpu::Buffer,
+    /// The distance moments at full precision: (mean, mean square) of the hit distance over the
+    /// layout's distance scale, a vec2 per texel, in probe order.
     pub distance_history: wgpu::Buffer,
     /// The atlases that sampling reads (half floats, irradiance perceptually encoded).
     pub irradiance: wgpu::Texture,
+    /// The distance atlas that sampling reads ([`ATLAS_FORMAT`]): (mean, mean square) of the hit
+    /// distance over the layout's distance scale ([`crate::atlas::read_distance`] decodes it).
     pub distance: wgpu::Texture,
     /// Frames updated so far.
     pub frames: u64,
@@ -62,16 +72,19 @@ pub struct VolumeGpu {
     /// The volume's box in world space, in double precision; `layout` is in render space (less
     /// the [`RenderOrigin`] it was laid out for, `render_origin`), and moves with it.
     pub world_bounds: (DVec3, DVec3),
+    /// The world position of the render origin `layout` was laid out for.
     pub render_origin: DVec3,
     /// Whether this frame updates the probes ([`DdgiVolume::update_period`]; the gather runs
     /// every frame). Set by prepare.
     pub updates_this_frame: bool,
     /// Scrolls so far and the last one: `(frame, cells moved, probes reset)`.
     pub scrolls: u64,
+    /// The last scroll, `(frame, cells moved, probes reset)`; `None` before the first.
     pub last_scroll: Option<(u64, IVec3, u32)>,
     /// Where the gather takes the volume: fixed volumes first (by entity), then cascades from the
     /// finest out ([`crate::DdgiCascade`]), and its blend band in cells (0 for a fixed volume).
     pub order: (u32, Entity),
+    /// The blend band of a cascade, in cells (0 for a fixed volume).
     pub cascade_blend: f32,
     /// The rays the budget pass asked for at the volume's last update that has come back from the
     /// GPU, before a frame budget scaled them down (its counters' `total_rays / budget_scale`):
@@ -208,6 +221,8 @@ impl VolumeGpu {
         }
     }
 
+    /// The state of probe `index` in the last probe data read back (active until the first
+    /// readback).
     pub fn probe_state(&self, index: usize) -> DdgiProbeState {
         match self.probe_data.get(index) {
             Some(p) if p.state & PROBE_INACTIVE != 0 => DdgiProbeState::Inactive,
@@ -219,6 +234,7 @@ impl VolumeGpu {
 /// The GPU state of every volume, by volume entity.
 #[derive(Resource, Default)]
 pub struct DdgiGpuVolumes {
+    /// Every volume that lights the scene, with its entity, in gather order.
     pub volumes: Vec<(Entity, VolumeGpu)>,
     /// The last settings error of each volume entity (logged once).
     errors: HashMap<Entity, String>,
@@ -272,6 +288,7 @@ fn mean_linear_texel(image: &Image) -> Vec3 {
 }
 
 impl DdgiGpuVolumes {
+    /// The GPU state of `entity`'s volume, if it lights the scene.
     pub fn get(&self, entity: Entity) -> Option<&VolumeGpu> {
         self.volumes.iter().find(|(e, _)| *e == entity).map(|(_, v)| v)
     }

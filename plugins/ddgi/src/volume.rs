@@ -26,6 +26,7 @@ pub struct DdgiWeights {
 }
 
 impl DdgiWeights {
+    /// Every weight on: the default, the full sampling function of the papers.
     pub const ALL: Self = Self { backface: true, chebyshev: true, normal_bias: true, crush: true, trilinear: true };
     /// Trilinear interpolation alone: the start of the visibility ablation.
     pub const NONE: Self = Self { backface: false, chebyshev: false, normal_bias: false, crush: false, trilinear: true };
@@ -59,6 +60,8 @@ impl Default for DdgiWeights {
 /// their six neighbours, see almost no light are switched off (and woken by the re-checks).
 #[derive(Clone, Debug, PartialEq)]
 pub struct DdgiAdaptive {
+    /// Whether the budgets adapt (and probes rest or go dark); false: the fixed budget, every
+    /// active probe tracing the volume's `rays_per_probe` every frame.
     pub enabled: bool,
     /// Fewest rays of an active probe (≥ 1; at most the volume's `rays_per_probe`, which it is
     /// held to when larger).
@@ -286,12 +289,41 @@ pub const MAX_MAP_TEXELS: u32 = 64;
 /// is logged with its entity.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum DdgiSettingsError {
+    /// A setting of the [`DdgiVolume`] is out of its range.
     #[error("DdgiVolume.{field} = {value}: {reason}")]
-    Invalid { field: &'static str, value: String, reason: &'static str },
+    Invalid {
+        /// The field, e.g. `hysteresis`.
+        field: &'static str,
+        /// What it holds, as `Debug` prints it.
+        value: String,
+        /// Why it is out of range, e.g. `must be between 0 and 1`.
+        reason: &'static str,
+    },
+    /// A setting of the [`crate::DdgiCascades`] is out of its range.
     #[error("DdgiCascades.{field} = {value}: {reason}")]
-    InvalidCascades { field: &'static str, value: String, reason: &'static str },
+    InvalidCascades {
+        /// The field, e.g. `count`.
+        field: &'static str,
+        /// What it holds.
+        value: String,
+        /// Why it is out of range, e.g. `must be finite and positive`.
+        reason: &'static str,
+    },
+    /// The volume needs a texture or buffer larger than the adapter allows: fewer probes, rays or
+    /// map texels fit.
     #[error("DdgiVolume: the {what} needs {needed} {unit}, over the adapter's limit of {limit}")]
-    OverLimit { what: &'static str, needed: u64, limit: u64, unit: &'static str },
+    OverLimit {
+        /// The texture or buffer, e.g. `probe atlas` or
+        /// `per-ray buffer (probes × rays_per_probe × 16 bytes)`.
+        what: &'static str,
+        /// Its size, in `unit`s.
+        needed: u64,
+        /// The adapter's largest, in `unit`s.
+        limit: u64,
+        /// `bytes` for a buffer, `texels of height` for an atlas.
+        unit: &'static str,
+    },
+    /// The volume has no bounds of its own and the scene no geometry to fit them to.
     #[error("DdgiVolume.bounds = None and the scene has no geometry to take bounds from")]
     NoBounds,
 }
@@ -449,6 +481,7 @@ pub struct DdgiProbe {
     pub offset: Vec3,
     /// World position (grid position + offset).
     pub position: Vec3,
+    /// Whether it takes part in lighting (classification's verdict, or its pin).
     pub state: DdgiProbeState,
     /// Rays traced in the frame read back.
     pub ray_count: u32,
@@ -464,7 +497,10 @@ pub struct DdgiProbe {
 /// error and classification say. Remove it to unpin.
 #[derive(Component, Clone, Copy, Debug, Default, PartialEq)]
 pub struct DdgiProbePin {
+    /// Rays every frame, whatever the adaptive budget says (held to the volume's
+    /// `rays_per_probe`); `None`: the budget decides.
     pub rays: Option<u32>,
+    /// On or off, whatever classification says; `None`: classification decides.
     pub state: Option<DdgiProbeState>,
 }
 
@@ -473,15 +509,23 @@ pub struct DdgiProbePin {
 pub struct DdgiLayout {
     /// Position of probe (0, 0, 0).
     pub origin: Vec3,
+    /// Distance between neighbouring probes along each axis (world units): one cell.
     pub spacing: Vec3,
+    /// Probes along each axis.
     pub counts: UVec3,
+    /// Probes in all (`counts.x · counts.y · counts.z`).
     pub probe_count: u32,
+    /// The box (min, max) the probes fill, cell-centred; a flat box is given some thickness.
     pub bounds: (Vec3, Vec3),
     /// Probe tiles per atlas row.
     pub tiles_per_row: u32,
+    /// Side of a probe's irradiance map, in texels (without its border).
     pub irradiance_texels: u32,
+    /// Side of a probe's distance map, in texels (without its border).
     pub distance_texels: u32,
+    /// Size of the irradiance atlas, in texels (tiles of `(irradiance_texels + 2)²`).
     pub irradiance_atlas: UVec2,
+    /// Size of the distance atlas, in texels (tiles of `(distance_texels + 2)²`).
     pub distance_atlas: UVec2,
     /// The size of every per-volume buffer: the limit checks and the allocation both read them here.
     pub sizes: DdgiBufferSizes,
@@ -539,11 +583,14 @@ impl DdgiBufferSizes {
 /// Adapter limits a layout must fit in.
 #[derive(Clone, Copy, Debug)]
 pub struct DdgiLimits {
+    /// Largest side of a 2D texture, in texels (the atlases' height).
     pub max_texture_dimension: u32,
+    /// Largest storage buffer the adapter binds, in bytes.
     pub max_storage_buffer_bytes: u64,
 }
 
 impl DdgiLimits {
+    /// The limits of `device`.
     pub fn of(device: &engine::wgpu::Device) -> Self {
         let l = device.limits();
         Self {

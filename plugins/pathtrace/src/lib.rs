@@ -11,6 +11,8 @@
 //!
 //! Add [`PathTracePlugin`] and set `FrameScript("pathtrace")` to render with it.
 
+#![warn(missing_docs)]
+
 use std::sync::Arc;
 
 use bevy_app::{App, Plugin};
@@ -48,6 +50,7 @@ impl Default for PathTraceSettings {
 /// How many paths per pixel the current image holds.
 #[derive(Resource, Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct PathTraceProgress {
+    /// Paths per pixel accumulated since the image last started over.
     pub samples: u32,
 }
 
