@@ -327,7 +327,9 @@ enum BenchCommand {
     /// DDGI's GPU time per frame while the camera walks the open world's tour (out of the house,
     /// 500 m into the forest and back): median, slowest frame and frames over twice the median,
     /// per-cascade times, scrolls and rebases; every frame in --out/walk.csv.
-    #[command(after_long_help = "Examples:\n  game_demo bench walk --cascades 8 --cascade-probes 16,8,16 --frames 1200 --speed 30\n  game_demo bench walk --cascades 0 --probes 32,8,32   # one scene-wide volume\n  game_demo bench walk --width 256 --height 256 --error-every 100   # and FLIP every 100th frame")]
+    #[command(
+        after_long_help = "Examples:\n  game_demo bench walk --cascades 8 --cascade-probes 16,8,16 --frames 1200 --speed 30\n  game_demo bench walk --cascades 0 --probes 32,8,32   # one scene-wide volume\n  game_demo bench walk --width 256 --height 256 --error-every 100   # and FLIP every 100th frame"
+    )]
     Walk {
         /// A built-in scene with a tour (open_world) or any scene (its camera carried sideways).
         #[arg(long, default_value = "open_world")]
@@ -394,10 +396,15 @@ enum BenchCommand {
         /// Paths per pixel of those references.
         #[arg(long, default_value_t = 1024)]
         reference_spp: u32,
+        /// Also write the results as JSON to this file (the same figures as the Markdown).
+        #[arg(long)]
+        json: Option<PathBuf>,
     },
     /// Closest-hit throughput of probe-like rays (grids 16×8×16 … 32×32×32, 32 … 256 rays per probe;
     /// GPU timestamps of the trace pass alone) and the CPU cost of TLAS updates when instances move.
-    #[command(after_long_help = "Examples:\n  game_demo bench trace --scene cathedral --iterations 15 --no-flat-rebuild\n  game_demo bench trace --scene forest --cpu-only   # the TLAS refit for moving instances only")]
+    #[command(
+        after_long_help = "Examples:\n  game_demo bench trace --scene cathedral --iterations 15 --no-flat-rebuild\n  game_demo bench trace --scene forest --cpu-only   # the TLAS refit for moving instances only"
+    )]
     Trace {
         /// A built-in scene or a scene file.
         #[arg(long, default_value = "cathedral")]
@@ -411,11 +418,16 @@ enum BenchCommand {
         /// Skip the GPU throughput table.
         #[arg(long)]
         cpu_only: bool,
+        /// Also write the results as JSON to this file (the same figures as the Markdown).
+        #[arg(long)]
+        json: Option<PathBuf>,
     },
     /// Full DDGI update throughput (rays per second of the budget, generation, trace, shading, map
     /// updates, borders, relocation and classification; every probe active) for grids 16×8×16 … 32×32×32
     /// and 32 … 256 rays per probe, the per-pass times, and the final gather at the camera's size.
-    #[command(after_long_help = "Examples:\n  game_demo bench ddgi --scene cathedral\n  game_demo bench ddgi --scene level --probes 16,8,16 --probes 32,8,32 --rays 128")]
+    #[command(
+        after_long_help = "Examples:\n  game_demo bench ddgi --scene cathedral\n  game_demo bench ddgi --scene level --probes 16,8,16 --probes 32,8,32 --rays 128"
+    )]
     Ddgi {
         /// A built-in scene or a scene file.
         #[arg(long, default_value = "cathedral")]
@@ -435,11 +447,16 @@ enum BenchCommand {
         /// Rays per probe to measure instead of 32, 64, 128, 256 (repeatable).
         #[arg(long)]
         rays: Vec<u32>,
+        /// Also write the results as JSON to this file (the same figures as the Markdown).
+        #[arg(long)]
+        json: Option<PathBuf>,
     },
     /// DDGI's classification (adaptive budgets on) against an independent test with GPU rays: how
     /// many probes inside solid geometry are switched off, and how many probes that a visible
     /// surface depends on are.
-    #[command(after_long_help = "Examples:\n  game_demo bench classify --scene cathedral\n  game_demo bench classify --scene cathedral --probes 32,16,32")]
+    #[command(
+        after_long_help = "Examples:\n  game_demo bench classify --scene cathedral\n  game_demo bench classify --scene cathedral --probes 32,16,32"
+    )]
     Classify {
         /// A built-in scene or a scene file.
         #[arg(long, default_value = "cathedral")]
@@ -450,6 +467,9 @@ enum BenchCommand {
         /// Frames DDGI runs (classifying its probes) before the check.
         #[arg(long, default_value_t = 60)]
         frames: u32,
+        /// Also write the results as JSON to this file (the same figures as the Markdown).
+        #[arg(long)]
+        json: Option<PathBuf>,
     },
 }
 
@@ -822,7 +842,13 @@ fn render(args: RenderArgs) -> Result<(), String> {
     Ok(())
 }
 
-fn bench_ddgi(name: &str, iterations: u32, size: engine::render::RenderSize, grids: &[glam::UVec3], rays: &[u32]) -> Result<(), String> {
+fn bench_ddgi(
+    name: &str,
+    iterations: u32,
+    size: engine::render::RenderSize,
+    grids: &[glam::UVec3],
+    rays: &[u32],
+) -> Result<serde_json::Value, String> {
     let grids: Vec<[u32; 3]> = if grids.is_empty() { bench::GRIDS.to_vec() } else { grids.iter().map(|g| g.to_array()).collect() };
     let ray_counts: Vec<u32> = if rays.is_empty() { bench::RAYS.to_vec() } else { rays.to_vec() };
     let scene = load(name)?;
@@ -856,7 +882,20 @@ fn bench_ddgi(name: &str, iterations: u32, size: engine::render::RenderSize, gri
     let non_trace = |c: &bench::DdgiCell| c.update_ms - c.pass_ms("ddgi_trace").unwrap_or(0.0);
     let row: Vec<String> = ray_counts.iter().map(|&r| cell(&grid, r).map_or("-".into(), |c| format!("{:.3}", non_trace(c)))).collect();
     println!("| all update passes but the trace | {} |", row.join(" | "));
-    Ok(())
+    let cells: Vec<serde_json::Value> = cells
+        .iter()
+        .map(|c| {
+            let passes: serde_json::Map<String, serde_json::Value> = c.passes.iter().map(|(l, ms)| (l.clone(), (*ms).into())).collect();
+            serde_json::json!({
+                "probes": c.grid, "rays_per_probe": c.rays_per_probe, "rays": c.rays, "update_ms": c.update_ms,
+                "mrays_per_second": c.mrays_per_second(), "pass_ms": passes,
+            })
+        })
+        .collect();
+    Ok(serde_json::json!({
+        "bench": "ddgi", "scene": name, "adapter": gpu.adapter_name(), "camera": [size.width, size.height], "iterations": iterations,
+        "cells": cells,
+    }))
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -871,7 +910,7 @@ fn bench_walk(
     sky_light: ddgi::DdgiSkyLight,
     (error_every, reference_spp): (Option<u32>, u32),
     out: &std::path::Path,
-) -> Result<(), String> {
+) -> Result<serde_json::Value, String> {
     let scene = load(name)?;
     let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
     let volume = ddgi::DdgiVolume {
@@ -952,14 +991,30 @@ fn bench_walk(
     if let Some(rays) = report.mean_rays() {
         println!("rays traced per frame (every volume): mean {rays:.0}");
     }
-    println!("rebases: {}; every frame in {}", report.frames.iter().filter(|f| f.rebased).count(), out.join("walk.csv").display());
-    Ok(())
+    let rebases = report.frames.iter().filter(|f| f.rebased).count();
+    println!("rebases: {rebases}; every frame in {}", out.join("walk.csv").display());
+    let passes: serde_json::Map<String, serde_json::Value> = report
+        .pass_medians()
+        .into_iter()
+        .map(|(label, ms, frames)| (label, serde_json::json!({"median_ms": ms, "frames": frames})))
+        .collect();
+    let volumes: Vec<serde_json::Value> = (0..report.volumes)
+        .map(|k| serde_json::json!({"gather_median_ms": report.median_volume_ms(k), "mean_rays": report.mean_volume_rays(k)}))
+        .collect();
+    Ok(serde_json::json!({
+        "bench": "walk", "scene": name, "configuration": what, "adapter": gpu.adapter_name(), "rays_per_probe": rays,
+        "adaptive": adaptive, "size": [width, height], "frames": frames, "speed": speed,
+        "ddgi_median_ms": report.median_ddgi_ms(), "ddgi_max_ms": report.max_ddgi_ms(), "frames_over_2x_median": report.frames_over(2.0),
+        "frames_with_a_scroll": scrolls, "rebases": rebases, "mean_rays": report.mean_rays(),
+        "flip": report.flip_summary().map(|(mean, change)| serde_json::json!({"mean": mean, "mean_change": change})),
+        "volumes": volumes, "pass_median_ms": passes, "csv": out.join("walk.csv"),
+    }))
 }
 
 fn bench(command: BenchCommand) -> Result<(), String> {
-    let (name, iterations, no_flat_rebuild, cpu_only) = match command {
-        BenchCommand::Trace { scene, iterations, no_flat_rebuild, cpu_only } => (scene, iterations, no_flat_rebuild, cpu_only),
-        BenchCommand::Classify { scene, probes: grid, frames } => {
+    let (name, iterations, no_flat_rebuild, cpu_only, json) = match command {
+        BenchCommand::Trace { scene, iterations, no_flat_rebuild, cpu_only, json } => (scene, iterations, no_flat_rebuild, cpu_only, json),
+        BenchCommand::Classify { scene, probes: grid, frames, json } => {
             let description = load(&scene)?;
             let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
             let grid = grid.map_or(eval_scenes::scene_facts(&scene).paper_grid, |g| g.to_array());
@@ -983,7 +1038,14 @@ fn bench(command: BenchCommand) -> Result<(), String> {
                     100.0 * back
                 );
             }
-            return Ok(());
+            return write_json(
+                json.as_deref(),
+                serde_json::json!({
+                    "bench": "classify", "scene": scene, "adapter": gpu.adapter_name(), "probes": grid, "frames": frames,
+                    "probe_count": c.probes, "inside": c.inside, "inside_off": c.inside_off,
+                    "needed": c.needed, "needed_off": c.needed_off, "needed_off_lit": c.needed_off_lit,
+                }),
+            );
         }
         BenchCommand::Walk {
             scene,
@@ -1007,15 +1069,19 @@ fn bench(command: BenchCommand) -> Result<(), String> {
             sky_reach,
             error_every,
             reference_spp,
+            json,
         } => {
             let sky = ddgi::DdgiSkyLight { rays: sky_rays, max_distance: sky_reach };
             let measure = (error_every, reference_spp);
             let probes = if cascades > 0 { cascade_probes } else { probes };
             let grid = (cascades, probes, spacing, blend, cascade_period, frame_budget);
-            return bench_walk(&scene, grid, rays, !no_adaptive, (frames, warmup, speed), (width, height), offset, sky, measure, &out);
+            let report =
+                bench_walk(&scene, grid, rays, !no_adaptive, (frames, warmup, speed), (width, height), offset, sky, measure, &out)?;
+            return write_json(json.as_deref(), report);
         }
-        BenchCommand::Ddgi { scene, iterations, width, height, probes, rays } => {
-            return bench_ddgi(&scene, iterations, engine::render::RenderSize { width, height }, &probes, &rays);
+        BenchCommand::Ddgi { scene, iterations, width, height, probes, rays, json } => {
+            let report = bench_ddgi(&scene, iterations, engine::render::RenderSize { width, height }, &probes, &rays)?;
+            return write_json(json.as_deref(), report);
         }
     };
     let scene = load(&name)?;
@@ -1026,8 +1092,16 @@ fn bench(command: BenchCommand) -> Result<(), String> {
     let mut app = bench::prepared_app(&gpu, scene);
     println!("# bench trace: {name} ({triangles} triangles) on {}", gpu.adapter_name());
     println!("scene prepared (BLAS and TLAS built, uploaded) in {:.2?}", started.elapsed());
+    let mut report = serde_json::json!({
+        "bench": "trace", "scene": name, "triangles": triangles, "adapter": gpu.adapter_name(), "iterations": iterations,
+        "prepare_ms": started.elapsed().as_secs_f64() * 1e3,
+    });
     if !cpu_only {
         let cells = bench::trace_throughput(&gpu, &app, bounds, iterations.max(1))?;
+        report["throughput"] = cells
+            .iter()
+            .map(|c| serde_json::json!({"probes": c.grid, "rays_per_probe": c.rays_per_probe, "rays": c.rays, "median_ms": c.median_ms, "mrays_per_second": c.mrays_per_second()}))
+            .collect();
         println!("\n## Closest-hit probe rays, MRays/s (median of {iterations} dispatches, trace pass GPU time)\n");
         println!("| rays/probe | {} |", bench::GRIDS.map(|g| format!("{}×{}×{}", g[0], g[1], g[2])).join(" | "));
         println!("|---|{}", "---:|".repeat(bench::GRIDS.len()));
@@ -1047,6 +1121,9 @@ fn bench(command: BenchCommand) -> Result<(), String> {
     if !cpu_only {
         let (grid, rays) = ([32, 8, 32], 128);
         let w = bench::traversal_work(&gpu, &app, bounds, grid, rays)?;
+        report["traversal_work_per_ray"] = serde_json::json!({
+            "probes": grid, "rays_per_probe": rays, "tlas_nodes": w[0], "instances_entered": w[1], "blas_nodes": w[2], "triangles": w[3],
+        });
         println!(
             "\nTraversal work per ray at {}×{}×{} × {rays} rays: {:.1} TLAS nodes, {:.2} instances entered, {:.1} BLAS nodes, {:.1} triangles tested",
             grid[0], grid[1], grid[2], w[0], w[1], w[2], w[3]
@@ -1055,9 +1132,13 @@ fn bench(command: BenchCommand) -> Result<(), String> {
     println!("\n## CPU cost per frame of instance and TLAS updates and uploads (median of 9 frames)\n");
     println!("| moving instances | CPU ms (total) | of which TLAS refit/rebuild + upload | TLAS rebuilt |");
     println!("|---:|---:|---:|---|");
+    let mut movers = Vec::new();
     for count in bench::MOVING {
         match bench::tlas_update_cost(&mut app, count, 9) {
             Some((t, tlas, rebuilt)) => {
+                movers.push(serde_json::json!({
+                    "moving_instances": count, "cpu_ms": t.as_secs_f64() * 1e3, "tlas_ms": tlas.as_secs_f64() * 1e3, "tlas_rebuilt": rebuilt,
+                }));
                 println!(
                     "| {count} | {:.3} | {:.3} | {} |",
                     t.as_secs_f64() * 1e3,
@@ -1068,10 +1149,24 @@ fn bench(command: BenchCommand) -> Result<(), String> {
             None => println!("| {count} | n/a (fewer instances) | | |"),
         }
     }
+    report["tlas_updates"] = movers.into();
     if !no_flat_rebuild {
         let (t, n) = bench::flat_rebuild_cost(&mut app);
         println!("\nfull rebuild of one flat CWBVH over all {n} world-space triangles: {:.1} ms", t.as_secs_f64() * 1e3);
+        report["flat_rebuild"] = serde_json::json!({"triangles": n, "ms": t.as_secs_f64() * 1e3});
     }
+    write_json(json.as_deref(), report)
+}
+
+/// `bench … --json FILE`: writes `value` there (pretty-printed), or nothing without a file.
+fn write_json(path: Option<&std::path::Path>, value: serde_json::Value) -> Result<(), String> {
+    let Some(path) = path else { return Ok(()) };
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    }
+    let text = serde_json::to_string_pretty(&value).map_err(|e| format!("{}: {e}", path.display()))?;
+    std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))?;
+    println!("JSON: {}", path.display());
     Ok(())
 }
 

@@ -172,8 +172,10 @@ pub fn trace_throughput(gpu: &GpuContext, app: &App, bounds: (Vec3, Vec3), itera
     let kernel = TraceKernel::new(gpu, app, false)?;
     let mut rng = SplitMix64::new(0x5EED_1234_ABCD);
     let mut cells = Vec::new();
+    let bar = crate::progress::bar((GRIDS.len() * RAYS.len()) as u64, "bench trace", "cells");
     for grid in GRIDS {
         for rays_per_probe in RAYS {
+            bar.inc(1);
             let mut times = Vec::new();
             for iteration in 0..iterations + 3 {
                 let ms = kernel.run(gpu, &params_for(&mut rng, bounds, grid, rays_per_probe))?;
@@ -186,6 +188,7 @@ pub fn trace_throughput(gpu: &GpuContext, app: &App, bounds: (Vec3, Vec3), itera
             cells.push(TraceCell { grid, rays_per_probe, rays: u64::from(grid[0] * grid[1] * grid[2] * rays_per_probe), median_ms });
         }
     }
+    bar.finish_and_clear();
     Ok(cells)
 }
 
@@ -305,8 +308,10 @@ pub fn ddgi_throughput(
     ddgi::use_ddgi(&mut app, volume(grids[0], ray_counts[0]), ddgi::DdgiOutput::Full);
     scene.spawn(app.world_mut());
     let mut cells = Vec::new();
+    let bar = crate::progress::bar((grids.len() * ray_counts.len()) as u64, "bench ddgi", "cells");
     for &grid in grids {
         for &rays_per_probe in ray_counts {
+            bar.inc(1);
             {
                 let world = app.world_mut();
                 let mut volumes = world.query::<&mut ddgi::DdgiVolume>();
@@ -346,6 +351,7 @@ pub fn ddgi_throughput(
             cells.push(DdgiCell { grid, rays_per_probe, rays, passes, update_ms });
         }
     }
+    bar.finish_and_clear();
     Ok(cells)
 }
 

@@ -314,7 +314,13 @@ fn render(
     seed: u32,
 ) -> Result<RenderedFrame, String> {
     let settings = HeadlessSettings { width, height, frames: config.frames(), ..Default::default() };
-    render_scene_with(gpu, scene.clone(), &settings, |app| config.configure(app, seed)).map_err(|e| e.to_string())
+    let bar = crate::progress::bar(u64::from(settings.frames), config.name(), "frames");
+    let frame = render_scene_with(gpu, scene.clone(), &settings, |app| {
+        config.configure(app, seed);
+        crate::progress::tick_every_frame(app, &bar);
+    });
+    bar.finish_and_clear();
+    frame.map_err(|e| e.to_string())
 }
 
 /// GPU milliseconds of one frame: the sum over the passes that ran; `None` without timestamps.

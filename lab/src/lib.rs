@@ -6,6 +6,7 @@
 //!   the time series after a change in the scene ([`eval::time_series`]);
 //! - [`bench`]: ray-tracing and DDGI throughput, TLAS update costs, DDGI's classification check;
 //! - [`plot`]: the evaluation's plots (plotters, with an embedded font);
+//! - [`progress`]: progress bars of the long jobs;
 //! - [`soak`]: judging a soak run (non-finite values, memory growth, frame-time drift) and its CSV;
 //! - [`walk`]: DDGI's GPU time frame by frame while the camera walks the open world.
 
@@ -13,6 +14,7 @@ pub mod bench;
 pub mod eval;
 pub mod metrics;
 pub mod plot;
+pub mod progress;
 pub mod soak;
 pub mod walk;
 

@@ -64,7 +64,9 @@ pub fn run_soak(gpu: &GpuContext, options: &PlayOptions, soak: &SoakOptions) -> 
     let mut samples = Vec::new();
     let mut cpu_window = Vec::with_capacity(soak.check_every as usize);
     let mut gpu_window = Vec::with_capacity(soak.check_every as usize);
+    let bar = lab::progress::bar(u64::from(soak.frames), "soak", "frames");
     for frame in 0..soak.frames {
+        bar.inc(1);
         let start = Instant::now();
         app.update();
         cpu_window.push(start.elapsed().as_secs_f64() * 1e3);
@@ -105,6 +107,7 @@ pub fn run_soak(gpu: &GpuContext, options: &PlayOptions, soak: &SoakOptions) -> 
     let csv = soak.out.join("soak.csv");
     write_soak_csv(&csv, &samples)?;
     let failures = judge_soak(&samples, soak.warmup, &soak.limits);
+    bar.finish_and_clear();
     Ok(SoakReport { samples, csv, failures })
 }
 

@@ -335,7 +335,9 @@ pub fn run(
     // configuration that followed the comparisons on the CPU of another (an idle GPU, which lowers
     // its clocks within a second) had its small probe update timed up to twice as slow.
     let longest = runs.iter().map(|r| r.settle).max().unwrap_or(0);
+    let bar = crate::progress::bar(u64::from(longest + frames), format!("time series, {} methods", runs.len()), "frames");
     for step in 0..longest + frames {
+        bar.inc(1);
         for run in runs.iter_mut().filter(|r| r.running) {
             let Some(local) = step.checked_sub(longest - run.settle) else { continue };
             run.app.update();
@@ -381,6 +383,7 @@ pub fn run(
             }
         }
     }
+    bar.finish_and_clear();
     let mut rows = Vec::new();
     let mut statics = Vec::new();
     for run in runs {
