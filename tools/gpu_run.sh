@@ -40,6 +40,8 @@ for step in "$@"; do
     # camera_SCENE-AO: the camera path at 1920x1080 as the demo shows it (DDGI, TAA, contact
     # occlusion with AO rays a pixel, AgX, auto-exposure), 120 frames: timings.json per pass.
     camera_*) IFS=- read -r scene ao <<< "${step#camera_}"; run "$step" $B render --scene "$scene" --mode ddgi --width 1920 --height 1080 --contact-occlusion "$ao" --display-transform agx --auto-exposure --out "$R/$step" ;;
+    # camerafull_SCENE-AO: the same with the contact occlusion traced at every pixel (not half resolution).
+    camerafull_*) IFS=- read -r scene ao <<< "${step#camerafull_}"; run "$step" $B render --scene "$scene" --mode ddgi --width 1920 --height 1080 --contact-occlusion "$ao" --contact-occlusion-full-resolution --display-transform agx --auto-exposure --out "$R/$step" ;;
     # shots-FRAMES-EVERY: the demo's scripted walk at 1920x1080, a PNG every EVERY frames.
     shots-*) IFS=- read -r _ frames every <<< "$step"; run "$step" $B play --headless --width 1920 --height 1080 --frames "$frames" --every "$every" --out "$R/$step" ;;
     # SERIES_ARGS: more eval options for every series step (e.g. "--hysteresis-exponent 0.5").

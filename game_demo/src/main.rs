@@ -353,7 +353,9 @@ enum BenchCommand {
         #[arg(long, default_value_t = ddgi::DdgiCascades::default().max_update_period, value_parser = clap::value_parser!(u32).range(1..))]
         cascade_period: u32,
         /// Rays per frame shared by the cascades that update in a frame, in proportion to what their
-        /// probes ask for (DdgiCascades::frame_budget; default: no shared budget).
+        /// probes ask for (DdgiCascades::frame_budget), or, with --cascades 0, the one volume's
+        /// (DdgiAdaptive::frame_budget): the same budget compares both at one ray count. Default:
+        /// no budget.
         #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
         frame_budget: Option<u32>,
         /// Rays per probe per frame.
@@ -616,6 +618,10 @@ struct DdgiArgs {
     /// their reach the finest probe spacing.
     #[arg(long, default_value_t = ddgi::DdgiContactOcclusion::default().rays, value_parser = clap::value_parser!(u32).range(0..=64))]
     contact_occlusion: u32,
+    /// Trace the contact occlusion at every pixel instead of at one pixel of each 2×2 block a frame
+    /// (DdgiContactOcclusion::half_resolution; four times the rays).
+    #[arg(long)]
+    contact_occlusion_full_resolution: bool,
     /// The fixed ray budget (every probe --rays rays a frame) instead of the default adaptive one,
     /// where each probe's rays follow its temporal error (between DdgiAdaptive's min_rays and
     /// --rays) and dark probes are switched off. `timings.json` records the rays traced per frame.
@@ -775,7 +781,11 @@ fn render(args: RenderArgs) -> Result<(), String> {
         let output = if args.mode == ModeArg::Indirect { ddgi::DdgiOutput::Indirect } else { ddgi::DdgiOutput::Full };
         let mut dumped: Result<Vec<PathBuf>, String> = Ok(Vec::new());
         let dump = args.ddgi.dump_atlases;
-        let occlusion = ddgi::DdgiContactOcclusion { rays: args.ddgi.contact_occlusion, ..Default::default() };
+        let occlusion = ddgi::DdgiContactOcclusion {
+            rays: args.ddgi.contact_occlusion,
+            half_resolution: !args.ddgi.contact_occlusion_full_resolution,
+            ..Default::default()
+        };
         let out = args.out.clone();
         let frame = engine::headless::render_scene_and_inspect(
             &gpu,
@@ -920,6 +930,8 @@ fn bench_walk(
         adaptive: ddgi::DdgiAdaptive {
             enabled: adaptive,
             min_rays: ddgi::DdgiAdaptive::default().min_rays.min(rays),
+            // One volume takes the budget itself; cascades share theirs (below).
+            frame_budget: if cascades == 0 { frame_budget } else { None },
             ..Default::default()
         },
         ..Default::default()

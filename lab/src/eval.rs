@@ -169,7 +169,7 @@ impl Config {
         let volume =
             ddgi::DdgiVolume { probe_counts: Some(scene.paper_grid.into()), adaptive: ddgi::DdgiAdaptive::off(), ..Default::default() };
         if let Config::Ddgi { name, volume, .. } = Config::ddgi("ddgi_weights_contact_occlusion".into(), scene, volume) {
-            list.push(Config::Ddgi { name, volume, occlusion: ddgi::DdgiContactOcclusion { rays: 8, radius: None }, taa: true });
+            list.push(Config::Ddgi { name, volume, occlusion: ddgi::DdgiContactOcclusion { rays: 8, ..Default::default() }, taa: true });
         }
         list.extend(Config::ddgi_contributions(scene));
         list
@@ -195,7 +195,7 @@ impl Config {
             Config::Ddgi { volume, .. } => Config::Ddgi {
                 name: "ddgi_defaults_contact_occlusion".into(),
                 volume,
-                occlusion: ddgi::DdgiContactOcclusion { rays: 4, radius: None },
+                occlusion: ddgi::DdgiContactOcclusion { rays: 4, ..Default::default() },
                 taa: true,
             },
             other => other,

@@ -1,5 +1,5 @@
-// DDGI on the camera: the parameters and G-buffer bindings (group 2) that the passes `ddgi_gather`
-// and `ddgi_composite` share.
+// DDGI on the camera: the parameters and G-buffer bindings (group 2) that the passes `ddgi_gather`,
+// `ddgi_contact_occlusion` and `ddgi_composite` share.
 #include "scene.inc.wgsl"
 
 struct DdgiGatherParams {
@@ -10,10 +10,11 @@ struct DdgiGatherParams {
     // Sky light at pixels no volume covers (ddgi::DdgiSkyLight): visibility rays (0: off) and reach.
     sky_rays: u32,
     sky_distance: f32,
-    // Contact occlusion of the probes' light (ddgi::DdgiContactOcclusion): rays (0: off) and radius.
+    // Contact occlusion of the probes' light (ddgi::DdgiContactOcclusion): rays (0: off), radius,
+    // and the side of the blocks it is traced at one pixel of (1: every pixel, 2: half resolution).
     ao_rays: u32,
     ao_radius: f32,
-    _pad0: u32,
+    ao_scale: u32,
     _pad1: u32,
 }
 
@@ -27,6 +28,9 @@ struct DdgiGatherParams {
 @group(2) @binding(5) var<storage, read_write> ddgi_indirect: array<vec4<f32>>;
 @group(2) @binding(6) var radiance_out: texture_storage_2d<rgba32float, write>;
 @group(2) @binding(7) var gbuffer_emissive: texture_2d<f32>;
+// Contact occlusion at reduced resolution (pass `ddgi_contact_occlusion`), one value per block of
+// ao_scale × ao_scale pixels, row-major; −1 where the block's traced pixel shows no surface.
+@group(2) @binding(8) var<storage, read_write> ddgi_occlusion: array<f32>;
 
 // The material of a G-buffer pixel as the BRDF sees it (base colour and metallic, roughness in the
 // normal's w, specular weight in the emission's).

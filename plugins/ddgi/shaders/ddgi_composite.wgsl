@@ -1,38 +1,9 @@
 // DDGI pass `ddgi_composite`: the gathered indirect light (albedo / π × irradiance) added to the
 // direct light, or one of the debug views. Where no volume covers a pixel's surface (or covers it
 // only in part), the sky's irradiance times a short-range visibility fills the rest; contact
-// occlusion (ddgi::DdgiContactOcclusion) darkens the probes' light at small scales.
-#include "ddgi_camera.inc.wgsl"
-#include "ray_tracing.inc.wgsl"
-
-// `count` stratified cosine-distributed rays from surface point p (normal n), of reach `reach`,
-// turned by a per-pixel angle: the share that escapes (x) and the mean over all of the sky's
-// radiance along those that escape (yzw), which times π is the sky's irradiance through them.
-fn ddgi_open_rays(pixel: vec2<u32>, p: vec3<f32>, n: vec3<f32>, count: u32, reach: f32, with_sky: bool) -> vec4<f32> {
-    let view_distance = length(p - view.camera_position);
-    let origin = offset_ray_origin(p + n * (1e-4 * view_distance), n);
-    let tangent = safe_normalize(cross(select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.9), n), vec3<f32>(1.0, 0.0, 0.0));
-    let bitangent = cross(n, tangent);
-    // A new turn every frame: the temporal anti-aliasing averages the rays of many frames.
-    let turn = f32(hash_lowbias32(pixel.x * 7919u + pixel.y * 104729u + view.frame * 2654435769u)) / 4294967296.0;
-    var open = 0u;
-    var sky = vec3<f32>(0.0);
-    for (var k = 0u; k < count; k++) {
-        // Cosine-distributed: uniform over the unit disc, lifted onto the hemisphere.
-        let u = (f32(k) + 0.5) / f32(count);
-        let phi = 2.0 * PI * fract(f32(k) * 0.618033988749895 + turn);
-        let r = sqrt(u);
-        let d = tangent * (r * cos(phi)) + bitangent * (r * sin(phi)) + n * sqrt(max(1.0 - u, 0.0));
-        if !trace_any(Ray(origin, 0.0, d, reach)) {
-            open += 1u;
-            if with_sky {
-                sky += sky_radiance(d);
-            }
-        }
-    }
-    let total = f32(max(count, 1u));
-    return vec4<f32>(f32(open) / total, sky / total);
-}
+// occlusion (ddgi::DdgiContactOcclusion, traced here or by `ddgi_contact_occlusion` at reduced
+// resolution) darkens the probes' light at small scales.
+#include "ddgi_visibility.inc.wgsl"
 
 // The sky's irradiance at surface point p (normal n) through its visibility: π × the mean sky
 // radiance along `sky_rays` rays of reach sky_distance, those that hit counting as black.
@@ -43,16 +14,6 @@ fn ddgi_sky_irradiance(pixel: vec2<u32>, p: vec3<f32>, n: vec3<f32>) -> vec3<f32
         return vec3<f32>(0.0);
     }
     return PI * ddgi_open_rays(pixel, p, n, count, ddgi_gather_params.sky_distance, true).yzw;
-}
-
-// Contact occlusion at surface point p (normal n): the open share of ao_rays rays of ao_radius, 1
-// when it is off.
-fn ddgi_contact_occlusion(pixel: vec2<u32>, p: vec3<f32>, n: vec3<f32>) -> f32 {
-    let count = ddgi_gather_params.ao_rays;
-    if count == 0u || !(ddgi_gather_params.ao_radius > 0.0) {
-        return 1.0;
-    }
-    return ddgi_open_rays(pixel, p, n, count, ddgi_gather_params.ao_radius, false).x;
 }
 
 // The indirect light a pixel reflects (0 where there is no surface): albedo / π × the volumes'
@@ -77,12 +38,12 @@ fn ddgi_indirect_radiance(id: vec2<u32>) -> vec3<f32> {
         reflected = r.rgb / max(r.w, 1.0);
     }
     let uncovered = 1.0 - clamp(acc.w, 0.0, 1.0);
-    let occluded = acc.w > 0.0 && ddgi_gather_params.ao_rays > 0u;
+    let occluded = acc.w > 0.0 && ddgi_contact_occlusion_on();
     // The surface point is needed only for rays and for glossy pixels: most pixels of a covered
     // view trace none.
     if occluded || uncovered > 0.0 || glossy {
         let p = view_world_position(id, depth);
-        let n = safe_normalize(textureLoad(gbuffer_normal, id, 0).xyz, vec3<f32>(0.0, 1.0, 0.0));
+        let n = ddgi_pixel_normal(id);
         if occluded {
             let open = ddgi_contact_occlusion(id, p, n);
             irradiance *= open;

@@ -64,18 +64,39 @@ impl DdgiOutput {
 /// cannot resolve (the corner where a box meets the floor, the gap under a door) darkens DDGI's
 /// indirect light — and only it — by the cosine-weighted share of `rays` rays from each pixel's
 /// surface that travel `radius` without a hit (ray-traced ambient occlusion). The probes already
-/// carry occlusion at larger scales, so the radius is tied to their spacing.
+/// carry occlusion at larger scales, so the radius is tied to their spacing. The rays turn every
+/// frame, so the temporal anti-aliasing accumulates them into a smooth result.
 ///
-/// Cost: `rays` short rays a pixel at every pixel a volume lights. Off (`rays: 0`) by default for
-/// now: the images and references the tests keep were made without it.
-#[derive(Resource, Clone, Copy, Debug, Default, PartialEq)]
+/// Cost: `rays` short rays a pixel at every pixel a volume lights, or, at half resolution (the
+/// default), at one pixel of each 2×2 block (another each frame: pass `ddgi_contact_occlusion`), a
+/// quarter of the rays, which the composite brings back to every pixel by depth and normal (pixels
+/// whose block neighbours all lie on other surfaces trace their own). Off (`rays: 0`) by default:
+/// the probes at the fitted spacing already hold most of this occlusion, and adding it again
+/// darkened every evaluation scene (BENCHMARKS.md, `eval --experiments`).
+#[derive(Resource, Clone, Copy, Debug, PartialEq)]
 pub struct DdgiContactOcclusion {
-    /// Rays per pixel (0: off). More: less noise.
+    /// Rays per traced pixel (0: off). More: less noise.
     pub rays: u32,
     /// How far an occluder may be, in world units; `None`: the smallest probe spacing of the
     /// volumes (the finest cascade's). Longer: darker corners and wider shadows of occlusion, which
     /// the probes may already hold.
     pub radius: Option<f32>,
+    /// Trace at one pixel of each 2×2 block a frame (`true`, the default: a quarter of the rays,
+    /// slightly softer edges of occlusion while the camera moves) or at every pixel (`false`).
+    pub half_resolution: bool,
+}
+
+impl Default for DdgiContactOcclusion {
+    fn default() -> Self {
+        Self { rays: 0, radius: None, half_resolution: true }
+    }
+}
+
+impl DdgiContactOcclusion {
+    /// The side of the pixel blocks traced at one pixel each: 2 at half resolution, else 1.
+    pub(crate) fn scale(&self) -> u32 {
+        if self.half_resolution { 2 } else { 1 }
+    }
 }
 
 /// Sky light beyond the volumes: a surface point that no volume or cascade covers (or covers only

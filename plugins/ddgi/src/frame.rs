@@ -2,7 +2,8 @@
 //!
 //! ```text
 //! all volumes: ddgi_budget ─▶ ddgi_trace ─▶ ddgi_probe_update       (DdgiFrame::add_volume_updates)
-//! per camera:  ddgi_gather (each volume) ─▶ ddgi_composite         (add_gather, add_composite)
+//! per camera:  ddgi_gather (each volume) ─▶ [ddgi_contact_occlusion] ─▶ ddgi_composite
+//!                                                                  (add_gather, add_composite)
 //! debug:       ddgi_probe_spheres                                  (add_probe_spheres)
 //! ```
 //!
@@ -313,6 +314,7 @@ impl DdgiFrame<'_> {
         let debug = output.debug_view().is_some();
         let full = output == DdgiOutput::Full;
         let params = self.gather_params(graph, frame, true);
+        let occlusion = self.add_contact_occlusion(graph, frame, gbuffer, &params);
         let mut pass = graph.add_pass("ddgi_composite");
         let mut group2 = vec![
             ("ddgi_gather_params", Bind::buffer(pass.read(&params))),
@@ -329,6 +331,7 @@ impl DdgiFrame<'_> {
         if !debug {
             group2.push(("ddgi_indirect", Bind::buffer(pass.read(indirect))));
         }
+        group2.push(("ddgi_occlusion", Bind::buffer(pass.read(&occlusion))));
         group2.push(("radiance_out", Bind::texture(pass.write(hdr))));
         if !full {
             pass.note(output.name());
@@ -345,6 +348,52 @@ impl DdgiFrame<'_> {
             let groups = [ctx.bind_group(&*program, 0, &group0), ctx.bind_group(&*program, 1, &[]), ctx.bind_group(&*program, 2, &group2)];
             engine::render::dispatch(ctx.encoder, ctx.label, &program.pipeline, &groups.each_ref(), workgroups);
         });
+    }
+
+    /// Adds the pass `ddgi_contact_occlusion` when [`crate::DdgiContactOcclusion`] is on at half
+    /// resolution and the output shows it: one pixel of each 2×2 block traces its rays. Returns
+    /// the per-block values the composite reads (a placeholder of one value when the composite
+    /// traces at every pixel or not at all).
+    fn add_contact_occlusion(
+        &self,
+        graph: &mut RenderGraph,
+        frame: &CameraFrame,
+        gbuffer: &GBuffer,
+        params: &Handle<GraphBuffer>,
+    ) -> Handle<GraphBuffer> {
+        let settings = self.contact_occlusion.as_deref().copied().unwrap_or_default();
+        let shown = matches!(*self.output, DdgiOutput::Full | DdgiOutput::Indirect | DdgiOutput::Occlusion);
+        let scale = settings.scale();
+        let on = settings.rays > 0 && scale > 1 && shown && !self.volumes.volumes.is_empty();
+        let size = frame.size();
+        let blocks = if on { (size.width.div_ceil(scale), size.height.div_ceil(scale)) } else { (1, 1) };
+        let usage = wgpu::BufferUsages::STORAGE;
+        let mut occlusion =
+            graph.create_buffer("ddgi_occlusion", BufferDesc { size: u64::from(blocks.0) * u64::from(blocks.1) * 4, usage });
+        if !on {
+            return occlusion;
+        }
+        let program = self.pipelines.contact_occlusion.clone();
+        let mut pass = graph.add_pass("ddgi_contact_occlusion");
+        pass.note(&format!("{} rays at one pixel of each {scale}×{scale} block", settings.rays));
+        let group2 = vec![
+            ("ddgi_gather_params", Bind::buffer(pass.read(params))),
+            ("gbuffer_depth", Bind::texture(pass.read(&gbuffer.depth))),
+            ("gbuffer_normal", Bind::texture(pass.read(&gbuffer.normal))),
+            ("ddgi_occlusion", Bind::buffer(pass.write(&mut occlusion))),
+        ];
+        let group0 = pass.read_named(&program.bindings, 0);
+        pass.render(move |ctx| {
+            let groups = [ctx.bind_group(&*program, 0, &group0), ctx.bind_group(&*program, 1, &[]), ctx.bind_group(&*program, 2, &group2)];
+            engine::render::dispatch(
+                ctx.encoder,
+                ctx.label,
+                &program.pipeline,
+                &groups.each_ref(),
+                (blocks.0.div_ceil(8), blocks.1.div_ceil(8)),
+            );
+        });
+        occlusion
     }
 
     /// Adds the probe debug view of the first volume when [`DdgiProbeView`] is on: one sphere per
@@ -395,7 +444,7 @@ impl DdgiFrame<'_> {
             sky_distance: if reach.is_finite() && reach > 0.0 { reach } else { crate::gpu::UNBOUNDED_RAY },
             ao_rays: if ao_radius.is_some() { occlusion.rays.min(crate::debug_view::MAX_SKY_RAYS) } else { 0 },
             ao_radius: ao_radius.unwrap_or(0.0),
-            _pad0: 0,
+            ao_scale: occlusion.scale(),
             _pad1: 0,
         };
         let buffer = frame.gpu.device.create_buffer(&wgpu::BufferDescriptor {

@@ -176,11 +176,11 @@ pub(crate) struct DdgiGatherParams {
     pub sky_rays: u32,
     /// Their reach in world units.
     pub sky_distance: f32,
-    /// Contact occlusion of the indirect light ([`crate::DdgiContactOcclusion`]): rays (0: off)
-    /// and radius.
+    /// Contact occlusion of the indirect light ([`crate::DdgiContactOcclusion`]): rays (0: off),
+    /// radius, and the side of the blocks traced at one pixel each (1: every pixel).
     pub ao_rays: u32,
     pub ao_radius: f32,
-    pub _pad0: u32,
+    pub ao_scale: u32,
     pub _pad1: u32,
 }
 
@@ -456,7 +456,7 @@ pub fn gpu_structs() -> Vec<engine::shader::HostStruct> {
             dispatch, total_rays, probe_dispatch, updated_probes, max_luma, budget_scale, _pad0, _pad1,
         }),
         layout!(DdgiBlock in "ddgi_common.inc.wgsl" { rays, unscaled_rays, max_luma, offset, probes, probe_offset }),
-        layout!(DdgiGatherParams in "ddgi_camera.inc.wgsl" { first_volume, debug_view, sky_rays, sky_distance, ao_rays, ao_radius, _pad0, _pad1 }),
+        layout!(DdgiGatherParams in "ddgi_camera.inc.wgsl" { first_volume, debug_view, sky_rays, sky_distance, ao_rays, ao_radius, ao_scale, _pad1 }),
         layout!(DdgiProbeViewParams in "ddgi_probe_spheres.wgsl" { mode, selected, radius, max_rays, max_error, _pad0, _pad1, _pad2 }),
     ]
 }

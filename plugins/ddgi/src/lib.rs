@@ -135,6 +135,8 @@ pub const SHADERS: &[engine::shader::ShaderModule] = &[
     ("ddgi_trace.wgsl", include_str!("../shaders/ddgi_trace.wgsl")),
     ("ddgi_probe_update.wgsl", include_str!("../shaders/ddgi_probe_update.wgsl")),
     ("ddgi_gather.wgsl", include_str!("../shaders/ddgi_gather.wgsl")),
+    ("ddgi_visibility.inc.wgsl", include_str!("../shaders/ddgi_visibility.inc.wgsl")),
+    ("ddgi_contact_occlusion.wgsl", include_str!("../shaders/ddgi_contact_occlusion.wgsl")),
     ("ddgi_composite.wgsl", include_str!("../shaders/ddgi_composite.wgsl")),
     ("ddgi_probe_spheres.wgsl", include_str!("../shaders/ddgi_probe_spheres.wgsl")),
 ];

@@ -921,38 +921,53 @@ fn contact_occlusion_is_one_on_an_open_floor_and_follows_the_analytic_share_besi
     let camera = Transform::from_translation(eye).looking_at(Vec3::new(half_width, 0.0, 0.0), Vec3::NEG_Z);
     scene.add_node("camera", camera, None, vec![NodeContent::Camera(engine::scene::Camera { yfov, znear: 0.1, exposure: 1.0 })]);
     let size = 64u32;
-    let volume = DdgiVolume { probe_counts: Some(UVec3::new(4, 2, 4)), ..Default::default() };
-    let frame = render_scene_and_inspect(
-        &gpu,
-        scene,
-        &HeadlessSettings { width: size, height: size, frames: 1, ..Default::default() },
-        |app| {
-            use_ddgi(app, volume, DdgiOutput::Occlusion);
-            app.insert_resource(ddgi::DdgiContactOcclusion { rays: 64, radius: Some(radius) });
-        },
-        |_| {},
-    )
-    .expect("render");
-    assert!(frame.hdr.iter().all(|v| v.is_finite()), "non-finite occlusion");
-    // Column i sees the floor at x = (2 (i + 0.5) / size − 1) · half_width + half_width; the mean
-    // over its rows averages the per-pixel rotations of the rays.
-    let mut checked = 0;
-    for i in 0..size {
-        let x = (2.0 * (i as f32 + 0.5) / size as f32 - 1.0) * half_width + half_width;
-        if x < 0.05 {
-            continue;
+    let pixel_width = 2.0 * half_width / size as f32;
+    // Every pixel traced, then one pixel of each 2×2 block brought back to all four by depth and
+    // normal: within one pixel of the wall's reach the values come from pixels up to two pixels
+    // away, so "exactly open" starts two pixels further out.
+    for (half_resolution, exact_beyond) in [(false, radius), (true, radius + 2.0 * pixel_width)] {
+        let volume = DdgiVolume { probe_counts: Some(UVec3::new(4, 2, 4)), ..Default::default() };
+        let occlusion = ddgi::DdgiContactOcclusion { rays: 64, radius: Some(radius), half_resolution };
+        let frame = render_scene_and_inspect(
+            &gpu,
+            scene.clone(),
+            &HeadlessSettings { width: size, height: size, frames: 1, ..Default::default() },
+            |app| {
+                use_ddgi(app, volume, DdgiOutput::Occlusion);
+                app.insert_resource(occlusion);
+            },
+            |_| {},
+        )
+        .expect("render");
+        assert!(frame.hdr.iter().all(|v| v.is_finite()), "non-finite occlusion (half resolution: {half_resolution})");
+        // At half resolution the rays are traced by a pass of their own, at full resolution by the
+        // composite.
+        let ran = |label: &str| frame.timings.last().expect("timings").passes.iter().any(|p| p.label == label && p.ran);
+        assert_eq!(ran("ddgi_contact_occlusion"), half_resolution);
+        assert!(ran("ddgi_composite"));
+        // Column i sees the floor at x = (2 (i + 0.5) / size − 1) · half_width + half_width; the
+        // mean over its rows averages the per-pixel rotations of the rays.
+        let mut checked = 0;
+        for i in 0..size {
+            let x = (2.0 * (i as f32 + 0.5) / size as f32 - 1.0) * half_width + half_width;
+            if x < 0.05 {
+                continue;
+            }
+            let column: Vec<f32> = (0..size).map(|j| frame.hdr[((j * size + i) * 4) as usize]).collect();
+            let mean = column.iter().sum::<f32>() / size as f32;
+            let expected = open_share_beside_a_wall(x, radius);
+            assert!(
+                (mean - expected).abs() < 0.03,
+                "{x:.3} from the wall (half resolution: {half_resolution}): occlusion {mean:.4}, analytic {expected:.4}"
+            );
+            if x > exact_beyond {
+                // Beyond the radius nothing is in reach: open everywhere, exactly.
+                assert!(column.iter().all(|&v| v == 1.0), "{x:.3} from the wall (half resolution: {half_resolution}): {column:?}");
+            }
+            checked += 1;
         }
-        let column: Vec<f32> = (0..size).map(|j| frame.hdr[((j * size + i) * 4) as usize]).collect();
-        let mean = column.iter().sum::<f32>() / size as f32;
-        let expected = open_share_beside_a_wall(x, radius);
-        assert!((mean - expected).abs() < 0.03, "{x:.3} from the wall: occlusion {mean:.4}, analytic {expected:.4}");
-        if x > radius {
-            // Beyond the radius nothing is in reach: open everywhere, exactly.
-            assert!(column.iter().all(|&v| v == 1.0), "{x:.3} from the wall: {column:?}");
-        }
-        checked += 1;
+        assert!(checked > size / 2, "too few columns on the floor: {checked}");
     }
-    assert!(checked > size / 2, "too few columns on the floor: {checked}");
 }
 
 /// The default grid (`probe_counts: None`) is fitted to the volume's box: 16 probes along its
