@@ -168,8 +168,11 @@ pub fn run(gpu: &GpuContext, run: &SglRun) -> Result<SglResult, String> {
             t.submitted(queue);
         }
         renderer.finish_frame(&mut scene);
+        // One frame in flight at a time, as our headless runner has: every frame's query set comes
+        // back (GpuTiming leaves a frame untimed while all four are in flight), and the GPU times
+        // are those of the frame alone.
+        gpu.wait_idle();
         if run.observe {
-            gpu.wait_idle();
             reports.extend(renderer.take_dynamic_gi_reports(device));
         }
     }
