@@ -172,6 +172,8 @@ fn run(args: &Args) -> Result<(), String> {
         render_scene_with(&gpu, scene.clone(), &HeadlessSettings { width: w, height: h, frames: 1, ..Default::default() }, |_| {})
             .map_err(|e| e.to_string())?;
     let conversion = compare(&ours_direct.hdr, &sgl_direct.hdr, w, h, 1.0);
+    let mean = |hdr: &[f32]| hdr.chunks_exact(4).map(|p| f64::from(p[0] + p[1] + p[2])).sum::<f64>() / (3 * hdr.len() / 4).max(1) as f64;
+    let brightness = mean(&sgl_direct.hdr) / mean(&ours_direct.hdr);
     images.push(("sgl-3d_direct".into(), sgl_direct.hdr));
     images.push(("ours_direct".into(), ours_direct.hdr));
 
@@ -243,7 +245,8 @@ fn run(args: &Args) -> Result<(), String> {
 
     let failures = check(&rows, &images);
     notes.push(format!(
-        "Conversion check, direct light alone (sgl-3d's dynamic GI off) against ours: mean FLIP {:.4}, relative MSE {:.5}.",
+        "Conversion check, direct light alone (sgl-3d's dynamic GI off) against ours: mean FLIP {:.4}, relative MSE {:.5}, \
+         mean radiance sgl-3d / ours {brightness:.4}.",
         conversion.mean_flip, conversion.relative_mse
     ));
     let mut table = table(args, &gpu.adapter_name(), grid, &rows);
