@@ -9,7 +9,7 @@ SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 # lavapipe's window-system code complains when this is unset, even headless.
 export XDG_RUNTIME_DIR ?= /tmp/xdg-runtime-$(shell id -u)
 
-.PHONY: run render test lint toolchain vulkan-driver xvfb bless fuzz soak
+.PHONY: run render test lint toolchain vulkan-driver xvfb bless fuzz soak peer
 
 run: toolchain vulkan-driver
 	@mkdir -p $(XDG_RUNTIME_DIR) && chmod 700 $(XDG_RUNTIME_DIR)
@@ -44,6 +44,14 @@ soak: toolchain vulkan-driver
 bless: toolchain vulkan-driver xvfb
 	@mkdir -p $(XDG_RUNTIME_DIR) && chmod 700 $(XDG_RUNTIME_DIR)
 	BLESS=1 $(CARGO) test --workspace --no-fail-fast
+
+# The peer benchmark against sgl-3d (peer/, outside the workspace: sgl-3d 0.5 declares Rust 1.96).
+# By default a smoke run that fails when either renderer gives a non-finite or black image or never
+# updates its probes; PEER_ARGS for a real one (docs/evaluation.md, "Peer benchmark").
+PEER_ARGS ?= --scene cornell --width 64 --height 64 --frames 30 --skip 5 --reference-spp 64
+peer: toolchain vulkan-driver
+	@mkdir -p $(XDG_RUNTIME_DIR) && chmod 700 $(XDG_RUNTIME_DIR)
+	$(CARGO) run --release --ignore-rust-version --manifest-path peer/Cargo.toml -- $(PEER_ARGS) --out out/peer --json out/peer/peer.json
 
 # Fuzzes both scene importers for FUZZ_SECONDS each (cargo-fuzz, nightly; seeds in fuzz/corpus/).
 # Crashes land in fuzz/artifacts/<target>/; turn each into a fixture and a test. Without a

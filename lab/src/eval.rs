@@ -347,7 +347,7 @@ fn gpu_ms(frame: &RenderedFrame) -> (Option<f64>, Option<f64>) {
 /// What the evaluation renders of `scene`: with a camera (the default one if it has none), and
 /// animations stopped where they start, so that every configuration and the reference see the
 /// same still scene.
-fn still(mut scene: SceneDescription) -> SceneDescription {
+pub fn still(mut scene: SceneDescription) -> SceneDescription {
     if !scene.has_camera() {
         add_default_camera(&mut scene);
     }
@@ -379,8 +379,8 @@ pub fn reference_path(cache: &Path, label: &str, scene: &SceneDescription, width
 }
 
 /// The reference image (linear RGBA) of `scene` as given (see [`still`]), rendered once and
-/// cached as EXR ([`reference_path`]).
-fn reference(
+/// cached as EXR ([`reference_path`]): the path tracer at `spp` paths per pixel.
+pub fn reference(
     gpu: &GpuContext,
     label: &str,
     scene: &SceneDescription,

@@ -1,0 +1,417 @@
+//! `peer`: our DDGI against sgl-3d's dynamic GI (a WGSL port of Wicked Engine's DDGI with a
+//! software two-level BVH), on one scene, the same probe grid, rays per probe, resolution and GPU,
+//! in one process: each one's DDGI update time and frame time (GPU timestamps: ours from the
+//! engine's timing spans, sgl-3d's from its own `GpuTiming`), and each one's final image against our
+//! path-traced reference (FLIP, relative MSE, on linear radiance before exposure and tone mapping).
+//!
+//! Prints a Markdown table, writes `--json` and, in `--out`, each image as EXR and a strip PNG
+//! (sgl-3d | ours fixed | ours adaptive | reference). See docs/evaluation.md ("Peer benchmark") for
+//! what could not be matched.
+
+mod convert;
+mod sgl;
+
+use std::path::{Path, PathBuf};
+
+use clap::Parser;
+use engine::gpu::{GpuContext, GpuOptions};
+use engine::headless::{HeadlessSettings, render_scene_with};
+use engine::scene::SceneDescription;
+use lab::eval::{Config, SceneFacts};
+use lab::metrics::{ErrorMetrics, compare, tonemap_to_srgb8};
+use sgl_3d::settings::DynamicGiQuality;
+
+/// Our DDGI against sgl-3d's dynamic GI: update and frame time, error against a path-traced reference.
+#[derive(Parser, Debug)]
+#[command(
+    after_long_help = "Examples:\n  peer --scene cornell --width 256 --height 256\n  peer --scene cathedral --width 1280 --height 720 --rays 256 --json out/peer/cathedral.json"
+)]
+struct Args {
+    /// A built-in scene: cornell, cathedral, or any of `scenes::ALL` whose content converts.
+    #[arg(long, default_value = "cornell")]
+    scene: String,
+    #[arg(long, default_value_t = 256)]
+    width: u32,
+    #[arg(long, default_value_t = 256)]
+    height: u32,
+    /// Frames each renderer runs; the image is the last one (the evaluation's 120 by default).
+    #[arg(long, default_value_t = lab::eval::DDGI_FRAMES)]
+    frames: u32,
+    /// Frames left out of the medians at the start (probes starting, pipelines compiling).
+    #[arg(long, default_value_t = 10)]
+    skip: u32,
+    /// Probes along x, y and z, `X,Y,Z` (default: the evaluation's grid for the scene).
+    #[arg(long, value_parser = parse_grid)]
+    probes: Option<[u32; 3]>,
+    /// Rays per probe: 128 or 256, the two that sgl-3d offers (its Low and High most rays a turn).
+    #[arg(long, default_value_t = 128)]
+    rays: u32,
+    /// Paths per pixel of the reference.
+    #[arg(long, default_value_t = 4096)]
+    reference_spp: u32,
+    /// Folder of cached references (the evaluation's).
+    #[arg(long, default_value = "out/eval/cache")]
+    cache: PathBuf,
+    /// Folder of the images.
+    #[arg(long, default_value = "out/peer")]
+    out: PathBuf,
+    /// Also write the table and every frame's times as JSON here.
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// Leave out the sgl-3d row whose volume is kept awake (a light changed by one part in a
+    /// million every other frame, so it never pauses).
+    #[arg(long)]
+    no_awake: bool,
+}
+
+fn parse_grid(text: &str) -> Result<[u32; 3], String> {
+    let parts: Vec<u32> = text.split(',').map(|p| p.trim().parse::<u32>().map_err(|e| format!("'{p}': {e}"))).collect::<Result<_, _>>()?;
+    match parts[..] {
+        [x, y, z] if x >= 2 && y >= 2 && z >= 2 => Ok([x, y, z]),
+        _ => Err(format!("expected X,Y,Z with each at least 2 (sgl-3d's least), got '{text}'")),
+    }
+}
+
+/// One row of the table.
+#[derive(serde::Serialize)]
+struct Row {
+    renderer: String,
+    /// Median GPU ms of the DDGI update over the frames (after `skip`) that ran it.
+    update_ms: Option<f64>,
+    /// Frames (after `skip`) that ran an update, of those measured.
+    update_frames: usize,
+    measured_frames: usize,
+    /// Median GPU ms of the whole frame.
+    frame_ms: Option<f64>,
+    /// Median probe rays traced per frame over the frames that traced any.
+    rays_per_update: Option<f64>,
+    /// `update_ms / rays_per_update`, in nanoseconds.
+    ns_per_ray: Option<f64>,
+    error: ErrorMetrics,
+}
+
+#[derive(serde::Serialize)]
+struct Report {
+    scene: String,
+    adapter: String,
+    width: u32,
+    height: u32,
+    frames: u32,
+    skip: u32,
+    probes: [u32; 3],
+    rays_per_probe: u32,
+    bounds: ([f32; 3], [f32; 3]),
+    reference_spp: u32,
+    rows: Vec<Row>,
+    /// Direct light alone, sgl-3d's against ours: how faithful the conversion is.
+    conversion: ErrorMetrics,
+    notes: Vec<String>,
+    unmatched: Vec<String>,
+    sgl_frames: Vec<(String, Vec<sgl::SglFrame>)>,
+}
+
+fn main() {
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
+    let args = Args::parse();
+    if let Err(e) = run(&args) {
+        eprintln!("peer: {e}");
+        std::process::exit(1);
+    }
+}
+
+fn median(mut v: Vec<f64>) -> Option<f64> {
+    lab::median(&mut v)
+}
+
+fn run(args: &Args) -> Result<(), String> {
+    let quality = match args.rays {
+        128 => DynamicGiQuality::Low,
+        256 => DynamicGiQuality::High,
+        other => return Err(format!("--rays {other}: sgl-3d traces at most 128 (Low) or 256 (High) rays a probe; choose one of them")),
+    };
+    let entry = scenes::find(&args.scene)
+        .ok_or_else(|| format!("--scene '{}': not a built-in scene ({})", args.scene, scenes::names().collect::<Vec<_>>().join(", ")))?;
+    let scene = lab::eval::still((entry.build)());
+    let facts = SceneFacts::named(&args.scene);
+    let grid = args.probes.unwrap_or(facts.paper_grid);
+    let bounds = facts.gi_bounds.or_else(|| scene.bounds()).ok_or("the scene has no geometry")?;
+    let (w, h) = (args.width, args.height);
+    std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: {e}", args.out.display()))?;
+
+    let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
+    println!("GPU: {} (timestamps: {})", gpu.adapter_name(), gpu.timestamps);
+    let reference = lab::eval::reference(&gpu, &args.scene, &scene, w, h, args.reference_spp, &args.cache)?;
+
+    let mut rows = Vec::new();
+    let mut images: Vec<(String, Vec<f32>)> = Vec::new();
+    let mut unmatched = Vec::new();
+    let mut sgl_frames = Vec::new();
+
+    // sgl-3d: a timed run and a counted run (its observation adds work to the trace) per variant.
+    let extent = (bounds.1 - bounds.0).length().max(scene.bounds().map_or(0.0, |(lo, hi)| (hi - lo).length()));
+    let converted = convert::convert(&scene, extent)?;
+    unmatched.extend(converted.unmatched.iter().cloned());
+    let volume = sgl::lattice(bounds, grid);
+    // The conversion's check: both renderers' direct light alone (sgl-3d with its dynamic GI off),
+    // which differ only by what docs/evaluation.md lists (shadow maps, Bevy's diffuse lobe).
+    println!("direct light only: sgl-3d and ours…");
+    let sgl_direct = sgl::run(
+        &gpu,
+        &sgl::SglRun {
+            converted: &converted,
+            width: w,
+            height: h,
+            frames: 2,
+            quality: DynamicGiQuality::Off,
+            volume,
+            keep_awake: false,
+            observe: false,
+        },
+    )?;
+    let ours_direct =
+        render_scene_with(&gpu, scene.clone(), &HeadlessSettings { width: w, height: h, frames: 1, ..Default::default() }, |_| {})
+            .map_err(|e| e.to_string())?;
+    let conversion = compare(&ours_direct.hdr, &sgl_direct.hdr, w, h, 1.0);
+    let mean = |hdr: &[f32]| hdr.chunks_exact(4).map(|p| f64::from(p[0] + p[1] + p[2])).sum::<f64>() / (3 * hdr.len() / 4).max(1) as f64;
+    let brightness = mean(&sgl_direct.hdr) / mean(&ours_direct.hdr);
+    images.push(("sgl-3d_direct".into(), sgl_direct.hdr));
+    images.push(("ours_direct".into(), ours_direct.hdr));
+
+    let tier = gpu.device.limits().max_sampled_textures_per_shader_stage;
+    let probe = sgl::run(
+        &gpu,
+        &sgl::SglRun { converted: &converted, width: w, height: h, frames: 1, quality, volume, keep_awake: false, observe: false },
+    )?;
+    let sgl_gi = probe.dynamic_gi_in_effect == quality;
+    let mut notes = Vec::new();
+    if !sgl_gi {
+        notes.push(format!(
+            "sgl-3d's dynamic GI is {:?} on {}: its Basic binding tier (the device has {tier} sampled textures a shader stage, \
+             sgl-3d's Extended tier needs 48) runs none, so its rows are left out",
+            probe.dynamic_gi_in_effect,
+            gpu.adapter_name()
+        ));
+    }
+    let variants: &[(bool, &str)] = match (sgl_gi, args.no_awake) {
+        (false, _) => &[],
+        (true, true) => &[(false, "sgl-3d")],
+        (true, false) => &[(false, "sgl-3d"), (true, "sgl-3d, kept awake")],
+    };
+    for &(keep_awake, name) in variants {
+        let job =
+            |observe| sgl::SglRun { converted: &converted, width: w, height: h, frames: args.frames, quality, volume, keep_awake, observe };
+        println!("{name}: {} frames…", args.frames);
+        let timed = sgl::run(&gpu, &job(false))?;
+        let counted = sgl::run(&gpu, &job(true))?;
+        let rays =
+            median(counted.reports.iter().filter(|r| r.frame >= u64::from(args.skip) && r.rays > 0).map(|r| f64::from(r.rays)).collect());
+        let (update_ms, frame_ms, update_frames, measured_frames) = sgl::summary(&timed.frames, u64::from(args.skip));
+        let error = compare(&reference, &timed.hdr, w, h, 1.0);
+        rows.push(Row {
+            renderer: name.into(),
+            update_ms,
+            update_frames,
+            measured_frames,
+            frame_ms,
+            rays_per_update: rays,
+            ns_per_ray: update_ms.zip(rays).map(|(ms, r)| ms * 1e6 / r),
+            error,
+        });
+        images.push((name.replace([',', ' '], "_").replace("__", "_"), timed.hdr));
+        sgl_frames.push((name.to_string(), timed.frames));
+    }
+
+    // Ours: the fixed budget and adaptive budgets, on the same grid and bounds, rays and map sizes.
+    let bounds_d = (bounds.0.as_dvec3(), bounds.1.as_dvec3());
+    let base = ddgi::DdgiVolume {
+        bounds: Some(bounds_d),
+        probe_counts: Some(grid.into()),
+        rays_per_probe: args.rays,
+        // sgl-3d's maps: 6×6 irradiance texels and 16×16 depth texels a probe (plus borders).
+        irradiance_texels: 6,
+        distance_texels: 16,
+        ..Default::default()
+    };
+    let ours = [
+        ("ours, fixed", ddgi::DdgiVolume { adaptive: ddgi::DdgiAdaptive::off(), ..base.clone() }),
+        ("ours, adaptive", ddgi::DdgiVolume { adaptive: ddgi::DdgiAdaptive { enabled: true, ..Default::default() }, ..base.clone() }),
+    ];
+    for (name, volume) in ours {
+        println!("{name}: {} frames…", args.frames);
+        let config = Config::Ddgi { name: name.into(), volume: Box::new(volume), occlusion: Default::default(), taa: false };
+        let row = run_ours(&gpu, &scene, &config, args, &reference, &mut images)?;
+        rows.push(row);
+    }
+
+    let failures = check(&rows, &images);
+    notes.push(format!(
+        "Conversion check, direct light alone (sgl-3d's dynamic GI off) against ours: mean FLIP {:.4}, relative MSE {:.5}, \
+         mean radiance sgl-3d / ours {brightness:.4}.",
+        conversion.mean_flip, conversion.relative_mse
+    ));
+    let mut table = table(args, &gpu.adapter_name(), grid, &rows);
+    for note in &notes {
+        table += &format!("\n{note}\n");
+    }
+    println!("\n{table}");
+    if !unmatched.is_empty() {
+        println!("Not carried over to sgl-3d: {}", unmatched.join("; "));
+    }
+    images.push(("reference".into(), reference.clone()));
+    write_images(&args.out, &args.scene, w, h, &images)?;
+    std::fs::write(args.out.join(format!("{}.md", args.scene)), &table).map_err(|e| e.to_string())?;
+    if let Some(path) = &args.json {
+        let report = Report {
+            scene: args.scene.clone(),
+            adapter: gpu.adapter_name(),
+            width: w,
+            height: h,
+            frames: args.frames,
+            skip: args.skip,
+            probes: grid,
+            rays_per_probe: args.rays,
+            bounds: (bounds.0.to_array(), bounds.1.to_array()),
+            reference_spp: args.reference_spp,
+            rows,
+            conversion,
+            notes,
+            unmatched,
+            sgl_frames,
+        };
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        }
+        let text = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;
+        std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))?;
+        println!("wrote {}", path.display());
+    }
+    if failures.is_empty() { Ok(()) } else { Err(format!("the comparison is not sound: {}", failures.join("; "))) }
+}
+
+/// What makes a run's figures meaningless: a non-finite or black image, or a renderer whose probes
+/// never updated in the measured frames (written out all the same, for a look).
+fn check(rows: &[Row], images: &[(String, Vec<f32>)]) -> Vec<String> {
+    let mut failures = Vec::new();
+    for (name, hdr) in images {
+        let bad = hdr.iter().filter(|v| !v.is_finite()).count();
+        if bad > 0 {
+            failures.push(format!("{name}: {bad} non-finite values"));
+        }
+        let mean = hdr.chunks_exact(4).map(|p| f64::from(p[0] + p[1] + p[2])).sum::<f64>() / hdr.len().max(1) as f64;
+        if mean.is_nan() || mean <= 0.0 {
+            failures.push(format!("{name}: black image"));
+        }
+    }
+    // sgl-3d on a still scene may pause for good before the measured frames: only its kept-awake
+    // row must update.
+    for r in rows.iter().filter(|r| r.update_frames == 0 && r.renderer != "sgl-3d") {
+        if r.frame_ms.is_some() {
+            failures.push(format!("{}: no DDGI update in the measured frames", r.renderer));
+        }
+    }
+    failures
+}
+
+/// Our DDGI: `config` for `args.frames` frames through the engine's headless runner.
+fn run_ours(
+    gpu: &GpuContext,
+    scene: &SceneDescription,
+    config: &Config,
+    args: &Args,
+    reference: &[f32],
+    images: &mut Vec<(String, Vec<f32>)>,
+) -> Result<Row, String> {
+    let settings = HeadlessSettings { width: args.width, height: args.height, frames: args.frames, ..Default::default() };
+    let seed = pathtrace::PathTraceSettings::default().seed;
+    let frame = render_scene_with(gpu, scene.clone(), &settings, |app| config.configure(app, seed)).map_err(|e| e.to_string())?;
+    let kept: Vec<_> = frame.timings.iter().filter(|t| t.frame >= u64::from(args.skip)).collect();
+    let updates: Vec<f64> = kept
+        .iter()
+        .filter_map(|t| {
+            let ms: Vec<f64> = t
+                .passes
+                .iter()
+                .filter(|p| p.ran && lab::bench::DDGI_UPDATE_PASSES.contains(&p.label.as_str()))
+                .filter_map(|p| p.gpu_ms)
+                .collect();
+            (!ms.is_empty()).then(|| ms.iter().sum())
+        })
+        .collect();
+    let totals: Vec<f64> = kept
+        .iter()
+        .filter_map(|t| {
+            let ms: Vec<f64> = t.passes.iter().filter(|p| p.ran).filter_map(|p| p.gpu_ms).collect();
+            (!ms.is_empty()).then(|| ms.iter().sum())
+        })
+        .collect();
+    let rays = median(kept.iter().filter_map(|t| ddgi::rays_traced(t)).filter(|&r| r > 0.0).collect());
+    let update_frames = updates.len();
+    let update_ms = median(updates);
+    let error = compare(reference, &frame.hdr, args.width, args.height, 1.0);
+    images.push((config.name().replace([',', ' '], "_").replace("__", "_"), frame.hdr));
+    Ok(Row {
+        renderer: config.name(),
+        update_ms,
+        update_frames,
+        measured_frames: kept.len(),
+        frame_ms: median(totals),
+        rays_per_update: rays,
+        ns_per_ray: update_ms.zip(rays).map(|(ms, r)| ms * 1e6 / r),
+        error,
+    })
+}
+
+fn table(args: &Args, adapter: &str, grid: [u32; 3], rows: &[Row]) -> String {
+    let ms = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:.3}"));
+    let mut md = format!(
+        "# Peer benchmark: {} at {}×{} on {adapter}\n\n{}×{}×{} probes, {} rays a probe (sgl-3d: its most a turn), {} frames, medians over frames {}–{}; \
+         error against the path tracer at {} paths per pixel, on linear radiance before exposure (FLIP on both tonemapped at exposure 1).\n\n\
+         | renderer | DDGI update ms | frames updating | frame ms | probe rays per update | ns per ray | mean FLIP | relative MSE |\n\
+         |---|---:|---:|---:|---:|---:|---:|---:|\n",
+        args.scene,
+        args.width,
+        args.height,
+        grid[0],
+        grid[1],
+        grid[2],
+        args.rays,
+        args.frames,
+        args.skip,
+        args.frames.saturating_sub(1),
+        args.reference_spp
+    );
+    for r in rows {
+        md += &format!(
+            "| {} | {} | {}/{} | {} | {} | {} | {:.4} | {:.5} |\n",
+            r.renderer,
+            ms(r.update_ms),
+            r.update_frames,
+            r.measured_frames,
+            ms(r.frame_ms),
+            r.rays_per_update.map_or("n/a".into(), |v| format!("{v:.0}")),
+            r.ns_per_ray.map_or("n/a".into(), |v| format!("{v:.2}")),
+            r.error.mean_flip,
+            r.error.relative_mse
+        );
+    }
+    md
+}
+
+/// Each image as `<scene>_<name>.exr` (linear) and all of them side by side in `<scene>.png`
+/// (tonemapped at exposure 1, sRGB), in the table's order with the reference last.
+fn write_images(out: &Path, scene: &str, w: u32, h: u32, images: &[(String, Vec<f32>)]) -> Result<(), String> {
+    let mut strip = image::RgbImage::new(w * images.len() as u32, h);
+    for (k, (name, hdr)) in images.iter().enumerate() {
+        let rgb: Vec<f32> = hdr.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
+        let path = out.join(format!("{scene}_{name}.exr"));
+        image::Rgb32FImage::from_raw(w, h, rgb).ok_or("image size")?.save(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let ldr = tonemap_to_srgb8(hdr, 1.0);
+        for (i, p) in ldr.chunks_exact(3).enumerate() {
+            strip.put_pixel(k as u32 * w + i as u32 % w, i as u32 / w, image::Rgb([p[0], p[1], p[2]]));
+        }
+    }
+    let path = out.join(format!("{scene}.png"));
+    strip.save(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+    println!("images: {} (sgl-3d rows, ours, reference)", path.display());
+    Ok(())
+}
