@@ -159,6 +159,10 @@ enum Command {
         /// Sky radiance `r,g,b` of the walk (W/(m²·sr); default black, as the still images').
         #[arg(long, value_parser = parse_vec3, requires = "walk")]
         sky: Option<glam::Vec3>,
+        /// Leave out the timing at 1920×1080 (the path tracer and each DDGI configuration, for
+        /// their GPU-time ratio at equal FLIP at a display's size): slow on a CPU adapter.
+        #[arg(long, conflicts_with = "time_series")]
+        no_display_timing: bool,
         #[command(flatten)]
         camera: CameraArgs,
     },
@@ -1215,6 +1219,7 @@ fn main() -> ExitCode {
             walk_from,
             walk_speed,
             sky,
+            no_display_timing,
             camera,
         } => load(&scene).and_then(|mut description| {
             description.origin = offset.unwrap_or_default();
@@ -1256,6 +1261,7 @@ fn main() -> ExitCode {
                 settle_frames,
                 grid: probes.map(|g| g.to_array()),
                 cascades,
+                timing_size: (!no_display_timing && [width, height] != eval::DISPLAY_SIZE).then_some(eval::DISPLAY_SIZE),
             };
             if walk {
                 let series = eval::walk_series::WalkSeries { start: walk_from, speed: walk_speed, sky: sky.unwrap_or_default() };

@@ -15,6 +15,8 @@ pub const ERROR_VS_TIME_SIZE: (u32, u32) = (1200, 520);
 pub const TIME_SERIES_SIZE: (u32, u32) = (900, 520);
 /// Size of a walk's `time_series.png`: error and flicker, one panel above the other.
 pub const WALK_SERIES_SIZE: (u32, u32) = (1000, 820);
+/// Size of the time series' `video_quality.png`.
+pub const BARS_SIZE: (u32, u32) = (900, 520);
 /// Smallest value drawn on a log axis: zeros (an error of exactly 0, a pass too fast for the
 /// timer) are drawn here instead; [`floored`] counts them so that the report can say so.
 pub const LOG_FLOOR: f64 = 1e-5;
@@ -82,6 +84,61 @@ pub fn walk_series(path: &Path, caption: &str, flips: &[Series], flickers: &[Ser
         draw_chart(&panels[0], caption, x.clone(), x_desc, y, "mean FLIP against the view's reference (log)", flips, marks)?;
         let y = log_range(flickers.iter().flat_map(|s| s.points.iter().map(|p| p.1)));
         draw_chart(&panels[1], "Flicker: change beyond the reference's, per frame", x, x_desc, y, "flicker (log)", flickers, marks)
+    })
+}
+
+/// Grouped bars: for each of `categories`, one bar per group of `groups` (its name and one value
+/// per category; a missing value leaves its bar out), on a linear axis from 0 (or the lowest value
+/// under it) to the highest value.
+pub fn bars(path: &Path, caption: &str, categories: &[String], groups: &[(String, Vec<Option<f64>>)], y_desc: &str) -> Result<(), String> {
+    draw_png(path, BARS_SIZE, |root| {
+        let values = groups.iter().flat_map(|(_, v)| v.iter().flatten().copied());
+        let (lo, hi) = values.fold((0.0f64, 1.0f64), |(lo, hi), v| (lo.min(v), hi.max(v)));
+        let n = categories.len().max(1);
+        let e = |e: DrawingAreaErrorKind<_>| e.to_string();
+        let label = |x: &f64| {
+            let i = x.round();
+            let exact = (x - i).abs() < 1e-6 && i >= 0.0;
+            exact.then(|| categories.get(i as usize).cloned()).flatten().unwrap_or_default()
+        };
+        let mut chart = ChartBuilder::on(root)
+            .caption(caption, ("sans-serif", 20))
+            .margin(12)
+            .x_label_area_size(45)
+            .y_label_area_size(70)
+            .build_cartesian_2d(-0.5..n as f64 - 0.5, lo..hi + 0.45 * (hi - lo))
+            .map_err(e)?;
+        chart
+            .configure_mesh()
+            .disable_x_mesh()
+            .x_labels(n + 2)
+            .x_label_formatter(&label)
+            .y_desc(y_desc)
+            .y_label_formatter(&tick)
+            .label_style(("sans-serif", 13))
+            .draw()
+            .map_err(e)?;
+        let width = 0.8 / groups.len().max(1) as f64;
+        for (g, (name, values)) in groups.iter().enumerate() {
+            let color = Palette99::pick(g).to_rgba();
+            let bars = values.iter().enumerate().filter_map(|(i, v)| {
+                let x = i as f64 - 0.4 + g as f64 * width;
+                v.map(|v| Rectangle::new([(x + 0.05 * width, 0.0), (x + 0.95 * width, v)], color.filled()))
+            });
+            chart
+                .draw_series(bars)
+                .map_err(e)?
+                .label(name)
+                .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 16, y + 5)], color.filled()));
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 14))
+            .draw()
+            .map_err(e)
     })
 }
 

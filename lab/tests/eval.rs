@@ -21,6 +21,7 @@ fn options(size: u32, reference_spp: u32, out: PathBuf, cache: PathBuf) -> EvalO
         grid: None,
         settle_frames: 240,
         cascades: None,
+        timing_size: None,
     }
 }
 
@@ -50,8 +51,9 @@ fn eval_writes_a_report_whose_path_tracer_errors_fall_with_more_samples() {
     let _ = std::fs::remove_dir_all(&dir);
     let (out, cache) = (dir.join("report"), dir.join("cache"));
     let options = options(48, 256, out.clone(), cache.clone());
-    let run = || lab::eval::run(&gpu, &SceneFacts::named("cornell"), cornell(), &options).expect("eval");
-    run();
+    let run = |options: &EvalOptions| lab::eval::run(&gpu, &SceneFacts::named("cornell"), cornell(), options).expect("eval");
+    // Timed at a second size too, as `game_demo eval` does at 1920×1080.
+    let first_rows = run(&EvalOptions { timing_size: Some([64, 40]), ..self::options(48, 256, out.clone(), cache.clone()) });
     let first = cached(&cache);
     assert_eq!(first.len(), 1, "the first run path traces the reference and caches it: {first:?}");
     let results: serde_json::Value =
@@ -72,8 +74,24 @@ fn eval_writes_a_report_whose_path_tracer_errors_fall_with_more_samples() {
     let report = std::fs::read_to_string(out.join("report.md")).expect("report");
     assert!(report.contains("| pathtrace_16spp |"), "{report}");
     assert!(report.contains("](error_vs_time.png)"), "the report links the plot: {report}");
+    // Each DDGI configuration against the path tracer at equal FLIP: its paths per pixel on the
+    // ladder and the GPU-time ratios, finite and positive; none for the other methods.
+    for row in &first_rows {
+        let Some(equal) = row.equal_flip else {
+            assert_ne!(row.method, "DDGI", "{}: no equal-FLIP figures", row.config);
+            continue;
+        };
+        assert_eq!(row.method, "DDGI", "{}", row.config);
+        assert!((1.0..=64.0).contains(&equal.pathtrace_spp), "{}: {equal:?}", row.config);
+        let ratios = [equal.gpu_time_ratio, equal.gpu_time_ratio_at_timing_size, equal.gpu_ms_per_frame_at_timing_size];
+        assert!(ratios.iter().all(|r| r.is_some_and(|r| r.is_finite() && r > 0.0)), "{}: {equal:?}", row.config);
+        let json = rows.iter().find(|r| r["config"] == row.config.as_str()).expect("row in results.json");
+        assert!(json["equal_flip"]["pathtrace_spp"].as_f64().is_some(), "results.json: {json}");
+    }
+    assert_eq!(first_rows.iter().filter(|r| r.equal_flip.is_some()).count(), 3, "the three DDGI configurations");
+    assert!(report.contains("| path tracer at equal FLIP | GPU-time ratio | GPU-time ratio at 64×40 |"), "{report}");
     // The second run reads the reference from the cache (it does not write it again).
-    run();
+    run(&options);
     assert_eq!(cached(&cache), first);
     // The same scene 1e5 units from the origin (`eval --offset`): judged against the same
     // reference (the cache key leaves the placement out), every configuration — DDGI's volume
@@ -155,6 +173,29 @@ fn time_series_measures_every_frame_and_the_path_tracer_converges_after_the_chan
         assert!(static_flip > 0.0 && static_flip < 1.0, "{row}");
     }
     assert!(report.contains("| ddgi_trace |"), "per-pass GPU times of the static phase: {report}");
+    // ColorVideoVDP's JOD of each configuration's static phase and of its frames after the change:
+    // on the scale (at most 10), and DDGI, which adds the indirect light direct light lacks, seen
+    // as closer to the reference than direct light alone, before the change and after it.
+    let video = std::fs::read_to_string(out.join("video_quality.csv")).expect("video_quality.csv");
+    let mut lines = video.lines();
+    assert_eq!(lines.next(), Some("config,static_flip,static_flicker,static_jod,static_temporal_jod,after_jod,cvvdp_seconds"));
+    let jods: Vec<(String, [f64; 3])> = lines
+        .map(|line| {
+            let f: Vec<&str> = line.split(',').collect();
+            let jod = |i: usize| -> f64 { f[i].parse().unwrap_or_else(|_| panic!("column {i} of {line}")) };
+            (f[0].to_string(), [jod(3), jod(4), jod(5)])
+        })
+        .collect();
+    assert_eq!(jods.iter().map(|(c, _)| c.as_str()).collect::<Vec<_>>(), configs);
+    for (config, jod) in &jods {
+        assert!(jod.iter().all(|j| j.is_finite() && *j <= 10.0 + 1e-4), "{config}: {jod:?}");
+    }
+    let jod = |config: &str| jods.iter().find(|(c, _)| c == config).expect(config).1;
+    for (phase, i) in [("static", 0), ("after the change", 2)] {
+        assert!(jod("ddgi_8x8x8")[i] > jod("direct")[i], "{phase}: DDGI {:?} vs direct {:?}", jod("ddgi_8x8x8"), jod("direct"));
+    }
+    assert!(report.contains("](video_quality.png)"), "{report}");
+    assert_plot(&out.join("video_quality.png"), lab::plot::BARS_SIZE);
     let _ = std::fs::remove_dir_all(&dir);
 }
 

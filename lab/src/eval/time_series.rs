@@ -21,7 +21,7 @@ use engine::scene::{Material, Name, NodeContent, SceneDescription, SceneRoot, Tr
 use engine::shapes::{cuboid, merge};
 
 use super::{Config, EXPOSURE, EvalOptions, SceneFacts, frame_gpu_ms, reference, still, write};
-use crate::metrics::compare;
+use crate::metrics::{compare, mean_frame, tonemap_to_srgb8, video_jod_against_still};
 use crate::{median, plot};
 
 /// What changes: one node of the scene takes another transform (relative to its parent).
@@ -179,6 +179,23 @@ pub struct StaticPhase {
     pub flicker: Option<f64>,
 }
 
+/// A configuration's sequences judged as video by ColorVideoVDP ([`crate::metrics::video_jod`]),
+/// in JOD (10: no visible difference).
+pub struct VideoQuality {
+    pub config: String,
+    /// The static phase's frames against the reference of the scene before the change, still:
+    /// every visible difference, in each frame and from frame to frame.
+    pub static_jod: Option<f32>,
+    /// The static phase's frames against their own mean frame: only what changes from frame to
+    /// frame (the method's temporal noise), whatever its error against the reference.
+    pub static_temporal_jod: Option<f32>,
+    /// The frames after the change (0 on) against the reference of the changed scene, still: the
+    /// error and the flicker while the method follows the change and once it has.
+    pub after_jod: Option<f32>,
+    /// Seconds ColorVideoVDP took for the three, on the CPU.
+    pub seconds: f64,
+}
+
 /// One configuration's run through the series: its app, and what its frames measured.
 struct SeriesRun {
     config: Config,
@@ -192,6 +209,8 @@ struct SeriesRun {
     /// Frames from the last one before the change on.
     rows: Vec<SeriesRow>,
     samples: StaticSamples,
+    /// The frames after the change (0 on), tonemapped as FLIP sees them, for ColorVideoVDP.
+    after_ldr: Vec<Vec<u8>>,
 }
 
 /// What the frames of a static phase measured, frame by frame.
@@ -203,6 +222,8 @@ struct StaticSamples {
     flips: Vec<f64>,
     flicker: Vec<f64>,
     previous_hdr: Option<Vec<f32>>,
+    /// The measured frames, tonemapped as FLIP sees them, for ColorVideoVDP.
+    ldr: Vec<Vec<u8>>,
 }
 
 /// Frames a configuration runs before the change: DDGI `settle_frames` (it must have converged
@@ -327,7 +348,8 @@ pub fn run(
             .map(|(e, _)| e)
             .ok_or_else(|| format!("node '{changed}' is not in the world"))?;
         finish_plugins(&mut app);
-        runs.push(SeriesRun { config, app, entity, settle, running: true, rows: Vec::new(), samples: StaticSamples::default() });
+        let samples = StaticSamples::default();
+        runs.push(SeriesRun { config, app, entity, settle, running: true, rows: Vec::new(), samples, after_ldr: Vec::new() });
     }
     // The configurations run in lockstep, one frame of each in turn, aligned on the change (those
     // that settle in fewer frames join later): every frame of each is rendered, timed and read
@@ -354,6 +376,7 @@ pub fn run(
                     if let Some(previous) = &run.samples.previous_hdr {
                         run.samples.flicker.push(flicker(previous, &hdr));
                     }
+                    run.samples.ldr.push(tonemap_to_srgb8(&hdr, EXPOSURE));
                     run.samples.previous_hdr = Some(hdr);
                 }
                 if (-1 - STATIC_FRAMES - TIMED_FRAMES..-1 - STATIC_FRAMES).contains(&frame)
@@ -371,7 +394,11 @@ pub fn run(
                 }
                 continue;
             }
-            let error = compare(&reference, &read_hdr(gpu, world), width, height, EXPOSURE);
+            let hdr = read_hdr(gpu, world);
+            let error = compare(&reference, &hdr, width, height, EXPOSURE);
+            if frame >= 0 {
+                run.after_ldr.push(tonemap_to_srgb8(&hdr, EXPOSURE));
+            }
             let last = world.resource::<FrameTimings>().frames.last();
             let (gpu_ms, update_ms) = (last.and_then(frame_gpu_ms), last.and_then(probe_update_ms));
             let config = run.config.name();
@@ -386,8 +413,21 @@ pub fn run(
     bar.finish_and_clear();
     let mut rows = Vec::new();
     let mut statics = Vec::new();
+    let mut videos = Vec::new();
+    let (still_before, still_after) = (tonemap_to_srgb8(&reference_before, EXPOSURE), tonemap_to_srgb8(&reference, EXPOSURE));
     for run in runs {
-        let SeriesRun { config, app, settle, rows: mut run_rows, mut samples, .. } = run;
+        let SeriesRun { config, app, settle, rows: mut run_rows, mut samples, after_ldr, .. } = run;
+        let video = video_quality(&config.name(), &samples.ldr, &after_ldr, &still_before, &still_after, width, height)?;
+        println!(
+            "{:>18}: ColorVideoVDP static {} JOD (temporal only {}), after the change {} JOD ({} frames in {:.1} s)",
+            config.name(),
+            jod_text(video.static_jod),
+            jod_text(video.static_temporal_jod),
+            jod_text(video.after_jod),
+            2 * samples.ldr.len() + after_ldr.len(),
+            video.seconds
+        );
+        videos.push(video);
         // Rays per frame come back a few frames late: match them to their rows now.
         let rays: Vec<(u64, f64)> =
             app.world().resource::<FrameTimings>().frames.iter().filter_map(|t| ddgi::rays_traced(t).map(|r| (t.frame, r))).collect();
@@ -418,9 +458,80 @@ pub fn run(
         rows.append(&mut run_rows);
     }
     write_csv(&out.join("time_series.csv"), &rows)?;
+    write_video_csv(&out.join("video_quality.csv"), &statics, &videos)?;
     let plot_note = plot_series(&out.join("time_series.png"), name, &change, &rows)?;
-    write_report(out, facts, &gpu.adapter_name(), options, frames, &change, &rows, &statics, &plot_note)?;
+    plot_video(&out.join("video_quality.png"), name, &videos)?;
+    write_report(out, facts, &gpu.adapter_name(), options, frames, &change, &rows, &statics, &videos, &plot_note)?;
     Ok(rows)
+}
+
+/// ColorVideoVDP's judgement of a configuration's static phase (`static_frames`) and of its frames
+/// after the change (`after_frames`), against the stills of the reference before and after it.
+fn video_quality(
+    config: &str,
+    static_frames: &[Vec<u8>],
+    after_frames: &[Vec<u8>],
+    still_before: &[u8],
+    still_after: &[u8],
+    width: u32,
+    height: u32,
+) -> Result<VideoQuality, String> {
+    let start = std::time::Instant::now();
+    let judge = |frames: &[Vec<u8>], still: &[u8]| -> Result<Option<f32>, String> {
+        let frames: Vec<&[u8]> = frames.iter().map(Vec::as_slice).collect();
+        if frames.is_empty() { Ok(None) } else { video_jod_against_still(&frames, still, width, height).map(Some) }
+    };
+    let in_context = |e: String| format!("{config}: {e}");
+    let static_jod = judge(static_frames, still_before).map_err(in_context)?;
+    let refs: Vec<&[u8]> = static_frames.iter().map(Vec::as_slice).collect();
+    let static_temporal_jod = match mean_frame(&refs) {
+        Some(mean) => judge(static_frames, &mean).map_err(in_context)?,
+        None => None,
+    };
+    let after_jod = judge(after_frames, still_after).map_err(in_context)?;
+    Ok(VideoQuality { config: config.into(), static_jod, static_temporal_jod, after_jod, seconds: start.elapsed().as_secs_f64() })
+}
+
+fn jod_text(jod: Option<f32>) -> String {
+    jod.map_or("n/a".into(), |j| format!("{j:.3}"))
+}
+
+fn write_video_csv(path: &Path, statics: &[StaticPhase], videos: &[VideoQuality]) -> Result<(), String> {
+    let mut csv = String::from("config,static_flip,static_flicker,static_jod,static_temporal_jod,after_jod,cvvdp_seconds\n");
+    let opt = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.6}"));
+    for v in videos {
+        let phase = statics.iter().find(|p| p.config == v.config);
+        csv += &format!(
+            "{},{},{},{},{},{},{:.2}\n",
+            v.config,
+            opt(phase.and_then(|p| p.flip)),
+            opt(phase.and_then(|p| p.flicker)),
+            opt(v.static_jod.map(f64::from)),
+            opt(v.static_temporal_jod.map(f64::from)),
+            opt(v.after_jod.map(f64::from)),
+            v.seconds
+        );
+    }
+    write(path, &csv)
+}
+
+/// ColorVideoVDP's JOD per configuration: static against the reference, static against its own
+/// mean (temporal only), after the change.
+fn plot_video(path: &Path, name: &str, videos: &[VideoQuality]) -> Result<(), String> {
+    let configs: Vec<String> = videos.iter().map(|v| v.config.clone()).collect();
+    let bars = |jod: fn(&VideoQuality) -> Option<f32>| videos.iter().map(|v| jod(v).map(f64::from)).collect::<Vec<_>>();
+    let groups = [
+        ("static, against the reference".to_string(), bars(|v| v.static_jod)),
+        ("static, against its own mean (temporal only)".to_string(), bars(|v| v.static_temporal_jod)),
+        ("after the change, against its reference".to_string(), bars(|v| v.after_jod)),
+    ];
+    plot::bars(
+        path,
+        &format!("{name}: ColorVideoVDP at {} fps on {}", crate::metrics::VIDEO_FPS, crate::metrics::VIDEO_DISPLAY),
+        &configs,
+        &groups,
+        "JOD (10: no visible difference)",
+    )
 }
 
 fn write_csv(path: &Path, rows: &[SeriesRow]) -> Result<(), String> {
@@ -474,6 +585,7 @@ fn write_report(
     change: &SceneChange,
     rows: &[SeriesRow],
     statics: &[StaticPhase],
+    videos: &[VideoQuality],
     plot_note: &str,
 ) -> Result<(), String> {
     let name = facts.name.as_str();
@@ -488,7 +600,7 @@ fn write_report(
          path traced at {} paths per pixel (another seed). Every frame is compared with it (mean FLIP on sRGB at exposure 1, RMSE on \
          linear radiance); frame -1 is the last one before the change, once the method has settled (frames before the change: {}). \
          A path tracer configuration adds its paths per pixel every frame and starts over when the scene changes.\n\n\
-         | configuration | static FLIP | static flicker % | FLIP before (frame -1) | FLIP at frame 0 | settled FLIP | frames to within 10% of it | frames to at most 10% over it | rays/frame, static | probe update ms, static | rays/frame after |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+         | configuration | static FLIP | static flicker % | static JOD | static JOD, temporal only | JOD after the change | FLIP before (frame -1) | FLIP at frame 0 | settled FLIP | frames to within 10% of it | frames to at most 10% over it | rays/frame, static | probe update ms, static | rays/frame after |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
         change.description,
         options.width,
         options.height,
@@ -515,8 +627,14 @@ fn write_report(
         let rays_after = shown(mean(&after), 0);
         let static_flip = shown(phase.and_then(|p| p.flip), 4);
         let static_flicker = shown(phase.and_then(|p| p.flicker).map(|f| 100.0 * f), 3);
+        let video = videos.iter().find(|v| v.config == config);
+        let jods =
+            [video.and_then(|v| v.static_jod), video.and_then(|v| v.static_temporal_jod), video.and_then(|v| v.after_jod)].map(jod_text);
         md += &format!(
-            "| {config} | {static_flip} | {static_flicker} | {} | {} | {settled:.4} | {from} | {recovered} | {rays_before} | {ms_before} | {rays_after} |\n",
+            "| {config} | {static_flip} | {static_flicker} | {} | {} | {} | {} | {} | {settled:.4} | {from} | {recovered} | {rays_before} | {ms_before} | {rays_after} |\n",
+            jods[0],
+            jods[1],
+            jods[2],
             at(-1),
             at(0)
         );
@@ -532,11 +650,23 @@ fn write_report(
          60 frames before those, which run back to back, nothing read back). The configurations run in lockstep, one frame \
          of each in turn, so that all are timed in the same state of the GPU's clocks. \
          Frames to at most 10% over it: the first frame from which no frame's FLIP is more than 10% above the settled value \
-         (the error has come back down; a dip under the settled value on the way does not count against it).\n\n{}\
+         (the error has come back down; a dip under the settled value on the way does not count against it).\n\n\
+         JOD: ColorVideoVDP (the `colorvideovdp` crate, a Rust port of the calibrated model 0.5.7), the frames as FLIP sees \
+         them (sRGB at exposure 1) played at {fps} frames per second on its `{display}` display (24-inch 1920×1080, 200 cd/m², 0.6 m, \
+         office light); 10: no visible difference, 1 JOD less: 75% of observers see it as worse. Unlike FLIP, which judges \
+         each frame alone, it weighs what changes from frame to frame by the eye's temporal sensitivity. Static JOD: the \
+         static phase's frames against the still reference of the scene before the change (every visible difference, in each \
+         frame and over time); temporal only: against the mean of those frames (only what changes from frame to frame: the \
+         method's flicker and crawling noise, whatever its error); after the change: frames 0 on against the still reference \
+         of the changed scene (the error and flicker while the method follows the change and once it has). \
+         [video_quality.csv](video_quality.csv) has them with the CPU seconds each configuration's three took.\n\n\
+         ![ColorVideoVDP JOD per configuration](video_quality.png)\n\n{}\
          Mean FLIP per frame, one series per configuration, log scale{plot_note}:\n\n![mean FLIP per frame](time_series.png)\n\n\
          Every frame: [time_series.csv](time_series.csv) (frame, config, flip, rmse, gpu_ms, update_ms: DDGI's probe update, rays: \
          DDGI's rays traced).\n",
-        pass_table(statics)
+        pass_table(statics),
+        fps = crate::metrics::VIDEO_FPS,
+        display = crate::metrics::VIDEO_DISPLAY,
     );
     write(&out.join("report.md"), &md)
 }
