@@ -650,6 +650,9 @@ impl GpuTimer {
     }
 }
 
+/// Each pass's GPU milliseconds and, while a trace records them, the frame's GPU spans.
+type PassTimes = (Vec<(String, f64)>, Option<GpuFrameSpans>);
+
 struct PendingTimings {
     id: u64,
     count: u32,
@@ -661,7 +664,7 @@ struct PendingTimings {
 
 impl PendingTimings {
     /// Each pass's milliseconds and, while a trace records them, the frame's GPU spans.
-    fn read(self, bytes: &[u8]) -> Option<(Vec<(String, f64)>, Option<GpuFrameSpans>)> {
+    fn read(self, bytes: &[u8]) -> Option<PassTimes> {
         let ticks: Vec<u64> = bytemuck::pod_collect_to_vec(bytes.get(..self.count as usize * 8)?);
         let n = (self.count as usize / 2).min(self.labels.len());
         let times = (0..n)

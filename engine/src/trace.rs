@@ -80,7 +80,8 @@ pub(crate) fn place_gpu_spans(frames: &[(u64, GpuFrameSpans)], anchor: Instant) 
     let Some(base) = frames.iter().flat_map(|(_, f)| f.passes.first()).map(|p| p.1).next() else { return Vec::new() };
     let gpu_ns = |tick: u64, period: f64| (i128::from(tick) - i128::from(base)) as f64 * period;
     // Per frame: its passes in GPU nanoseconds, and the interval the GPU→CPU offset lies in.
-    let bounded: Vec<(u64, Vec<(&str, f64, f64)>, f64, f64)> = frames
+    type Bounded<'a> = (u64, Vec<(&'a str, f64, f64)>, f64, f64);
+    let bounded: Vec<Bounded> = frames
         .iter()
         .filter(|(_, f)| !f.passes.is_empty())
         .map(|(frame, f)| {
