@@ -52,6 +52,8 @@ pub fn run_render_stages(world: &mut World) {
         world.insert_resource(GpuLost { reason, frame });
         return;
     }
+    let frame = world.get_resource::<Time>().map_or(0, |t| t.frame);
+    let _span = tracing::info_span!("render_stages", frame).entered();
     world.run_schedule(Extract);
     world.run_schedule(Prepare);
     world.run_schedule(Render);

@@ -177,6 +177,7 @@ impl GpuContext {
 
     /// Blocks until the GPU has finished all submitted work and callbacks have run.
     pub fn wait_idle(&self) {
+        let _span = tracing::info_span!("wait_idle").entered();
         if let Err(e) = self.device.poll(wgpu::PollType::wait_indefinitely()) {
             log::error!("waiting for the GPU failed: {e}");
         }

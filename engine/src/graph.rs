@@ -9,6 +9,7 @@
 
 use std::collections::HashMap;
 use std::marker::PhantomData;
+use std::time::Instant;
 
 use bevy_ecs::prelude::*;
 
@@ -263,6 +264,7 @@ impl RenderGraph {
             })
             .collect();
 
+        let _execute = tracing::info_span!("graph_execute").entered();
         let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("render_graph") });
         let mut report = FrameReport::default();
         let timer = timer.filter(|_| gpu.timestamps);
@@ -278,6 +280,7 @@ impl RenderGraph {
                 report.passes.push(PassRecord { label: pass.label.clone(), ran: false, note });
                 continue;
             }
+            let _record = tracing::info_span!("record_pass", pass = %pass.label).entered();
             encoder.push_debug_group(&pass.label);
             if let Some(t) = &queries {
                 encoder.write_timestamp(t.query_set.as_ref().expect("reserved"), query_index);
@@ -296,11 +299,15 @@ impl RenderGraph {
         if let Some(t) = queries.as_mut() {
             t.resolve(&mut encoder, query_index);
         }
-        gpu.queue.submit([encoder.finish()]);
+        let command_buffer = encoder.finish();
+        // The GPU cannot start the frame before this instant: the lower bound that places its
+        // passes on the CPU's timeline in a Chrome trace ([`crate::trace`]).
+        let submitted = (queries.is_some() && crate::trace::recording_gpu_spans()).then(Instant::now);
+        gpu.queue.submit([command_buffer]);
         if let Some(t) = queries {
             let id = t.request(gpu, query_index);
             report.pending_timings =
-                Some(PendingTimings { id, count: query_index, period_ns: gpu.timestamp_period, labels: report.ran_labels() });
+                Some(PendingTimings { id, count: query_index, period_ns: gpu.timestamp_period, labels: report.ran_labels(), submitted });
         }
         for (desc, t) in taken_textures {
             pool.give_texture(desc, t);
@@ -526,6 +533,8 @@ pub struct FrameReport {
     /// Every pass added, in order, with whether it ran.
     pub passes: Vec<PassRecord>,
     pending_timings: Option<PendingTimings>,
+    /// The passes' GPU spans, kept when the timings came back while a trace records them.
+    gpu_spans: Option<GpuFrameSpans>,
 }
 
 /// One pass of a frame report.
@@ -547,14 +556,25 @@ impl FrameReport {
     /// Blocks until the GPU time of each pass that ran is known (`None` without timestamp support).
     pub fn wait_for_timings(&mut self, gpu: &GpuContext, timer: &mut GpuTimer) -> Option<Vec<(String, f64)>> {
         let pending = self.pending_timings.take()?;
+        let _wait = tracing::info_span!("wait_for_gpu_timings").entered();
         gpu.wait_idle();
-        timer.take(gpu, pending.id).and_then(|bytes| pending.read(&bytes))
+        let (times, spans) = timer.take(gpu, pending.id).and_then(|bytes| pending.read(&bytes))?;
+        self.gpu_spans = spans;
+        Some(times)
     }
 
     /// The timings if they have arrived, without waiting; call again later otherwise.
     pub fn try_timings(&mut self, gpu: &GpuContext, timer: &mut GpuTimer) -> Option<Vec<(String, f64)>> {
         let bytes = timer.take(gpu, self.pending_timings.as_ref()?.id)?;
-        self.pending_timings.take()?.read(&bytes)
+        let (times, spans) = self.pending_timings.take()?.read(&bytes)?;
+        self.gpu_spans = spans;
+        Some(times)
+    }
+
+    /// The GPU spans of the passes that ran, once their timings have come back, if a trace was
+    /// recording them when the frame was submitted ([`crate::trace::recording_gpu_spans`]).
+    pub(crate) fn take_gpu_spans(&mut self) -> Option<GpuFrameSpans> {
+        self.gpu_spans.take()
     }
 }
 
@@ -630,24 +650,49 @@ impl GpuTimer {
     }
 }
 
+/// Each pass's GPU milliseconds and, while a trace records them, the frame's GPU spans.
+type PassTimes = (Vec<(String, f64)>, Option<GpuFrameSpans>);
+
 struct PendingTimings {
     id: u64,
     count: u32,
     period_ns: f32,
     labels: Vec<String>,
+    /// When the frame was submitted, while a trace records GPU spans.
+    submitted: Option<Instant>,
 }
 
 impl PendingTimings {
-    fn read(self, bytes: &[u8]) -> Option<Vec<(String, f64)>> {
+    /// Each pass's milliseconds and, while a trace records them, the frame's GPU spans.
+    fn read(self, bytes: &[u8]) -> Option<PassTimes> {
         let ticks: Vec<u64> = bytemuck::pod_collect_to_vec(bytes.get(..self.count as usize * 8)?);
         let n = (self.count as usize / 2).min(self.labels.len());
-        Some(
-            (0..n)
-                .map(|i| {
-                    let dt = ticks[2 * i + 1].saturating_sub(ticks[2 * i]);
-                    (self.labels[i].clone(), dt as f64 * f64::from(self.period_ns) * 1e-6)
-                })
-                .collect(),
-        )
+        let times = (0..n)
+            .map(|i| {
+                let dt = ticks[2 * i + 1].saturating_sub(ticks[2 * i]);
+                (self.labels[i].clone(), dt as f64 * f64::from(self.period_ns) * 1e-6)
+            })
+            .collect();
+        let spans = self.submitted.map(|submitted| GpuFrameSpans {
+            submitted,
+            observed: Instant::now(),
+            period_ns: f64::from(self.period_ns),
+            passes: (0..n).map(|i| (self.labels[i].clone(), ticks[2 * i], ticks[2 * i + 1].max(ticks[2 * i]))).collect(),
+        });
+        Some((times, spans))
     }
+}
+
+/// One frame's passes as GPU timestamps, with the CPU instants that bound them: what a Chrome
+/// trace places on its GPU track ([`crate::trace`]).
+#[derive(Clone, Debug)]
+pub(crate) struct GpuFrameSpans {
+    /// Just before the frame's commands were submitted: no pass began earlier.
+    pub submitted: Instant,
+    /// When the timestamps were seen on the CPU: every pass had ended by then.
+    pub observed: Instant,
+    /// Nanoseconds per timestamp tick.
+    pub period_ns: f64,
+    /// Each pass that ran: its label and its begin and end timestamps, in ticks.
+    pub passes: Vec<(String, u64, u64)>,
 }

@@ -193,14 +193,21 @@ pub fn read_frame(gpu: &GpuContext, world: &World) -> RenderedFrame {
     }
 }
 
+/// `timings.json`: the adapter, the image size, each pass's mean GPU milliseconds over the frames
+/// (`mean_gpu_ms`, pass label → milliseconds, in pass order; `null` without timestamp queries) and
+/// every frame's ([`FrameTiming`]: `gpu_ms`, pass label → milliseconds, and the passes left out).
 #[derive(Serialize)]
 struct TimingsFile<'a> {
     adapter: &'a str,
     width: u32,
     height: u32,
-    /// Mean GPU milliseconds per pass over all frames.
+    #[serde(serialize_with = "as_map")]
     mean_gpu_ms: Vec<(String, Option<f64>)>,
     frames: &'a [FrameTiming],
+}
+
+fn as_map<S: serde::Serializer>(pairs: &[(String, Option<f64>)], serializer: S) -> Result<S::Ok, S::Error> {
+    crate::render::OrderedMap(pairs.iter().map(|(k, v)| (k.as_str(), *v))).serialize(serializer)
 }
 
 impl RenderedFrame {

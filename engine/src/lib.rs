@@ -8,12 +8,14 @@
 //!   bindings looked up by name; [`graph`]: the render graph; [`render`]: the camera path;
 //!   [`headless`]: rendering to files without a window; [`memory`]: the heap the Rust code holds;
 //!   [`color`]: the sRGB transfer function on the CPU; [`sky`]: the sky (uniform or
-//!   Preetham's analytic daylight) that escaping rays and the background see.
+//!   Preetham's analytic daylight) that escaping rays and the background see; [`trace`]: Chrome
+//!   traces of the CPU's spans and the GPU's passes on one timeline.
 //! - [`import`]: glTF and OBJ files into a scene; [`shapes`]: mesh primitives for building
 //!   geometry in code.
 //!
 //! Cargo features, all on by default: `window` (the windowed runner, module `window`, on winit), `gltf`
-//! and `obj` (the importers and their parsers). Without them the engine still renders headless and
+//! and `obj` (the importers and their parsers), `trace` (`trace::ChromeTrace`, the trace writer,
+//! and bevy's spans of every schedule and system). Without them the engine still renders headless and
 //! imports nothing: loading a file of a left-out format is an error that names the feature.
 
 #![warn(missing_docs)]
@@ -33,6 +35,7 @@ pub mod scene;
 pub mod shader;
 pub mod shapes;
 pub mod sky;
+pub mod trace;
 #[cfg(feature = "window")]
 pub mod window;
 

@@ -21,6 +21,7 @@ const RENDER_EXAMPLES: &str = "Examples:
   game_demo render --scene scene.glb --mode ddgi --probes 16,8,16 --no-adaptive --dump-atlases
   game_demo render --scene open_world --mode ddgi --cascades 8       # camera-following cascades
   game_demo render --scene cornell --offset 1e5,0,0                  # far from the origin
+  game_demo render --scene cornell --mode ddgi --frames 10 --trace out/trace.json   # CPU and GPU on one timeline
   game_demo render --list-scenes";
 
 const EVAL_EXAMPLES: &str = "Examples:
@@ -34,6 +35,7 @@ const PLAY_EXAMPLES: &str = "Examples:
   game_demo play                                                     # the demo level in a window
   game_demo play --headless --frames 600 --every 60 --out out/play   # its scripted walk to PNGs
   game_demo play --headless --soak --frames 10000                    # the soak test
+  game_demo play --headless --frames 120 --trace out/play/trace.json # a Chrome trace of the walk
   game_demo play --scene open_world                                  # the open world's tour
   game_demo play --scene cornell                                     # any scene in a window";
 
@@ -46,6 +48,12 @@ static ALLOCATOR: engine::memory::CountingAllocator = engine::memory::CountingAl
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Write a Chrome trace of the run to FILE (open it in https://ui.perfetto.dev or
+    /// chrome://tracing): CPU spans of every frame's schedules and systems, the render graph's
+    /// recording and the waits for the GPU, and every render pass's GPU time on a track of its
+    /// own, on one timeline. Without it no tracing subscriber is installed.
+    #[arg(long, global = true, value_name = "FILE")]
+    trace: Option<PathBuf>,
 }
 
 #[derive(Subcommand)]
@@ -166,7 +174,7 @@ enum Command {
         #[command(flatten)]
         camera: CameraArgs,
     },
-    /// Benchmarks (results as Markdown tables on standard output).
+    /// Benchmarks (results as Markdown tables on standard output; with --json FILE, as JSON too).
     #[command(subcommand)]
     Bench(BenchCommand),
     /// The walkable demo level with DDGI. In a window: click to grab the mouse, WASD walk, Shift
@@ -432,7 +440,7 @@ enum BenchCommand {
     /// updates, borders, relocation and classification; every probe active) for grids 16×8×16 … 32×32×32
     /// and 32 … 256 rays per probe, the per-pass times, and the final gather at the camera's size.
     #[command(
-        after_long_help = "Examples:\n  game_demo bench ddgi --scene cathedral\n  game_demo bench ddgi --scene level --probes 16,8,16 --probes 32,8,32 --rays 128"
+        after_long_help = "Examples:\n  game_demo bench ddgi --scene cathedral\n  game_demo bench ddgi --scene level --probes 16,8,16 --probes 32,8,32 --rays 128\n  game_demo bench ddgi --scene cornell --probes 8,4,8 --rays 64 --json out/bench_ddgi.json --trace out/bench_ddgi_trace.json"
     )]
     Ddgi {
         /// A built-in scene or a scene file.
@@ -1188,7 +1196,15 @@ fn write_json(path: Option<&std::path::Path>, value: serde_json::Value) -> Resul
 
 fn main() -> ExitCode {
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
-    let result = match Cli::parse().command {
+    let cli = Cli::parse();
+    let trace = match cli.trace.as_deref().map(engine::trace::ChromeTrace::start).transpose() {
+        Ok(trace) => trace,
+        Err(e) => {
+            eprintln!("error: --trace: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    let result = match cli.command {
         Command::Render(args) => render(args),
         Command::Bench(command) => bench(command),
         Command::Eval {
@@ -1276,6 +1292,14 @@ fn main() -> ExitCode {
         }),
         Command::Play(args) => play(args),
     };
+    let result = match trace.map(engine::trace::ChromeTrace::finish) {
+        Some(Ok(t)) => {
+            println!("trace: {} ({} CPU spans, {} GPU spans over {} frames)", t.path.display(), t.cpu_spans, t.gpu_spans, t.gpu_frames);
+            result
+        }
+        Some(Err(e)) => result.and(Err(format!("--trace: {e}"))),
+        None => result,
+    };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
@@ -1287,7 +1311,7 @@ fn main() -> ExitCode {
 
 #[cfg(test)]
 mod tests {
-    use clap::CommandFactory;
+    use clap::{CommandFactory, Parser};
 
     use super::Cli;
 
@@ -1320,6 +1344,28 @@ mod tests {
         let retired = ["grid", "spacing", "blend", "probe-spacing", "adaptive"];
         arguments(&Cli::command(), "game_demo", &|arg| arg.get_long().is_some_and(|l| retired.contains(&l)), &mut found);
         assert!(found.is_empty(), "retired flag names: {found:?}");
+    }
+
+    /// Every benchmark writes its results as JSON with `--json FILE`, and every subcommand takes
+    /// `--trace FILE` under that one name.
+    #[test]
+    fn every_bench_takes_json_and_every_subcommand_takes_trace() {
+        let command = Cli::command();
+        let bench = command.find_subcommand("bench").expect("bench");
+        let without: Vec<&str> =
+            bench.get_subcommands().filter(|s| !s.get_arguments().any(|a| a.get_long() == Some("json"))).map(|s| s.get_name()).collect();
+        assert!(without.is_empty(), "bench subcommands without --json: {without:?}");
+        for args in [
+            &["game_demo", "render", "--trace", "t.json"][..],
+            &["game_demo", "play", "--headless", "--trace", "t.json"],
+            &["game_demo", "bench", "ddgi", "--trace", "t.json"],
+            &["game_demo", "bench", "trace", "--trace", "t.json"],
+            &["game_demo", "bench", "walk", "--trace", "t.json"],
+            &["game_demo", "bench", "classify", "--trace", "t.json"],
+        ] {
+            let cli = Cli::try_parse_from(args).unwrap_or_else(|e| panic!("{args:?}: {e}"));
+            assert_eq!(cli.trace.as_deref(), Some(std::path::Path::new("t.json")), "{args:?}");
+        }
     }
 
     /// Each subcommand's long help carries examples.

@@ -249,15 +249,79 @@ pub struct FrameTimings {
 }
 
 /// One frame's GPU timings: what `timings.json` lists per frame.
-#[derive(Clone, Debug, Serialize, PartialEq)]
+///
+/// In JSON it is an object of maps keyed by pass label, in pass order: `frame`; `gpu_ms`, every
+/// pass that ran → its GPU milliseconds (`null` without timestamp queries); `left_out`, every pass
+/// that did not run → why; `notes`, passes that ran specialized → how (absent when none);
+/// `counters`, name → value (absent when none). A label that appears twice in one frame (which
+/// no frame script does) keys its second pass as `label#2`.
+#[derive(Clone, Debug, PartialEq)]
 pub struct FrameTiming {
     /// The frame's index ([`Time::frame`]).
     pub frame: u64,
     /// Every pass the frame's graph had, in order.
     pub passes: Vec<PassTiming>,
     /// Per-frame counts that plugins report (e.g. `ddgi_rays`: rays traced), by name.
-    #[serde(skip_serializing_if = "Vec::is_empty")]
     pub counters: Vec<(String, f64)>,
+}
+
+impl FrameTiming {
+    /// The GPU milliseconds of the pass `label`, if it ran and was timed.
+    pub fn gpu_ms(&self, label: &str) -> Option<f64> {
+        self.passes.iter().find(|p| p.ran && p.label == label).and_then(|p| p.gpu_ms)
+    }
+
+    /// Every pass that ran, in order, with its GPU milliseconds (`None` without timestamp queries):
+    /// the frame's `gpu_ms` map in `timings.json`.
+    pub fn gpu_ms_by_pass(&self) -> impl Iterator<Item = (&str, Option<f64>)> + Clone {
+        self.passes.iter().filter(|p| p.ran).map(|p| (p.label.as_str(), p.gpu_ms))
+    }
+
+    /// The sum of the GPU milliseconds of the passes that ran; `None` if any of them is untimed.
+    pub fn total_gpu_ms(&self) -> Option<f64> {
+        self.gpu_ms_by_pass().map(|(_, ms)| ms).sum()
+    }
+}
+
+/// Serializes `(key, value)` pairs as one JSON object in their order; a key seen before gets
+/// `#2`, `#3`, … appended, so that no pair is lost.
+pub(crate) struct OrderedMap<I>(pub I);
+
+impl<'a, V: Serialize + 'a, I: Clone + Iterator<Item = (&'a str, V)>> Serialize for OrderedMap<I> {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        let mut map = serializer.serialize_map(None)?;
+        let mut seen: Vec<&str> = Vec::new();
+        for (key, value) in self.0.clone() {
+            let repeats = seen.iter().filter(|k| **k == key).count();
+            seen.push(key);
+            if repeats == 0 {
+                map.serialize_entry(key, &value)?;
+            } else {
+                map.serialize_entry(&format!("{key}#{}", repeats + 1), &value)?;
+            }
+        }
+        map.end()
+    }
+}
+
+impl Serialize for FrameTiming {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeMap;
+        let mut map = serializer.serialize_map(None)?;
+        map.serialize_entry("frame", &self.frame)?;
+        map.serialize_entry("gpu_ms", &OrderedMap(self.gpu_ms_by_pass()))?;
+        let left_out = self.passes.iter().filter(|p| !p.ran).map(|p| (p.label.as_str(), p.note.as_str()));
+        map.serialize_entry("left_out", &OrderedMap(left_out))?;
+        let notes = self.passes.iter().filter(|p| p.ran && !p.note.is_empty()).map(|p| (p.label.as_str(), p.note.as_str()));
+        if notes.clone().next().is_some() {
+            map.serialize_entry("notes", &OrderedMap(notes))?;
+        }
+        if !self.counters.is_empty() {
+            map.serialize_entry("counters", &OrderedMap(self.counters.iter().map(|(n, v)| (n.as_str(), *v))))?;
+        }
+        map.end()
+    }
 }
 
 /// One pass of a [`FrameTiming`].
@@ -278,7 +342,7 @@ impl FrameTimings {
     fn push(&mut self, gpu: &GpuContext, timer: &mut GpuTimer, frame: u64, mut report: FrameReport) {
         if self.wait_each_frame {
             let times = report.wait_for_timings(gpu, timer);
-            self.record(frame, &report, times);
+            self.record(frame, &mut report, times);
         } else {
             self.pending.push_back((frame, report));
             self.collect(gpu, timer);
@@ -302,12 +366,15 @@ impl FrameTimings {
             } else {
                 None
             };
-            let (_, report) = self.pending.pop_front().expect("front exists");
-            self.record(frame, &report, times);
+            let (_, mut report) = self.pending.pop_front().expect("front exists");
+            self.record(frame, &mut report, times);
         }
     }
 
-    fn record(&mut self, frame: u64, report: &FrameReport, times: Option<Vec<(String, f64)>>) {
+    fn record(&mut self, frame: u64, report: &mut FrameReport, times: Option<Vec<(String, f64)>>) {
+        if let Some(spans) = report.take_gpu_spans() {
+            crate::trace::record_gpu_frame(frame, spans);
+        }
         let passes = report
             .passes
             .iter()

@@ -43,6 +43,7 @@ pub fn read_buffer(gpu: &GpuContext, source: &wgpu::Buffer) -> Vec<u8> {
 
 /// A one-slot [`ReadbackRing`] filled by `copy`, waited for.
 fn read_now(gpu: &GpuContext, label: &'static str, size: u64, copy: impl FnOnce(&mut wgpu::CommandEncoder, &wgpu::Buffer)) -> Vec<u8> {
+    let _span = tracing::info_span!("readback", buffer = label, bytes = size).entered();
     let mut ring = ReadbackRing::new(label, 1);
     ring.request_with(gpu, size, 0, copy);
     gpu.wait_idle();

@@ -67,10 +67,19 @@ fn custom_pass_example_adds_probe_lit_fog_to_the_ddgi_passes_and_writes_a_lit_im
     let args = ["custom_pass", "--scene", "cornell", "--out", out.to_str().expect("a UTF-8 path")];
     custom_pass::run(custom_pass::Args::parse_from(args.into_iter().chain(SMALL))).expect("the custom_pass example");
     assert_lit_image(&out);
-    // The app's own pass ran after DDGI's, in the same graph.
-    let timings = std::fs::read_to_string(out.join("timings.json")).expect("timings.json");
-    let labels: Vec<&str> = ["\"ddgi_trace\"", "\"ddgi_composite\"", "\"probe_fog\""].into_iter().filter(|l| timings.contains(l)).collect();
-    assert_eq!(labels.len(), 3, "passes found in timings.json: {labels:?}");
+    // The app's own pass ran after DDGI's, in the same graph: the last frame's `gpu_ms` map
+    // (pass label → milliseconds, in pass order) has the three, in that order.
+    let text = std::fs::read_to_string(out.join("timings.json")).expect("timings.json");
+    let timings: serde_json::Value = serde_json::from_str(&text).expect("timings.json is JSON");
+    let last = timings["frames"].as_array().and_then(|f| f.last()).expect("timings.json has frames");
+    let ran = last["gpu_ms"].as_object().expect("a frame's gpu_ms is a map");
+    let position =
+        |label: &str| text[text.rfind("\"gpu_ms\"").expect("gpu_ms")..].find(&format!("\"{label}\"")).filter(|_| ran.contains_key(label));
+    let order: Vec<Option<usize>> = ["ddgi_trace", "ddgi_composite", "probe_fog"].into_iter().map(position).collect();
+    assert!(order.iter().all(Option::is_some) && order.is_sorted(), "ddgi_trace, ddgi_composite, probe_fog in {ran:?}");
+    for (label, ms) in ran {
+        assert!(ms.is_null() || ms.as_f64().is_some_and(|ms| ms >= 0.0), "{label}: {ms}");
+    }
 }
 
 #[test]
