@@ -365,10 +365,8 @@ fn hits_report_the_material_with_texture_and_texture_transform() {
     }
 }
 
-#[test]
-fn large_blas_builds_run_off_the_frame_loop_and_report_progress() {
-    let Some(gpu) = testkit::gpu("large_blas_builds_run_off_the_frame_loop_and_report_progress") else { return };
-    // A grid mesh just over the asynchronous-build threshold.
+/// A grid mesh just over the asynchronous-build threshold.
+fn big_grid() -> Mesh {
     let n = ((engine::rt::ASYNC_BLAS_TRIANGLES / 2) as f64).sqrt().ceil() as u32 + 1;
     let mut grid = Mesh { name: "big_grid".into(), ..Default::default() };
     for j in 0..=n {
@@ -385,6 +383,13 @@ fn large_blas_builds_run_off_the_frame_loop_and_report_progress() {
         }
     }
     assert!(grid.triangle_count() > engine::rt::ASYNC_BLAS_TRIANGLES);
+    grid
+}
+
+#[test]
+fn large_blas_builds_run_off_the_frame_loop_and_report_progress() {
+    let Some(gpu) = testkit::gpu("large_blas_builds_run_off_the_frame_loop_and_report_progress") else { return };
+    let grid = big_grid();
     let mut s = SceneDescription { name: "async".into(), ..Default::default() };
     let g = s.add_mesh(grid);
     let m = s.add_material(Material::diffuse("grey", Vec3::splat(0.5)));
@@ -410,4 +415,179 @@ fn large_blas_builds_run_off_the_frame_loop_and_report_progress() {
     run_headless(&mut app, 1);
     assert_eq!(progress.fraction(), 1.0);
     assert!((trace(&app, &gpu, &down, false)[0].t - 1.0).abs() < 1e-4);
+}
+
+/// `transforms.len()` cubes of random sizes and orientations, one node each, in spawn order.
+fn cube_field(transforms: &[Transform]) -> SceneDescription {
+    let mut s = SceneDescription { name: "cube_field".into(), ..Default::default() };
+    let cube = s.add_mesh(engine::shapes::cuboid("cube", Vec3::splat(0.5)));
+    let m = s.add_material(Material::diffuse("grey", Vec3::splat(0.5)));
+    for (i, t) in transforms.iter().enumerate() {
+        s.add_node(&format!("cube{i}"), *t, None, vec![NodeContent::Meshes(vec![(cube, m)])]);
+    }
+    s
+}
+
+/// `count` placements over a `side` × `side` square, up to 4 m high, as a forest's trees and props.
+fn field_transforms(count: usize, side: f32, seed: u64) -> Vec<Transform> {
+    let mut rng = SplitMix64::new(seed);
+    (0..count)
+        .map(|_| {
+            Transform::from_xyz(rng.range(-0.5, 0.5) * side, rng.range(0.0, 4.0), rng.range(-0.5, 0.5) * side)
+                .with_rotation(Quat::from_rotation_y(rng.range(0.0, 6.3)))
+                .with_scale(Vec3::new(rng.range(0.3, 1.5), rng.range(0.5, 4.0), rng.range(0.3, 1.5)))
+        })
+        .collect()
+}
+
+/// Moves every cube's node of [`cube_field`] a little (seeded; not the mesh entities under them,
+/// named `cube{i}#0`), runs a frame and returns its BVH statistics.
+fn jiggle_all(app: &mut App, rng: &mut SplitMix64) -> engine::rt::BvhFrameStats {
+    let world = app.world_mut();
+    let mut q = world.query::<(&engine::scene::Name, &mut Transform)>();
+    for (_, mut t) in q.iter_mut(world).filter(|(name, _)| name.0.starts_with("cube") && !name.0.contains('#')) {
+        t.translation += Vec3::new(rng.range(-0.2, 0.2), rng.range(-0.2, 0.2), rng.range(-0.2, 0.2));
+        t.rotation *= Quat::from_rotation_y(rng.range(-0.3, 0.3));
+    }
+    run_headless(app, 1);
+    app.world().resource::<RayTracingScene>().stats
+}
+
+#[test]
+fn thousands_of_movers_refitted_in_parallel_hit_what_a_fresh_build_hits() {
+    let Some(gpu) = testkit::gpu("thousands_of_movers_refitted_in_parallel_hit_what_a_fresh_build_hits") else { return };
+    let count = 3000;
+    let start = field_transforms(count, 120.0, 31);
+    let mut app = app_for(&gpu, cube_field(&start));
+    app.world_mut().resource_mut::<RayTracingScene>().parallel_refit_from = 0;
+    let mut rng = SplitMix64::new(5);
+    for frame in 0..4 {
+        let stats = jiggle_all(&mut app, &mut rng);
+        assert!(
+            !stats.tlas_rebuilt && stats.tlas_refit_parallel && stats.tlas_refitted_leaves == count,
+            "frame {frame}: every instance moved must be refitted in parallel, without a rebuild: {stats:?}"
+        );
+    }
+    // Rays from all over the field, and rays along it at the cubes' heights (many instances each).
+    let bounds = (Vec3::new(-60.0, 0.0, -60.0), Vec3::new(60.0, 8.0, 60.0));
+    let mut rays = random_rays(bounds, 4000, 99);
+    let mut rng = SplitMix64::new(17);
+    for _ in 0..1000 {
+        let o = Vec3::new(-70.0, rng.range(0.0, 6.0), rng.range(-60.0, 60.0));
+        let d = Vec3::new(1.0, rng.range(-0.02, 0.02), rng.range(-0.3, 0.3));
+        rays.push(GpuRay { origin: o.to_array(), tmin: 0.0, direction: d.to_array(), tmax: 1e30 });
+    }
+    let refitted = trace(&app, &gpu, &rays, true);
+    // A new instance, far from every ray, makes the next frame build the TLAS from scratch over the
+    // same instances.
+    cube_field(&[Transform::from_xyz(0.0, -1e5, 0.0)]).spawn(app.world_mut());
+    run_headless(&mut app, 1);
+    assert!(app.world().resource::<RayTracingScene>().stats.tlas_rebuilt);
+    let rebuilt = trace(&app, &gpu, &rays, true);
+    let hits = rebuilt.iter().filter(|r| r.instance != u32::MAX).count();
+    assert!(hits > rays.len() / 4, "too few rays hit the field ({hits} of {}): the test would prove little", rays.len());
+    for (i, (a, b)) in refitted.iter().zip(&rebuilt).enumerate() {
+        assert_eq!(bytemuck::bytes_of(a), bytemuck::bytes_of(b), "ray {i} {:?}: refitted {a:?}, rebuilt {b:?}", rays[i]);
+    }
+}
+
+#[test]
+fn a_parallel_refit_gives_the_tlas_a_refit_on_one_thread_gives() {
+    let Some(gpu) = testkit::gpu("a_parallel_refit_gives_the_tlas_a_refit_on_one_thread_gives") else { return };
+    let start = field_transforms(2000, 80.0, 8);
+    let mut apps = [app_for(&gpu, cube_field(&start)), app_for(&gpu, cube_field(&start))];
+    apps[0].world_mut().resource_mut::<RayTracingScene>().parallel_refit_from = usize::MAX;
+    apps[1].world_mut().resource_mut::<RayTracingScene>().parallel_refit_from = 0;
+    for frame in 0..3 {
+        let stats = apps.each_mut().map(|app| jiggle_all(app, &mut SplitMix64::new(100 + frame)));
+        assert!(!stats[0].tlas_refit_parallel && stats[1].tlas_refit_parallel, "{stats:?}");
+        assert!(!stats[0].tlas_rebuilt && !stats[1].tlas_rebuilt, "{stats:?}");
+        assert_eq!(stats[0].tlas_nodes_uploaded, stats[1].tlas_nodes_uploaded, "frame {frame}");
+        let [one, parallel] = apps.each_ref().map(|app| app.world().resource::<RayTracingScene>().tlas_cpu());
+        assert_eq!(bytemuck::cast_slice::<_, u8>(one.0), bytemuck::cast_slice::<_, u8>(parallel.0), "frame {frame}: wide nodes differ");
+        assert_eq!(one.1, parallel.1, "frame {frame}: entries differ");
+    }
+}
+
+/// CPU cost of the TLAS refit and upload, on one thread and in parallel, for 1,000 and 10,000 of
+/// 11,400 instances moving (the forest's count), median of 9 frames each. A timing, not a check:
+/// `cargo test --release -p workspace_tests --test ray_tracing tlas_refit_cost -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn tlas_refit_cost_on_one_thread_and_in_parallel() {
+    let Some(gpu) = testkit::gpu("tlas_refit_cost_on_one_thread_and_in_parallel") else { return };
+    let count = 11_400;
+    let mut app = app_for(&gpu, cube_field(&field_transforms(count, 500.0, 3)));
+    let world = app.world_mut();
+    let entities: Vec<bevy_ecs::entity::Entity> =
+        world.query_filtered::<bevy_ecs::entity::Entity, bevy_ecs::query::With<engine::scene::MeshInstance>>().iter(world).collect();
+    let mut rng = SplitMix64::new(1);
+    for movers in [1000, 10_000] {
+        let mut times = [Vec::new(), Vec::new()];
+        for frame in 0..18 {
+            let mode = frame % 2;
+            app.world_mut().resource_mut::<RayTracingScene>().parallel_refit_from = if mode == 0 { usize::MAX } else { 0 };
+            for &e in &entities[..movers] {
+                if let Some(mut t) = app.world_mut().get_mut::<Transform>(e) {
+                    t.translation += Vec3::new(rng.unit() - 0.5, rng.unit() - 0.5, rng.unit() - 0.5) * 0.02;
+                }
+            }
+            run_headless(&mut app, 1);
+            let stats = app.world().resource::<RayTracingScene>().stats;
+            assert!(!stats.tlas_rebuilt);
+            times[mode].push((stats.cpu_time, stats.tlas_upload_copies, stats.tlas_nodes_uploaded));
+        }
+        for (mode, mut t) in times.into_iter().enumerate() {
+            t.sort();
+            let (time, copies, nodes) = t[t.len() / 2];
+            let how = if mode == 0 { "one thread" } else { "parallel" };
+            println!("{movers} movers, {how}: {:.3} ms, {nodes} wide nodes in {copies} copies", time.as_secs_f64() * 1e3);
+        }
+    }
+}
+
+#[test]
+fn the_blas_build_hook_is_told_of_every_build_in_order_up_to_the_totals() {
+    use engine::rt::{BlasBuildCounts, BlasBuildHook};
+    use std::sync::{Arc, Mutex};
+    let Some(gpu) = testkit::gpu("the_blas_build_hook_is_told_of_every_build_in_order_up_to_the_totals") else { return };
+    // One mesh built on the worker thread, a dozen built in the frame on rayon's pool.
+    let mut s = SceneDescription { name: "hooked".into(), ..Default::default() };
+    let m = s.add_material(Material::diffuse("grey", Vec3::splat(0.5)));
+    let mut meshes = vec![big_grid()];
+    meshes.extend((0..12).map(|k| sheet(2 + k)));
+    for (k, mesh) in meshes.into_iter().enumerate() {
+        let mesh = s.add_mesh(mesh);
+        s.add_node(&format!("mesh{k}"), Transform::from_xyz(3.0 * k as f32, 0.0, 0.0), None, vec![NodeContent::Meshes(vec![(mesh, m)])]);
+    }
+    let calls: Arc<Mutex<Vec<BlasBuildCounts>>> = Arc::default();
+    let mut app = engine::headless::headless_app(&gpu, RenderSize { width: 8, height: 8 }, 1.0 / 60.0);
+    let record = calls.clone();
+    app.insert_resource(BlasBuildHook::new(move |counts| record.lock().unwrap().push(counts)));
+    s.spawn(app.world_mut());
+    run_headless(&mut app, 1);
+    let meshes = app.world().resource::<Assets<Mesh>>();
+    let total = BlasBuildCounts {
+        built_meshes: meshes.len(),
+        total_meshes: meshes.len(),
+        built_triangles: meshes.iter().map(|(_, m)| m.triangle_count()).sum(),
+        total_triangles: meshes.iter().map(|(_, m)| m.triangle_count()).sum(),
+    };
+    // The worker thread tells the hook just after it hands its BLAS over: wait for its call.
+    let started = std::time::Instant::now();
+    while calls.lock().unwrap().last().is_none_or(|c| !c.is_done()) {
+        assert!(started.elapsed().as_secs() < 60, "the builds never reported done: {:?}", calls.lock().unwrap());
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    let calls = calls.lock().unwrap().clone();
+    assert_eq!(calls.len(), total.total_meshes + 1, "one call at the request, one per build: {calls:?}");
+    assert_eq!(calls[0], BlasBuildCounts { built_meshes: 0, built_triangles: 0, ..total }, "the request comes first, with the totals");
+    for pair in calls.windows(2) {
+        let (a, b) = (pair[0], pair[1]);
+        assert_eq!(b.built_meshes, a.built_meshes + 1, "one build per call: {a:?} then {b:?}");
+        assert!(b.built_triangles > a.built_triangles, "counts never go down: {a:?} then {b:?}");
+        assert_eq!((a.total_meshes, a.total_triangles), (b.total_meshes, b.total_triangles));
+    }
+    assert_eq!(*calls.last().unwrap(), total);
+    assert_eq!(app.world().resource::<RayTracingScene>().progress.counts(), total);
 }

@@ -55,6 +55,7 @@ impl TraceCell {
 /// A headless app with the scene prepared (BLASes built, TLAS uploaded).
 pub fn prepared_app(gpu: &GpuContext, scene: SceneDescription) -> App {
     let mut app = engine::headless::headless_app(gpu, RenderSize { width: 8, height: 8 }, 1.0 / 60.0);
+    crate::progress::show_blas_builds(&mut app);
     scene.spawn(app.world_mut());
     run_headless(&mut app, 1);
     app
@@ -202,9 +203,23 @@ pub fn traversal_work(gpu: &GpuContext, app: &App, bounds: (Vec3, Vec3), grid: [
     Ok(w.map(|v| f64::from(v) / f64::from(p.ray_count)))
 }
 
+/// CPU cost of one frame's TLAS update when some instances move: medians over the frames of each way.
+pub struct TlasUpdateCost {
+    /// Instance slots, TLAS refit or rebuild, uploads, as the engine does it by default (in
+    /// parallel from [`engine::rt::TLAS_PARALLEL_REFIT_MOVERS`] movers on, on 4 threads or more).
+    pub total: Duration,
+    /// Of which the TLAS refit or rebuild and its upload.
+    pub tlas: Duration,
+    /// The TLAS refit or rebuild and its upload with the refit kept on the frame's thread.
+    pub tlas_one_thread: Duration,
+    /// Whether any of the frames rebuilt the TLAS.
+    pub rebuilt: bool,
+}
+
 /// CPU time of one frame's TLAS update (instance slots, refit or rebuild, uploads) when `count`
-/// instances move, median over `frames` frames; `None` when the scene has fewer instances.
-pub fn tlas_update_cost(app: &mut App, count: usize, frames: usize) -> Option<(Duration, Duration, bool)> {
+/// instances move, median over `frames` frames the engine's default way and `frames` frames with
+/// the refit on one thread, alternated; `None` when the scene has fewer instances.
+pub fn tlas_update_cost(app: &mut App, count: usize, frames: usize) -> Option<TlasUpdateCost> {
     let world = app.world_mut();
     let mut query = world.query_filtered::<Entity, With<MeshInstance>>();
     let entities: Vec<Entity> = query.iter(world).collect();
@@ -212,10 +227,13 @@ pub fn tlas_update_cost(app: &mut App, count: usize, frames: usize) -> Option<(D
         return None;
     }
     let mut rng = SplitMix64::new(0xC0FF_EE00 + count as u64);
-    let mut times = Vec::new();
+    let (mut times, mut one_thread) = (Vec::new(), Vec::new());
     let mut rebuilt = false;
-    for _ in 0..frames {
+    for frame in 0..2 * frames {
+        let default = frame % 2 == 0;
         let world = app.world_mut();
+        world.resource_mut::<RayTracingScene>().parallel_refit_from =
+            if default { engine::rt::default_parallel_refit_from() } else { usize::MAX };
         for &e in entities.iter().take(count) {
             if let Some(mut t) = world.get_mut::<Transform>(e) {
                 // A small jiggle, as animated props move from frame to frame.
@@ -226,11 +244,17 @@ pub fn tlas_update_cost(app: &mut App, count: usize, frames: usize) -> Option<(D
         let scene = app.world().resource::<GpuScene>();
         let rt = app.world().resource::<RayTracingScene>();
         rebuilt |= rt.stats.tlas_rebuilt;
-        times.push((scene.instance_changes().cpu_time + rt.stats.cpu_time, rt.stats.cpu_time));
+        if default {
+            times.push((scene.instance_changes().cpu_time + rt.stats.cpu_time, rt.stats.cpu_time));
+        } else {
+            one_thread.push(rt.stats.cpu_time);
+        }
     }
+    app.world_mut().resource_mut::<RayTracingScene>().parallel_refit_from = engine::rt::default_parallel_refit_from();
     times.sort();
+    one_thread.sort();
     let (total, tlas) = times[times.len() / 2];
-    Some((total, tlas, rebuilt))
+    Some(TlasUpdateCost { total, tlas, tlas_one_thread: one_thread[one_thread.len() / 2], rebuilt })
 }
 
 /// CPU time to build one flat CWBVH over every triangle of the scene in world space.
@@ -305,6 +329,7 @@ pub fn ddgi_throughput(
         ..Default::default()
     };
     let mut app = engine::headless::headless_app(gpu, size, 1.0 / 60.0);
+    crate::progress::show_blas_builds(&mut app);
     ddgi::use_ddgi(&mut app, volume(grids[0], ray_counts[0]), ddgi::DdgiOutput::Full);
     scene.spawn(app.world_mut());
     let mut cells = Vec::new();
@@ -384,6 +409,7 @@ pub fn classification_check(gpu: &GpuContext, scene: SceneDescription, grid: [u3
     use engine::rt::cpu::GpuRay;
     let volume = ddgi::DdgiVolume { probe_counts: Some(grid.into()), adaptive: ddgi::DdgiAdaptive::on(), ..Default::default() };
     let mut app = engine::headless::headless_app(gpu, RenderSize { width: 64, height: 64 }, 1.0 / 60.0);
+    crate::progress::show_blas_builds(&mut app);
     ddgi::use_ddgi(&mut app, volume, ddgi::DdgiOutput::Full);
     scene.spawn(app.world_mut());
     run_headless(&mut app, frames.max(1));

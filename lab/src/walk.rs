@@ -297,6 +297,7 @@ fn reference_view(gpu: &GpuContext, scene: &SceneDescription, camera: Transform,
         let frames = options.reference_spp.max(1).div_ceil(per_frame);
         let settings = HeadlessSettings { width, height, frames, ..Default::default() };
         let frame = engine::headless::render_scene_with(gpu, scene.clone(), &settings, |app| {
+            crate::progress::show_blas_builds(app);
             app.insert_resource(engine::render::Sky::Uniform(options.sky));
             pathtrace::use_path_tracer(app, pathtrace::PathTraceSettings { samples_per_frame: per_frame, ..Default::default() });
         })

@@ -5,7 +5,8 @@
 //!   Ylitie et al. 2017) built once by obvhs. Triangles are stored in leaf order (vertex + two edges,
 //!   full float) so that traversal reads them without indirection; each keeps its mesh triangle index.
 //!   Meshes above [`ASYNC_BLAS_TRIANGLES`] are built on a worker thread, off the frame loop, with
-//!   progress in [`BlasBuildProgress`]; until its BLAS is ready an instance is not traced.
+//!   progress in [`BlasBuildProgress`] (and a [`BlasBuildHook`] told of each step); smaller ones are
+//!   built in the frame, in parallel. Until its BLAS is ready an instance is not traced.
 //! - **TLAS**: an 8-wide CWBVH over the world bounds of the instances, encoded like a BLAS so that
 //!   one node test serves both levels. It is collapsed from a binary BVH (obvhs PLOC plus
 //!   reinsertion) that stays on the CPU: each wide node opens its largest descendants until it has
@@ -13,7 +14,10 @@
 //!   [`TlasEntry`]s (instance slot and where the BLAS lives). When entities move only their leaves
 //!   are updated, the binary BVH is refitted and the wide nodes over changed children are
 //!   re-encoded; it is rebuilt when instances are added or removed, or when refitting has let its
-//!   quality decay. Only changed nodes are uploaded. A static scene does no BVH work per frame.
+//!   quality decay. Many movers are refitted in parallel on rayon's pool: the binary BVH is cut into
+//!   subtrees whose nodes are contiguous, each refitted through its own slice, then the few nodes
+//!   above them (the same TLAS as on one thread). Only changed nodes are uploaded, those near each
+//!   other in one copy. A static scene does no BVH work per frame.
 //!
 //! Traversal lives in `engine/shaders/ray_tracing.inc.wgsl`: closest hit and any hit in one loop over both
 //! levels (a warp's lanes test TLAS and BLAS nodes with the same code in the same step), the ray
@@ -32,11 +36,13 @@ use bytemuck::{Pod, Zeroable};
 use glam::{Affine3A, Vec3, Vec3A};
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::Bvh2;
+use obvhs::bvh2::node::Bvh2Node;
 use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
 use obvhs::cwbvh::CwBvh;
 use obvhs::cwbvh::node::CwBvhNode;
 use obvhs::ploc::{PlocBuilder, PlocSearchDistance, SortPrecision};
 use obvhs::triangle::Triangle;
+use rayon::prelude::*;
 
 use crate::gpu::GpuContext;
 use crate::graph::NamedResource;
@@ -51,6 +57,31 @@ pub const TLAS_REINSERTION_RATIO: f32 = 0.1;
 
 /// The TLAS is rebuilt when refitting has raised its normalized SAH cost by this factor.
 pub const TLAS_REBUILD_COST_RATIO: f64 = 1.5;
+
+/// Moving instances from which a TLAS refit runs on rayon's thread pool by default
+/// ([`RayTracingScene::parallel_refit_from`]). Fewer are refitted on the frame's thread: waking the
+/// pool's threads costs tens of microseconds, more than the refit of a few hundred leaves.
+pub const TLAS_PARALLEL_REFIT_MOVERS: usize = 512;
+
+/// Threads rayon's pool needs for the refit to go parallel by default: on fewer cores (a 2-core
+/// machine shared with other work) the pool's hand-offs cost more than the split saves.
+pub const TLAS_PARALLEL_REFIT_MIN_THREADS: usize = 4;
+
+/// The default of [`RayTracingScene::parallel_refit_from`]: [`TLAS_PARALLEL_REFIT_MOVERS`] when
+/// rayon's pool has [`TLAS_PARALLEL_REFIT_MIN_THREADS`] threads or more, else never.
+pub fn default_parallel_refit_from() -> usize {
+    if rayon::current_num_threads() >= TLAS_PARALLEL_REFIT_MIN_THREADS { TLAS_PARALLEL_REFIT_MOVERS } else { usize::MAX }
+}
+
+/// Subtrees the binary TLAS is cut into for a parallel refit: several per core, so that movers spread
+/// unevenly over the scene still keep every core busy.
+const TLAS_REFIT_SUBTREES: usize = 128;
+
+/// Changed wide TLAS nodes at most this many bytes apart are uploaded in one copy, with the unchanged
+/// ones between them: recording a copy costs the CPU a microsecond or two (wgpu's tracking), about
+/// as much as staging 16 KiB at memory speed, so a refit that touches nodes all over the TLAS
+/// uploads it in a few copies rather than hundreds.
+const TLAS_UPLOAD_GAP_BYTES: usize = 16 << 10;
 
 /// A bottom-level BVH: a CWBVH over one mesh in its local space.
 #[derive(Clone, Debug)]
@@ -150,15 +181,21 @@ fn world_aabb((lo, hi): (Vec3, Vec3), world: &Affine3A) -> Option<Aabb> {
 /// Sentinel for "none" in the TLAS's index tables.
 const NONE: u32 = u32::MAX;
 
-/// Progress of BLAS builds, for loading screens and logs.
+/// Progress of BLAS builds, for loading screens and logs: counters shared with the threads that
+/// build, read at any time. To be told of each step instead, insert a [`BlasBuildHook`].
 #[derive(Resource, Clone, Default)]
 pub struct BlasBuildProgress {
     /// Triangles of every mesh whose BLAS was requested.
     pub total_triangles: Arc<AtomicUsize>,
     /// Triangles of the meshes whose BLAS is built.
     pub built_triangles: Arc<AtomicUsize>,
+    /// Meshes whose BLAS was requested (built or not).
+    pub total_meshes: Arc<AtomicUsize>,
     /// Meshes whose BLAS is requested and not yet built.
     pub pending_meshes: Arc<AtomicUsize>,
+    /// Held while the counters change and the hook is called, so that calls never overlap and their
+    /// counts never go down.
+    report: Arc<Mutex<()>>,
 }
 
 impl BlasBuildProgress {
@@ -172,6 +209,76 @@ impl BlasBuildProgress {
     pub fn is_done(&self) -> bool {
         self.pending_meshes.load(Ordering::Relaxed) == 0
     }
+
+    /// The counters now.
+    pub fn counts(&self) -> BlasBuildCounts {
+        let total_meshes = self.total_meshes.load(Ordering::Relaxed);
+        BlasBuildCounts {
+            built_meshes: total_meshes.saturating_sub(self.pending_meshes.load(Ordering::Relaxed)),
+            total_meshes,
+            built_triangles: self.built_triangles.load(Ordering::Relaxed),
+            total_triangles: self.total_triangles.load(Ordering::Relaxed),
+        }
+    }
+
+    /// Counts `meshes` more requested builds of `triangles` triangles in all, and tells `hook`.
+    fn requested(&self, meshes: usize, triangles: usize, hook: Option<&BlasBuildHook>) {
+        let _report = self.report.lock().unwrap_or_else(|e| e.into_inner());
+        self.total_triangles.fetch_add(triangles, Ordering::Relaxed);
+        self.total_meshes.fetch_add(meshes, Ordering::Relaxed);
+        self.pending_meshes.fetch_add(meshes, Ordering::Relaxed);
+        if let Some(hook) = hook {
+            (hook.0)(self.counts());
+        }
+    }
+
+    /// Counts one built BLAS of `triangles` triangles, and tells `hook`.
+    fn built(&self, triangles: usize, hook: Option<&BlasBuildHook>) {
+        let _report = self.report.lock().unwrap_or_else(|e| e.into_inner());
+        self.built_triangles.fetch_add(triangles, Ordering::Relaxed);
+        self.pending_meshes.fetch_sub(1, Ordering::Relaxed);
+        if let Some(hook) = hook {
+            (hook.0)(self.counts());
+        }
+    }
+}
+
+/// Counts of BLAS builds since the app started, as [`BlasBuildProgress::counts`] and a
+/// [`BlasBuildHook`] give them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct BlasBuildCounts {
+    /// Meshes whose BLAS is built.
+    pub built_meshes: usize,
+    /// Meshes whose BLAS was requested (built or not).
+    pub total_meshes: usize,
+    /// Triangles of the meshes whose BLAS is built.
+    pub built_triangles: usize,
+    /// Triangles of every mesh whose BLAS was requested.
+    pub total_triangles: usize,
+}
+
+impl BlasBuildCounts {
+    /// Whether every requested BLAS is built.
+    pub fn is_done(&self) -> bool {
+        self.built_meshes == self.total_meshes
+    }
+}
+
+/// A resource that is told of BLAS build progress, for a loading screen or a terminal progress bar
+/// (the engine draws none). The callback gets the [`BlasBuildCounts`] when the builds of new meshes
+/// are requested (the totals grown, before any of them is built) and after each BLAS is built. It
+/// runs on the frame's thread or on the thread that built the BLAS, never two calls at once, and
+/// the counts it gets never go down; a batch's last call has [`BlasBuildCounts::is_done`]. Builders
+/// wait for it to return, so it should be quick. Insert it before the frame that first sees the
+/// meshes: later requests find it, builds already under way keep the hook they started with.
+#[derive(Resource, Clone)]
+pub struct BlasBuildHook(pub Arc<dyn Fn(BlasBuildCounts) + Send + Sync>);
+
+impl BlasBuildHook {
+    /// A hook calling `f`.
+    pub fn new(f: impl Fn(BlasBuildCounts) + Send + Sync + 'static) -> Self {
+        Self(Arc::new(f))
+    }
 }
 
 /// CPU cost of the last frame's BVH work, for benchmarks and the overlay.
@@ -181,8 +288,12 @@ pub struct BvhFrameStats {
     pub tlas_rebuilt: bool,
     /// TLAS leaves refitted this frame (instances that moved).
     pub tlas_refitted_leaves: usize,
+    /// Whether this frame's TLAS refit ran on rayon's thread pool.
+    pub tlas_refit_parallel: bool,
     /// Wide TLAS nodes uploaded this frame.
     pub tlas_nodes_uploaded: usize,
+    /// Copies that upload them (changed nodes near each other share one).
+    pub tlas_upload_copies: usize,
     /// Uploads of the BLAS buffers this frame (all of them at once, when new BLASes arrived): 0 or 1.
     pub blas_uploaded: usize,
     /// CPU time of the frame's BVH work (BLAS requests and uploads, TLAS build or refit); zero on a
@@ -233,9 +344,16 @@ pub struct RayTracingScene {
     /// [`TLAS_REBUILD_COST_RATIO`] times its built value the TLAS is rebuilt.
     inner_area: f64,
     built_cost: f64,
-    /// Scratch: inner nodes already queued for refit, and wide nodes to re-encode.
+    /// The binary TLAS cut into subtrees for a parallel refit (`None`: no TLAS, or too small to cut).
+    refit_plan: Option<RefitPlan>,
+    /// Moving instances from which the TLAS refit runs on rayon's thread pool (default
+    /// [`default_parallel_refit_from`]; `usize::MAX`: never, 0: always). Both ways give the same TLAS.
+    pub parallel_refit_from: usize,
+    /// Scratch: inner nodes already queued for refit, wide nodes to re-encode, the movers of each
+    /// subtree of the refit plan.
     marked: Vec<bool>,
     wide_marked: Vec<bool>,
+    refit_buckets: Vec<Vec<(u32, u32)>>,
     /// What this frame's BVH work did and cost (reset by every prepare stage).
     pub stats: BvhFrameStats,
 }
@@ -269,8 +387,11 @@ impl RayTracingScene {
             wide_owner: Vec::new(),
             inner_area: 0.0,
             built_cost: 0.0,
+            refit_plan: None,
+            parallel_refit_from: default_parallel_refit_from(),
             marked: Vec::new(),
             wide_marked: Vec::new(),
+            refit_buckets: Vec::new(),
             stats: BvhFrameStats::default(),
         };
         scene.upload_tlas_all(gpu);
@@ -316,29 +437,34 @@ impl RayTracingScene {
         self.blas.get(index).and_then(|b| b.as_deref())
     }
 
-    /// Starts BLAS builds for meshes added since the last call: small ones now, large ones on a
-    /// worker thread.
-    fn request_blas(&mut self, meshes: &Assets<Mesh>) {
+    /// Starts BLAS builds for meshes added since the last call: small ones now, in parallel on
+    /// rayon's pool, large ones one after the other on a worker thread of their own (so that they
+    /// never hold up the pool a refit runs on). Tells `hook` of the progress.
+    fn request_blas(&mut self, meshes: &Assets<Mesh>, hook: Option<&BlasBuildHook>) {
         let mut background: Vec<(usize, Mesh)> = Vec::new();
+        let mut now: Vec<(usize, &Mesh)> = Vec::new();
+        let mut triangles = 0;
         for (handle, mesh) in meshes.iter().skip(self.requested_meshes) {
             let index = handle.index() as usize;
             self.blas.resize(self.blas.len().max(index + 1), None);
-            self.progress.total_triangles.fetch_add(mesh.triangle_count(), Ordering::Relaxed);
-            self.progress.pending_meshes.fetch_add(1, Ordering::Relaxed);
-            self.outstanding += 1;
+            triangles += mesh.triangle_count();
             if mesh.triangle_count() > ASYNC_BLAS_TRIANGLES {
                 background.push((index, mesh.clone()));
             } else {
-                let blas = Arc::new(Blas::build(mesh));
-                let _ = self.sender.send((index, blas));
-                self.progress.built_triangles.fetch_add(mesh.triangle_count(), Ordering::Relaxed);
-                self.progress.pending_meshes.fetch_sub(1, Ordering::Relaxed);
+                now.push((index, mesh));
             }
         }
         self.requested_meshes = meshes.len();
+        self.outstanding += now.len() + background.len();
+        self.progress.requested(now.len() + background.len(), triangles, hook);
+        now.par_iter().for_each_with(self.sender.clone(), |sender, &(index, mesh)| {
+            let _ = sender.send((index, Arc::new(Blas::build(mesh))));
+            self.progress.built(mesh.triangle_count(), hook);
+        });
         if !background.is_empty() {
             let sender = self.sender.clone();
             let progress = self.progress.clone();
+            let hook = hook.cloned();
             std::thread::spawn(move || {
                 for (index, mesh) in background {
                     let started = Instant::now();
@@ -348,8 +474,7 @@ impl RayTracingScene {
                     if sender.send((index, blas)).is_err() {
                         return;
                     }
-                    progress.built_triangles.fetch_add(mesh.triangle_count(), Ordering::Relaxed);
-                    progress.pending_meshes.fetch_sub(1, Ordering::Relaxed);
+                    progress.built(mesh.triangle_count(), hook.as_ref());
                 }
             });
         }
@@ -461,6 +586,7 @@ impl RayTracingScene {
         }
         if aabbs.is_empty() {
             self.tlas = None;
+            self.refit_plan = None;
         } else {
             let indices = (0..aabbs.len() as u32).collect();
             let mut bvh = PlocBuilder::with_capacity(aabbs.len()).build(PlocSearchDistance::High, &aabbs, indices, SortPrecision::U64, 2);
@@ -487,6 +613,7 @@ impl RayTracingScene {
             }
             self.inner_area = bvh.nodes.iter().filter(|n| !n.is_leaf()).map(|n| f64::from(n.aabb().half_area())).sum();
             self.built_cost = self.inner_area / f64::from(bvh.nodes[0].aabb().half_area()).max(f64::MIN_POSITIVE);
+            self.refit_plan = RefitPlan::new(&bvh, TLAS_REFIT_SUBTREES);
             self.tlas = Some(bvh);
         }
         self.collapse_tlas();
@@ -584,76 +711,289 @@ impl RayTracingScene {
     /// Moves the leaves of the given instances, refits their ancestors in the binary TLAS and
     /// re-encodes the wide nodes whose children changed; uploads those nodes. Returns false when the
     /// TLAS should be rebuilt instead (an instance is not in it, or quality decayed).
+    ///
+    /// From [`RayTracingScene::parallel_refit_from`] movers on, the subtrees of the refit plan are
+    /// refitted on rayon's pool (each through its own slice of the nodes), then the few nodes above
+    /// them on this thread, and the wide nodes are re-encoded in parallel: the same nodes get the
+    /// same bounds as on one thread, so the TLAS is the same either way.
     fn refit_tlas(&mut self, gpu: &GpuContext, uploads: &mut Uploads, moved: &[(u32, u32, Affine3A)]) -> bool {
         let Some(mut bvh) = self.tlas.take() else { return moved.is_empty() };
-        // Move the leaves, then refit each affected inner node once, children before parents.
-        let mut dirty: Vec<usize> = Vec::with_capacity(moved.len() * 4);
-        let mut inner: Vec<usize> = Vec::new();
         self.marked.clear();
         self.marked.resize(bvh.nodes.len(), false);
-        let mut ok = true;
-        for &(slot, _, world) in moved {
-            let prim = self.slot_prims.get(slot as usize).copied().unwrap_or(NONE) as usize;
-            let Some(aabb) = self.tlas_prims.get(prim).and_then(|p| world_aabb(p.local, &world)) else {
-                ok = false;
-                break;
-            };
-            let leaf = self.prim_leaf[prim] as usize;
-            bvh.nodes[leaf].set_aabb(aabb);
-            dirty.push(leaf);
-            let mut index = leaf;
-            while index != 0 {
-                index = bvh.parents[index] as usize;
-                if self.marked[index] {
-                    break;
-                }
-                self.marked[index] = true;
-                inner.push(index);
-            }
-        }
-        // Children before parents: descending indices (the build put every parent first). Few
-        // nodes: sort them; many (a thousand random movers touch most of the tree): take the
-        // marked ones from the end down, which costs no sort.
-        debug_assert!(bvh.children_are_ordered_after_parents);
-        if inner.len() * 16 < bvh.nodes.len() {
-            inner.sort_unstable_by(|a, b| b.cmp(a));
-        } else {
-            inner.clear();
-            inner.extend((0..bvh.nodes.len()).rev().filter(|&i| self.marked[i]));
-        }
-        for &index in &inner {
-            let first = bvh.nodes[index].first_index as usize;
-            let union = bvh.nodes[first].aabb().union(bvh.nodes[first + 1].aabb());
-            if *bvh.nodes[index].aabb() != union {
-                self.inner_area += f64::from(union.half_area()) - f64::from(bvh.nodes[index].aabb().half_area());
-                bvh.nodes[index].set_aabb(union);
-                dirty.push(index);
-            }
-        }
+        let parallel = moved.len() >= self.parallel_refit_from && self.refit_plan.is_some();
+        let refit = if parallel { self.refit_subtrees_in_parallel(&mut bvh, moved) } else { self.refit_on_this_thread(&mut bvh, moved) };
+        let Some(RefitOutput { dirty, area }) = refit else {
+            self.tlas = Some(bvh);
+            return false;
+        };
+        self.inner_area += area;
         let cost = self.inner_area / f64::from(bvh.nodes[0].aabb().half_area()).max(f64::MIN_POSITIVE);
-        let decayed = cost > TLAS_REBUILD_COST_RATIO * self.built_cost;
-        if !ok || decayed {
+        if cost > TLAS_REBUILD_COST_RATIO * self.built_cost {
             self.tlas = Some(bvh);
             return false;
         }
         // The wide nodes over changed Bvh2 nodes, each once, in order (a mark per wide node, no sort).
         self.wide_marked.clear();
         self.wide_marked.resize(self.gpu_tlas.len(), false);
-        for &i in &dirty {
-            if let Some(w) = self.wide_owner.get(i).filter(|&&w| w != NONE) {
-                self.wide_marked[*w as usize] = true;
+        for &i in dirty.iter().flatten() {
+            if let Some(&w) = self.wide_owner.get(i as usize).filter(|&&w| w != NONE) {
+                self.wide_marked[w as usize] = true;
             }
         }
-        let mut wide: Vec<usize> = (0..self.wide_marked.len()).filter(|&w| self.wide_marked[w]).collect();
-        for &w in &wide {
-            encode_bounds(&bvh, self.wide_source[w] as usize, &self.wide_children[w], &mut self.gpu_tlas[w]);
+        let (sources, children, marked) = (&self.wide_source, &self.wide_children, &self.wide_marked);
+        let encode = |(w, node): (usize, &mut CwBvhNode)| {
+            if marked[w] {
+                encode_bounds(&bvh, sources[w] as usize, &children[w], node);
+            }
+        };
+        if parallel {
+            self.gpu_tlas.par_iter_mut().enumerate().with_min_len(64).for_each(encode);
+        } else {
+            self.gpu_tlas.iter_mut().enumerate().for_each(encode);
         }
         self.tlas = Some(bvh);
-        let uploaded = wide.len();
-        uploads.write_dirty_ranges(gpu, &self.tlas_nodes.buffer, &self.gpu_tlas, &mut wide);
+        self.upload_wide_nodes(gpu, uploads);
         self.stats.tlas_refitted_leaves += moved.len();
-        self.stats.tlas_nodes_uploaded += uploaded;
+        self.stats.tlas_refit_parallel = parallel;
         true
+    }
+
+    /// The refit on the frame's thread: every moved leaf, then each inner node above them once.
+    fn refit_on_this_thread(&mut self, bvh: &mut Bvh2, moved: &[(u32, u32, Affine3A)]) -> Option<RefitOutput> {
+        let mut leaves = Vec::with_capacity(moved.len());
+        for &(slot, _, world) in moved {
+            let prim = self.slot_prims.get(slot as usize).copied().unwrap_or(NONE) as usize;
+            let aabb = world_aabb(self.tlas_prims.get(prim)?.local, &world)?;
+            leaves.push((self.prim_leaf[prim], aabb));
+        }
+        let part = TlasPart { nodes: &mut bvh.nodes, marks: &mut self.marked, base: 0, stop: NONE as usize, scan_marks: true };
+        let mut out = SubtreeRefit::default();
+        part.refit(&bvh.parents, &leaves, &[], &mut out);
+        Some(RefitOutput { dirty: vec![out.dirty], area: out.area })
+    }
+
+    /// The refit on rayon's pool: the movers sorted into the plan's subtrees, each subtree with
+    /// movers refitted by one task up to (not including) its root, then the roots of the changed
+    /// subtrees, the movers above the cut and every node above them on this thread.
+    fn refit_subtrees_in_parallel(&mut self, bvh: &mut Bvh2, moved: &[(u32, u32, Affine3A)]) -> Option<RefitOutput> {
+        let plan = self.refit_plan.as_ref()?;
+        let subtrees = plan.roots.len();
+        self.refit_buckets.resize_with(subtrees + 1, Vec::new);
+        self.refit_buckets.iter_mut().for_each(Vec::clear);
+        for (k, &(slot, _, _)) in moved.iter().enumerate() {
+            let prim = *self.slot_prims.get(slot as usize).filter(|&&p| p != NONE)?;
+            let subtree = plan.subtree[self.prim_leaf[prim as usize] as usize];
+            self.refit_buckets[if subtree == NONE { subtrees } else { subtree as usize }].push((prim, k as u32));
+        }
+        let (prims, prim_leaf, buckets) = (&self.tlas_prims, &self.prim_leaf, &self.refit_buckets);
+        let leaves_of = |bucket: &[(u32, u32)]| -> Option<Vec<(u32, Aabb)>> {
+            bucket
+                .iter()
+                .map(|&(prim, k)| Some((prim_leaf[prim as usize], world_aabb(prims[prim as usize].local, &moved[k as usize].2)?)))
+                .collect()
+        };
+        // Split the nodes and marks into the subtrees' runs (in order, disjoint), keep those with movers.
+        let mut parts = Vec::new();
+        let (mut nodes, mut marks, mut at): (&mut [Bvh2Node], &mut [bool], usize) = (&mut bvh.nodes, &mut self.marked, 0);
+        for (t, &(start, end)) in plan.runs.iter().enumerate() {
+            let (start, end) = (start as usize, end as usize);
+            let (run, rest) = std::mem::take(&mut nodes).split_at_mut(start - at).1.split_at_mut(end - start);
+            let (run_marks, rest_marks) = std::mem::take(&mut marks).split_at_mut(start - at).1.split_at_mut(end - start);
+            (nodes, marks, at) = (rest, rest_marks, end);
+            if !buckets[t].is_empty() {
+                let stop = plan.roots[t] as usize;
+                parts.push((t, TlasPart { nodes: run, marks: run_marks, base: start, stop, scan_marks: true }));
+            }
+        }
+        let parents = &bvh.parents;
+        let results: Vec<Option<(usize, SubtreeRefit)>> = parts
+            .into_par_iter()
+            .map(|(t, part)| {
+                let leaves = leaves_of(&buckets[t])?;
+                let mut out = SubtreeRefit::default();
+                part.refit(parents, &leaves, &[], &mut out);
+                Some((t, out))
+            })
+            .collect();
+        // Above the cut: the roots of the subtrees that changed, and the movers there.
+        let mut roots = Vec::new();
+        let mut dirty = Vec::with_capacity(results.len() + 1);
+        let mut area = 0.0;
+        for (t, out) in results.into_iter().collect::<Option<Vec<_>>>()? {
+            if !out.dirty.is_empty() {
+                roots.push(plan.roots[t]);
+            }
+            area += out.area;
+            dirty.push(out.dirty);
+        }
+        let leaves = leaves_of(&buckets[subtrees])?;
+        let top = TlasPart { nodes: &mut bvh.nodes, marks: &mut self.marked, base: 0, stop: NONE as usize, scan_marks: false };
+        let mut out = SubtreeRefit::default();
+        top.refit(&bvh.parents, &leaves, &roots, &mut out);
+        dirty.push(out.dirty);
+        Some(RefitOutput { dirty, area: area + out.area })
+    }
+
+    /// Uploads the wide nodes marked in `wide_marked`: changed nodes near each other in one copy.
+    fn upload_wide_nodes(&mut self, gpu: &GpuContext, uploads: &mut Uploads) {
+        let gap = TLAS_UPLOAD_GAP_BYTES / size_of::<CwBvhNode>();
+        let mut runs: Vec<(usize, usize)> = Vec::new();
+        for w in (0..self.wide_marked.len()).filter(|&w| self.wide_marked[w]) {
+            match runs.last_mut() {
+                Some((_, end)) if w <= *end + gap => *end = w + 1,
+                _ => runs.push((w, w + 1)),
+            }
+            self.stats.tlas_nodes_uploaded += 1;
+        }
+        for &(a, b) in &runs {
+            let offset = (a * size_of::<CwBvhNode>()) as u64;
+            uploads.write(gpu, &self.tlas_nodes.buffer, offset, bytemuck::cast_slice(&self.gpu_tlas[a..b]));
+        }
+        self.stats.tlas_upload_copies += runs.len();
+    }
+}
+
+/// What a refit changed: the Bvh2 nodes whose bounds changed (in lists, one per part refitted) and
+/// the change of the inner nodes' summed half areas.
+struct RefitOutput {
+    dirty: Vec<Vec<u32>>,
+    area: f64,
+}
+
+/// What refitting one part of the binary TLAS changed.
+#[derive(Default)]
+struct SubtreeRefit {
+    /// Bvh2 nodes whose bounds changed (the moved leaves included).
+    dirty: Vec<u32>,
+    /// Change of the summed half areas of its inner nodes.
+    area: f64,
+}
+
+/// A part of the binary TLAS to refit: the nodes `base..base + nodes.len()` and their refit marks,
+/// holding every node the refit touches.
+struct TlasPart<'a> {
+    nodes: &'a mut [Bvh2Node],
+    marks: &'a mut [bool],
+    base: usize,
+    /// The node the walks up the tree stop below (a subtree's root; `usize::MAX`: none, up to the root).
+    stop: usize,
+    /// Whether many marked nodes are taken by a scan of the marks rather than sorted (only where
+    /// every mark in `marks` is this refit's).
+    scan_marks: bool,
+}
+
+impl TlasPart<'_> {
+    /// Sets the bounds of the moved `leaves`, then recomputes each inner node above them (and each of
+    /// `roots`, refitted subtrees' roots, with the nodes above them) once, children before parents:
+    /// descending indices, as the build put every parent before its children.
+    fn refit(self, parents: &[u32], leaves: &[(u32, Aabb)], roots: &[u32], out: &mut SubtreeRefit) {
+        let Self { nodes, marks, base, stop, scan_marks } = self;
+        let mut inner: Vec<usize> = Vec::new();
+        // Marks the inner nodes above `index` (below `stop`) not yet marked; they are refitted below.
+        let climb = |marks: &mut [bool], inner: &mut Vec<usize>, mut index: usize| {
+            while index != 0 {
+                index = parents[index] as usize;
+                if index == stop || marks[index - base] {
+                    break;
+                }
+                marks[index - base] = true;
+                inner.push(index);
+            }
+        };
+        for &(leaf, aabb) in leaves {
+            nodes[leaf as usize - base].set_aabb(aabb);
+            out.dirty.push(leaf);
+            climb(marks, &mut inner, leaf as usize);
+        }
+        for &root in roots {
+            let root = root as usize;
+            if !marks[root - base] {
+                marks[root - base] = true;
+                inner.push(root);
+                climb(marks, &mut inner, root);
+            }
+        }
+        // Few nodes: sort them; many (a thousand random movers touch most of the tree): take the
+        // marked ones from the end down, which costs no sort.
+        if scan_marks && inner.len() * 16 >= nodes.len() {
+            inner.clear();
+            inner.extend((0..nodes.len()).rev().filter(|&i| marks[i]).map(|i| i + base));
+        } else {
+            inner.sort_unstable_by(|a, b| b.cmp(a));
+        }
+        for index in inner {
+            let first = nodes[index - base].first_index as usize - base;
+            let union = nodes[first].aabb().union(nodes[first + 1].aabb());
+            let node = &mut nodes[index - base];
+            if *node.aabb() != union {
+                out.area += f64::from(union.half_area()) - f64::from(node.aabb().half_area());
+                node.set_aabb(union);
+                out.dirty.push(index as u32);
+            }
+        }
+    }
+}
+
+/// The binary TLAS cut into subtrees for a parallel refit. The build orders the nodes depth first,
+/// so each subtree's descendants are one contiguous run of nodes, which one task refits through its
+/// own slice; the nodes above the cut (the subtrees' roots included) are few.
+struct RefitPlan {
+    /// Each subtree's root, in the order of their runs.
+    roots: Vec<u32>,
+    /// Each subtree's descendants: `start..end` in the Bvh2's nodes.
+    runs: Vec<(u32, u32)>,
+    /// The subtree each Bvh2 node descends from (its index in `roots`); `NONE` above the cut.
+    subtree: Vec<u32>,
+}
+
+impl RefitPlan {
+    /// Cuts `bvh` into at most `count` subtrees, opening the largest first; `None` when it is too
+    /// small to cut or a subtree's descendants are not contiguous (then refits stay on one thread).
+    fn new(bvh: &Bvh2, count: usize) -> Option<Self> {
+        if !bvh.children_are_ordered_after_parents || bvh.nodes.len() < 3 {
+            return None;
+        }
+        let n = bvh.nodes.len();
+        let mut size = vec![1u32; n];
+        for i in (0..n).rev() {
+            if !bvh.nodes[i].is_leaf() {
+                let first = bvh.nodes[i].first_index as usize;
+                size[i] = 1 + size[first] + size[first + 1];
+            }
+        }
+        let mut cut = std::collections::BinaryHeap::from([(size[0], 0u32)]);
+        while cut.len() < count {
+            match cut.peek() {
+                Some(&(s, i)) if s > 1 => {
+                    cut.pop();
+                    let first = bvh.nodes[i as usize].first_index;
+                    cut.extend([(size[first as usize], first), (size[first as usize + 1], first + 1)]);
+                }
+                _ => break,
+            }
+        }
+        let mut roots: Vec<u32> = cut.into_iter().filter(|&(s, _)| s > 1).map(|(_, i)| i).collect();
+        roots.sort_unstable_by_key(|&r| bvh.nodes[r as usize].first_index);
+        let mut subtree = vec![NONE; n];
+        let mut runs = Vec::with_capacity(roots.len());
+        let mut stack = Vec::new();
+        for (t, &root) in roots.iter().enumerate() {
+            let start = bvh.nodes[root as usize].first_index;
+            let run = start..start + size[root as usize] - 1;
+            stack.extend([start, start + 1]);
+            while let Some(i) = stack.pop() {
+                if !run.contains(&i) || subtree[i as usize] != NONE {
+                    return None;
+                }
+                subtree[i as usize] = t as u32;
+                let node = &bvh.nodes[i as usize];
+                if !node.is_leaf() {
+                    stack.extend([node.first_index, node.first_index + 1]);
+                }
+            }
+            runs.push((run.start, run.end));
+        }
+        Some(Self { roots, runs, subtree })
     }
 }
 
@@ -737,13 +1077,14 @@ pub fn prepare_ray_tracing_scene(
     meshes: Res<Assets<Mesh>>,
     scene: Res<GpuScene>,
     wait: Option<Res<WaitForBlasBuilds>>,
+    hook: Option<Res<BlasBuildHook>>,
     mut uploads: ResMut<Uploads>,
     mut rt: ResMut<RayTracingScene>,
 ) {
     let started = Instant::now();
     rt.stats = BvhFrameStats::default();
     if meshes.len() > rt.requested_meshes {
-        rt.request_blas(&meshes);
+        rt.request_blas(&meshes, hook.as_deref());
     }
     let new_blas = rt.receive_blas(wait.is_some_and(|w| w.0));
     if new_blas {
