@@ -257,9 +257,10 @@ impl<H: WindowHooks> Runner<H> {
             self.hooks.before_frame(state);
             let window = state.window.clone();
             if state.app.world().contains_resource::<WindowUiHook>() {
-                state.app.world_mut().resource_scope(|world, mut ui: bevy_ecs::change_detection::Mut<WindowUiHook>| {
-                    ui.0.before_frame(&window, world)
-                });
+                state
+                    .app
+                    .world_mut()
+                    .resource_scope(|world, mut ui: bevy_ecs::change_detection::Mut<WindowUiHook>| ui.0.before_frame(&window, world));
             }
             state.app.update();
             state.frames += 1;
@@ -323,9 +324,10 @@ impl<H: WindowHooks> ApplicationHandler for Runner<H> {
         let Some(state) = &mut self.state else { return };
         let window = state.window.clone();
         state.ui_consumed = state.app.world().contains_resource::<WindowUiHook>()
-            && state.app.world_mut().resource_scope(|world, mut ui: bevy_ecs::change_detection::Mut<WindowUiHook>| {
-                ui.0.window_event(&window, world, &event)
-            });
+            && state
+                .app
+                .world_mut()
+                .resource_scope(|world, mut ui: bevy_ecs::change_detection::Mut<WindowUiHook>| ui.0.window_event(&window, world, &event));
         self.hooks.window_event(state, &event);
         let result = match event {
             WindowEvent::CloseRequested => {

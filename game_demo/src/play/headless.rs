@@ -24,13 +24,17 @@ pub struct HeadlessPlay {
     pub overlay: bool,
 }
 
-/// What `play --headless --overlay` shows: the overlay's windows, the probes as spheres shaded by
-/// their irradiance and the volume's bounds as a wireframe.
+/// What `play --headless --overlay` shows: the overlay's windows (at 1.25 pixels per point), the
+/// probes as small spheres shaded by their irradiance and the volume's bounds as a wireframe.
 pub fn overlay_views(app: &mut bevy_app::App) {
     super::add_overlay(app);
     let world = app.world_mut();
-    world.resource_mut::<ddgi_overlay::DdgiOverlay>().visible = true;
-    world.resource_mut::<ddgi::DdgiProbeView>().color = ddgi::DdgiProbeColor::Irradiance;
+    let mut overlay = world.resource_mut::<ddgi_overlay::DdgiOverlay>();
+    overlay.visible = true;
+    overlay.headless_pixels_per_point = 1.25;
+    let mut view = world.resource_mut::<ddgi::DdgiProbeView>();
+    view.color = ddgi::DdgiProbeColor::Irradiance;
+    view.radius = 0.06;
     world.resource_mut::<ddgi_overlay::DdgiVisualizerViews>().bounds = true;
 }
 

@@ -155,7 +155,6 @@ fn light_ui(ui: &mut egui::Ui, world: &mut World, entity: Entity) {
     }
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;

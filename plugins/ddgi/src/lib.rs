@@ -105,8 +105,8 @@ use engine::render::{FrameScript, frame_script_is};
 
 pub use cascades::{DdgiCascade, DdgiCascades, DdgiFirstCameraCascades};
 pub use debug_view::{DdgiContactOcclusion, DdgiDebugPass, DdgiDebugPasses, DdgiOutput, DdgiProbeColor, DdgiProbeView, DdgiSkyLight};
-pub use inspect::{DdgiProbeStateCounts, DdgiUpdateControl};
 pub use frame::{DdgiFrame, VolumeHandles, render_ddgi_frame};
+pub use inspect::{DdgiProbeStateCounts, DdgiUpdateControl};
 pub use pipelines::DdgiPipelines;
 pub use resources::{DdgiGpuVolumes, VolumeGpu};
 pub use sync::{rays_counter, rays_traced, volume_suffix};

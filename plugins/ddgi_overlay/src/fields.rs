@@ -203,17 +203,11 @@ pub const ADAPTIVE_FIELDS: &[Field<DdgiAdaptive>] = &[
     Field { name: "error_smoothing", edit: |ui, a| f32_range(ui, &mut a.error_smoothing, 0.0, 1.0, 0.002) },
     Field { name: "error_floor", edit: |ui, a| f32_range(ui, &mut a.error_floor, 0.0, 10.0, 1e-4) },
     Field { name: "dark_fraction", edit: |ui, a| f32_range(ui, &mut a.dark_fraction, 0.0, 1.0, 1e-4) },
-    Field {
-        name: "frame_budget",
-        edit: |ui, a| optional(ui, &mut a.frame_budget, 1 << 18, |ui, b| u32_range(ui, b, 1, u32::MAX)),
-    },
+    Field { name: "frame_budget", edit: |ui, a| optional(ui, &mut a.frame_budget, 1 << 18, |ui, b| u32_range(ui, b, 1, u32::MAX)) },
     Field { name: "max_rest_frames", edit: |ui, a| u32_range(ui, &mut a.max_rest_frames, 0, 0xffff) },
     Field { name: "rest_error", edit: |ui, a| f32_range(ui, &mut a.rest_error, 0.0, 10.0, 0.005) },
     Field { name: "hysteresis_exponent", edit: |ui, a| f32_range(ui, &mut a.hysteresis_exponent, 0.0, 1.0, 0.005) },
-    Field {
-        name: "rest_smoothing",
-        edit: |ui, a| optional(ui, &mut a.rest_smoothing, 0.97, |ui, s| f32_range(ui, s, 0.0, 0.999, 0.001)),
-    },
+    Field { name: "rest_smoothing", edit: |ui, a| optional(ui, &mut a.rest_smoothing, 0.97, |ui, s| f32_range(ui, s, 0.0, 0.999, 0.001)) },
 ];
 
 /// The editors of every [`DdgiWeights`] field, in the struct's order.

@@ -142,15 +142,17 @@ fn locate<T: serde::de::DeserializeOwned>(value: &Value, path: &str) -> Option<(
             continue;
         }
         let here = if path.is_empty() { key.clone() } else { format!("{path}.{key}") };
-        return Some(match (std::any::type_name::<T>(), key.as_str()) {
-            (t, "volumes") if t.ends_with("DdgiSettingsFile") => locate_list::<DdgiVolume>(v, &here),
-            (t, "cascades") if t.ends_with("DdgiSettingsFile") && v.is_object() => locate::<DdgiCascades>(v, &here),
-            (t, "volume") if t.ends_with("DdgiCascades") && v.is_object() => locate::<DdgiVolume>(v, &here),
-            (t, "adaptive") if t.ends_with("DdgiVolume") && v.is_object() => locate::<DdgiAdaptive>(v, &here),
-            (t, "weights") if t.ends_with("DdgiVolume") && v.is_object() => locate::<DdgiWeights>(v, &here),
-            _ => None,
-        }
-        .unwrap_or((here, v.clone())));
+        return Some(
+            match (std::any::type_name::<T>(), key.as_str()) {
+                (t, "volumes") if t.ends_with("DdgiSettingsFile") => locate_list::<DdgiVolume>(v, &here),
+                (t, "cascades") if t.ends_with("DdgiSettingsFile") && v.is_object() => locate::<DdgiCascades>(v, &here),
+                (t, "volume") if t.ends_with("DdgiCascades") && v.is_object() => locate::<DdgiVolume>(v, &here),
+                (t, "adaptive") if t.ends_with("DdgiVolume") && v.is_object() => locate::<DdgiAdaptive>(v, &here),
+                (t, "weights") if t.ends_with("DdgiVolume") && v.is_object() => locate::<DdgiWeights>(v, &here),
+                _ => None,
+            }
+            .unwrap_or((here, v.clone())),
+        );
     }
     None
 }

@@ -90,23 +90,22 @@ pub fn overlay_ui(ctx: &egui::Context, world: &mut World, panels: &mut DdgiOverl
 
 fn windows(ctx: &egui::Context, state: &mut DdgiOverlay, world: &mut World) {
     egui::Window::new("Performance").default_pos([10.0, 10.0]).show(ctx, |ui| performance_ui(ui, state, world));
-    egui::Window::new("DDGI").default_pos([10.0, 330.0]).default_height(600.0).show(ctx, |ui| {
+    egui::Window::new("DDGI").default_pos([300.0, 10.0]).default_height(600.0).show(ctx, |ui| {
         egui::ScrollArea::vertical().show(ui, |ui| ddgi_ui(ui, state, world));
     });
     let view = world.get_resource::<DdgiProbeView>().copied().unwrap_or_default();
-    let selected_entity = world
-        .get_resource::<DdgiGpuVolumes>()
-        .and_then(|v| selected_volume(&v.volumes, Some(&view)).map(|i| v.volumes[i].0));
+    let selected_entity =
+        world.get_resource::<DdgiGpuVolumes>().and_then(|v| selected_volume(&v.volumes, Some(&view)).map(|i| v.volumes[i].0));
     if let (Some(index), Some(volume)) = (view.selected, selected_entity) {
         let mut open = true;
-        egui::Window::new("Probe").open(&mut open).default_pos([330.0, 10.0]).show(ctx, |ui| probe_ui(ui, state, world, volume, index));
+        egui::Window::new("Probe").open(&mut open).default_pos([590.0, 10.0]).show(ctx, |ui| probe_ui(ui, state, world, volume, index));
         if !open && let Some(mut view) = world.get_resource_mut::<DdgiProbeView>() {
             view.selected = None;
         }
     }
     if state.show_atlases {
         let mut open = true;
-        egui::Window::new("Atlases").open(&mut open).default_pos([330.0, 300.0]).show(ctx, |ui| atlases_ui(ui, state));
+        egui::Window::new("Atlases").open(&mut open).default_pos([590.0, 300.0]).show(ctx, |ui| atlases_ui(ui, state));
         state.show_atlases = open;
     }
     if (view.selected.is_some() || state.show_atlases) && state.atlas_age >= ATLAS_REFRESH_SECONDS {
@@ -323,7 +322,8 @@ fn save_load_ui(ui: &mut egui::Ui, state: &mut DdgiOverlay, world: &mut World) {
         let file = state.settings_path.display().to_string();
         if ui.button("save").clicked() {
             let settings = settings::collect(world);
-            state.settings_status = Some(settings::save(&settings, &state.settings_path).map(|()| format!("saved {file}")).map_err(|e| e.to_string()));
+            state.settings_status =
+                Some(settings::save(&settings, &state.settings_path).map(|()| format!("saved {file}")).map_err(|e| e.to_string()));
         }
         if ui.button("load").clicked() {
             let result = settings::load(&state.settings_path).and_then(|s| settings::apply(world, &s, &file));
@@ -398,7 +398,6 @@ impl Rgba {
     }
 }
 
-
 fn performance_ui(ui: &mut egui::Ui, state: &mut DdgiOverlay, world: &World) {
     ui.label(format!("{:.1} frames/s", state.history.fps()));
     let Some(timings) = world.get_resource::<FrameTimings>() else { return };
@@ -454,7 +453,6 @@ fn performance_ui(ui: &mut egui::Ui, state: &mut DdgiOverlay, world: &World) {
         ui.colored_label(egui::Color32::from_rgb(255, 160, 40), "— probe update");
     });
 }
-
 
 fn probe_ui(ui: &mut egui::Ui, state: &mut DdgiOverlay, world: &mut World, volume: Entity, index: u32) {
     let mut query = world.query::<&DdgiProbe>();
@@ -582,4 +580,3 @@ fn refresh_atlases(ctx: &egui::Context, state: &mut DdgiOverlay, world: &mut Wor
         }
     }
 }
-

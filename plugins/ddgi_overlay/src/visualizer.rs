@@ -86,7 +86,8 @@ pub fn gpu_structs() -> Vec<engine::shader::HostStruct> {
 /// line (`LINE_VERTICES`), read from the shader.
 pub fn vertex_counts() -> Result<(u32, u32), ShaderError> {
     let parsed = engine::shader::parse("ddgi_visualizer.wgsl")?;
-    let constant = |name: &str| parsed.u32_constant(name).ok_or_else(|| ShaderError::Missing(format!("ddgi_visualizer.wgsl: const {name}")));
+    let constant =
+        |name: &str| parsed.u32_constant(name).ok_or_else(|| ShaderError::Missing(format!("ddgi_visualizer.wgsl: const {name}")));
     Ok((6 * constant("SPHERE_RINGS")? * constant("SPHERE_SEGMENTS")?, constant("LINE_VERTICES")?))
 }
 

@@ -46,7 +46,10 @@ fn every_setting_has_an_editor_and_its_doc_as_tooltip() {
     assert_eq!(sorted(field_docs("DdgiWeights").keys().cloned()), serialized_fields(&ddgi::DdgiWeights::default()));
     // Each tooltip is the field's doc comment, as plain text.
     let hysteresis = &field_docs("DdgiVolume")["hysteresis"];
-    assert!(hysteresis.starts_with("Weight of the old value when blending in a frame's rays, in [0, 1]: close to 1 is stable"), "{hysteresis}");
+    assert!(
+        hysteresis.starts_with("Weight of the old value when blending in a frame's rays, in [0, 1]: close to 1 is stable"),
+        "{hysteresis}"
+    );
     let min_rays = &field_docs("DdgiAdaptive")["min_rays"];
     assert!(min_rays.contains("Fewest rays of an active probe"), "{min_rays}");
     for docs in ["DdgiVolume", "DdgiAdaptive", "DdgiWeights"].map(field_docs) {
@@ -88,12 +91,9 @@ fn settings_round_trip_through_json() {
     settings::save(&file, &path).expect("save");
     assert_eq!(settings::load(&path).expect("load"), file);
     // Fields left out keep their defaults.
-    let partial = settings::parse(r#"{ "volumes": [ { "hysteresis": 0.5, "adaptive": { "decay": 0.5 } } ] }"#, "partial.json").expect("parse");
-    let expected = DdgiVolume {
-        hysteresis: 0.5,
-        adaptive: ddgi::DdgiAdaptive { decay: 0.5, ..Default::default() },
-        ..Default::default()
-    };
+    let partial =
+        settings::parse(r#"{ "volumes": [ { "hysteresis": 0.5, "adaptive": { "decay": 0.5 } } ] }"#, "partial.json").expect("parse");
+    let expected = DdgiVolume { hysteresis: 0.5, adaptive: ddgi::DdgiAdaptive { decay: 0.5, ..Default::default() }, ..Default::default() };
     assert_eq!(partial.volumes, vec![expected]);
     std::fs::remove_dir_all(dir).ok();
 }
@@ -102,7 +102,10 @@ fn settings_round_trip_through_json() {
 fn bad_settings_files_name_the_file_the_field_and_the_value() {
     let cases: [(&str, &str); 7] = [
         // A value of the wrong type, nested: the field's path and the value.
-        (r#"{ "volumes": [ {}, { "adaptive": { "min_rays": "many" } } ] }"#, r#"bad.json: volumes[1].adaptive.min_rays = "many": invalid type: string"#),
+        (
+            r#"{ "volumes": [ {}, { "adaptive": { "min_rays": "many" } } ] }"#,
+            r#"bad.json: volumes[1].adaptive.min_rays = "many": invalid type: string"#,
+        ),
         // A field the settings do not have.
         (r#"{ "volumes": [ { "hysterisis": 0.5 } ] }"#, "bad.json: volumes[0].hysterisis = 0.5: unknown field `hysterisis`"),
         (r#"{ "volumes": [ { "weights": { "chebyshev": 1 } } ] }"#, "bad.json: volumes[0].weights.chebyshev = 1: invalid type"),
@@ -249,7 +252,8 @@ fn every_volume_and_cascade_is_listed_and_selectable() {
     let (camera, transform) = ddgi_overlay::picking::view_camera(world).expect("a camera");
     let volumes = world.resource::<DdgiGpuVolumes>();
     let probe = volumes.get(second).expect("the second volume lights");
-    let target = probe.layout.grid_position(probe.layout.probe_count / 2) + Vec3::from_array(probe.probe_data[(probe.layout.probe_count / 2) as usize].offset);
+    let target = probe.layout.grid_position(probe.layout.probe_count / 2)
+        + Vec3::from_array(probe.probe_data[(probe.layout.probe_count / 2) as usize].offset);
     let pixel = project(&camera, &transform, size, target);
     let picked = ddgi_overlay::pick_probe_in_world(world, pixel);
     assert!(picked.is_some(), "no probe of the selected volume under its own probe's pixel {pixel}");
@@ -295,7 +299,9 @@ fn segment_distance(p: Vec2, a: Vec2, b: Vec2) -> f32 {
 
 /// The twelve edges of a box, as corner pairs.
 fn box_edges(lo: Vec3, hi: Vec3) -> Vec<(Vec3, Vec3)> {
-    let corner = |k: u32| Vec3::new(if k & 1 == 0 { lo.x } else { hi.x }, if k & 2 == 0 { lo.y } else { hi.y }, if k & 4 == 0 { lo.z } else { hi.z });
+    let corner = |k: u32| {
+        Vec3::new(if k & 1 == 0 { lo.x } else { hi.x }, if k & 2 == 0 { lo.y } else { hi.y }, if k & 4 == 0 { lo.z } else { hi.z })
+    };
     let mut edges = Vec::new();
     for k in 0..8u32 {
         for bit in [1, 2, 4] {
@@ -326,8 +332,10 @@ fn the_wireframe_and_the_offset_lines_lie_on_their_projected_geometry() {
     let v = &volumes.volumes[0].1;
     // The layout's box (the cells around the probes) and each probe's offset as the GPU holds them.
     let probes: Vec<ddgi::gpu::DdgiProbeData> = bytemuck::pod_collect_to_vec(&engine::render::readback::read_buffer(&gpu, &v.probes));
-    let edges: Vec<(Vec2, Vec2)> =
-        box_edges(v.layout.bounds.0, v.layout.bounds.1).into_iter().map(|(a, b)| (project(&camera, &transform, size, a), project(&camera, &transform, size, b))).collect();
+    let edges: Vec<(Vec2, Vec2)> = box_edges(v.layout.bounds.0, v.layout.bounds.1)
+        .into_iter()
+        .map(|(a, b)| (project(&camera, &transform, size, a), project(&camera, &transform, size, b)))
+        .collect();
     let offsets: Vec<(Vec2, Vec2)> = (0..v.layout.probe_count)
         .map(|i| {
             let a = v.layout.grid_position(i);
@@ -363,15 +371,18 @@ fn the_wireframe_and_the_offset_lines_lie_on_their_projected_geometry() {
                 continue;
             }
             samples += 1;
-            let hit = (-1..=1).any(|dy: i32| {
-                (-1..=1).any(|dx: i32| is(pixel((p.x as i32 + dx) as u32, (p.y as i32 + dy) as u32), [255, 255, 0]))
-            });
+            let hit = (-1..=1)
+                .any(|dy: i32| (-1..=1).any(|dx: i32| is(pixel((p.x as i32 + dx) as u32, (p.y as i32 + dy) as u32), [255, 255, 0])));
             covered += u32::from(hit);
         }
     }
     assert!(samples > 50 && covered as f32 > 0.6 * samples as f32, "{covered} of {samples} points along the edges are drawn");
     assert!(yellow > 100, "only {yellow} wireframe pixels");
-    let relocated = probes.iter().take(v.layout.probe_count as usize).filter(|p| Vec3::from_array(p.offset).length() > 0.05 * v.layout.spacing.min_element()).count();
+    let relocated = probes
+        .iter()
+        .take(v.layout.probe_count as usize)
+        .filter(|p| Vec3::from_array(p.offset).length() > 0.05 * v.layout.spacing.min_element())
+        .count();
     if relocated > 0 {
         assert!(cyan > 0, "{relocated} probes moved but no offset line is drawn");
     }
@@ -384,6 +395,10 @@ fn the_wireframe_and_the_offset_lines_lie_on_their_projected_geometry() {
     app.world_mut().insert_resource(DdgiVisualizerViews { distance_spheres: true, radius: 0.3, ..Default::default() });
     run_frames(&mut app, 1, |_, _| {});
     let spheres = read_ldr(&gpu, app.world());
-    let changed = spheres.chunks_exact(4).zip(plain.chunks_exact(4)).filter(|(a, b)| a.iter().zip(b.iter()).any(|(x, y)| x.abs_diff(*y) > 30)).count();
+    let changed = spheres
+        .chunks_exact(4)
+        .zip(plain.chunks_exact(4))
+        .filter(|(a, b)| a.iter().zip(b.iter()).any(|(x, y)| x.abs_diff(*y) > 30))
+        .count();
     assert!(changed > 200, "the distance spheres changed only {changed} pixels");
 }
