@@ -189,7 +189,7 @@ struct PlayArgs {
     #[arg(long, default_value = "out/play")]
     out: PathBuf,
     /// Headless: draw the DDGI overlay into the frames (its windows, the probes shaded by their
-    /// irradiance, the volume's bounds), as F1 shows it in the window.
+    /// irradiance, the volume's bounds), as F1 shows it in the window (at 1.25 pixels per point, the probe spheres at 0.06 of a cell).
     #[arg(long, requires = "headless")]
     overlay: bool,
     /// Windowed: run the scripted walk on the fixed clock for --frames frames, save the last
