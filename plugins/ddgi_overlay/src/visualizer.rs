@@ -91,11 +91,14 @@ pub fn vertex_counts() -> Result<(u32, u32), ShaderError> {
     Ok((6 * constant("SPHERE_RINGS")? * constant("SPHERE_SEGMENTS")?, constant("LINE_VERTICES")?))
 }
 
+/// The pass's pipeline, with the vertices of one sphere and of one line.
+type VisualizerProgram = (Arc<Program<wgpu::RenderPipeline>>, u32, u32);
+
 /// The pass: its pipeline (built on first use) and the views, copied in from
 /// [`DdgiVisualizerViews`] each frame.
 pub struct Visualizer {
     views: Mutex<DdgiVisualizerViews>,
-    program: Mutex<Option<(Arc<Program<wgpu::RenderPipeline>>, u32, u32)>>,
+    program: Mutex<Option<VisualizerProgram>>,
 }
 
 /// The pass object the plugin registered, to copy the views into.
@@ -121,7 +124,7 @@ pub(crate) fn sync_visualizer_views(views: Res<DdgiVisualizerViews>, pass: Optio
 }
 
 impl Visualizer {
-    fn program(&self, gpu: &engine::gpu::GpuContext) -> Result<(Arc<Program<wgpu::RenderPipeline>>, u32, u32), ShaderError> {
+    fn program(&self, gpu: &engine::gpu::GpuContext) -> Result<VisualizerProgram, ShaderError> {
         let mut slot = self.program.lock().unwrap_or_else(|e| e.into_inner());
         if let Some(p) = &*slot {
             return Ok(p.clone());
