@@ -24,6 +24,19 @@ fn every_engine_module_parses_and_validates() {
 }
 
 #[test]
+fn the_ddgi_overlay_shaders_match_their_folder_and_validate() {
+    // The overlay's WGSL includes DDGI's, which the overlay registers first (as its plugin does).
+    ddgi::register_shaders().expect("register ddgi");
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../plugins/ddgi_overlay/shaders");
+    shader::check_shader_folder(&dir, ddgi_overlay::visualizer::SHADERS).unwrap_or_else(|e| panic!("{e}"));
+    shader::register(ddgi_overlay::visualizer::SHADERS).expect("register");
+    for (name, _) in ddgi_overlay::visualizer::SHADERS {
+        let parsed = shader::parse(name).unwrap_or_else(|e| panic!("{e}"));
+        assert!(!parsed.module.entry_points.is_empty(), "{name} has no entry point");
+    }
+}
+
+#[test]
 fn a_broken_shader_is_reported_in_its_own_file_and_line() {
     // A module of a few lines, with a parse error on its line 4, included after the ray-tracing
     // core (hundreds of lines): the report names the module and its own line, not the expanded one.

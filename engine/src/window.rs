@@ -58,6 +58,23 @@ pub enum WindowError {
     App(String),
 }
 
+/// A UI living in the app (a plugin's debug overlay, say) that takes the window's input: the
+/// runner hands it every window event before the app's [`WindowHooks`] see it, and calls it before
+/// each frame's update. Insert it as a [`WindowUiHook`] resource (the `ddgi_overlay` plugin does,
+/// for its egui); a windowless app never calls it.
+pub trait WindowUi: Send + Sync + 'static {
+    /// A window event. Returns whether the UI used it (a click on its window, a key typed into a
+    /// field): the hooks then see [`WindowContext::event_consumed_by_ui`] true and should not act on
+    /// it too.
+    fn window_event(&mut self, window: &Window, world: &mut World, event: &WindowEvent) -> bool;
+    /// Before each frame's update (after [`WindowHooks::before_frame`]): take this frame's input.
+    fn before_frame(&mut self, window: &Window, world: &mut World);
+}
+
+/// The app's [`WindowUi`], as a resource the windowed runner looks for.
+#[derive(bevy_ecs::prelude::Resource)]
+pub struct WindowUiHook(pub Box<dyn WindowUi>);
+
 /// How many times in a row the runner reopens the GPU after losing it before it gives up.
 pub const MAX_DEVICE_RECOVERIES: u32 = 3;
 
@@ -75,7 +92,8 @@ pub trait WindowHooks: 'static {
         Time::real()
     }
 
-    /// Adds the app's plugins, systems, scene and overlay ([`crate::render::SurfaceOverlayHook`]) to
+    /// Adds the app's plugins, systems, scene and overlay (a [`WindowUiHook`] for its input and an
+    /// [`crate::render::ImageOverlayHook`] for its draws, which a UI plugin inserts itself) to
     /// `window.app`, which already has the engine, the camera path and the window's surface; the
     /// runner finishes the plugins afterwards. Called when the window opens and again on a new GPU
     /// device after a lost one, the clock going on.
@@ -154,6 +172,8 @@ pub struct WindowContext {
     pub format: wgpu::TextureFormat,
     /// The window's size as last reported (zero while minimized).
     size: PhysicalSize<u32>,
+    /// Whether the app's [`WindowUi`] used the event being handled.
+    ui_consumed: bool,
     frames: u32,
     skipped: u32,
     exit: bool,
@@ -168,6 +188,12 @@ impl WindowContext {
     /// Redraws skipped because the window had no pixels, since it opened.
     pub fn skipped_redraws(&self) -> u32 {
         self.skipped
+    }
+
+    /// Whether the app's [`WindowUi`] used the window event the hooks are handling (always false
+    /// without one).
+    pub fn event_consumed_by_ui(&self) -> bool {
+        self.ui_consumed
     }
 
     /// The window's size as last reported.
@@ -215,7 +241,7 @@ impl<H: WindowHooks> Runner<H> {
         skipped: u32,
     ) -> Result<WindowContext, WindowError> {
         let (app, gpu, format) = windowed_app(&window, time)?;
-        let mut state = WindowContext { window, app, gpu, format, size, frames, skipped, exit: false };
+        let mut state = WindowContext { window, app, gpu, format, size, ui_consumed: false, frames, skipped, exit: false };
         self.hooks.build(&mut state).map_err(WindowError::App)?;
         finish_plugins(&mut state.app);
         state.window.request_redraw();
@@ -229,6 +255,13 @@ impl<H: WindowHooks> Runner<H> {
         let rendered = state.size.width > 0 && state.size.height > 0;
         if rendered {
             self.hooks.before_frame(state);
+            let window = state.window.clone();
+            if state.app.world().contains_resource::<WindowUiHook>() {
+                state
+                    .app
+                    .world_mut()
+                    .resource_scope(|world, mut ui: bevy_ecs::change_detection::Mut<WindowUiHook>| ui.0.before_frame(&window, world));
+            }
             state.app.update();
             state.frames += 1;
         } else {
@@ -289,6 +322,12 @@ impl<H: WindowHooks> ApplicationHandler for Runner<H> {
 
     fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
         let Some(state) = &mut self.state else { return };
+        let window = state.window.clone();
+        state.ui_consumed = state.app.world().contains_resource::<WindowUiHook>()
+            && state
+                .app
+                .world_mut()
+                .resource_scope(|world, mut ui: bevy_ecs::change_detection::Mut<WindowUiHook>| ui.0.window_event(&window, world, &event));
         self.hooks.window_event(state, &event);
         let result = match event {
             WindowEvent::CloseRequested => {

@@ -34,6 +34,7 @@ const EVAL_EXAMPLES: &str = "Examples:
 const PLAY_EXAMPLES: &str = "Examples:
   game_demo play                                                     # the demo level in a window
   game_demo play --headless --frames 600 --every 60 --out out/play   # its scripted walk to PNGs
+  game_demo play --headless --overlay --frames 120 --every 0         # the same, with the DDGI overlay drawn in
   game_demo play --headless --soak --frames 10000                    # the soak test
   game_demo play --headless --frames 120 --trace out/play/trace.json # a Chrome trace of the walk
   game_demo play --scene open_world                                  # the open world's tour
@@ -199,6 +200,10 @@ struct PlayArgs {
     /// Headless: output folder of the frames and frames.csv.
     #[arg(long, default_value = "out/play")]
     out: PathBuf,
+    /// Headless: draw the DDGI overlay into the frames (its windows, the probes shaded by their
+    /// irradiance, the volume's bounds), as F1 shows it in the window (at 1.25 pixels per point, the probe spheres at 0.06 of a cell).
+    #[arg(long, requires = "headless")]
+    overlay: bool,
     /// Windowed: run the scripted walk on the fixed clock for --frames frames, save the last
     /// frame to this PNG and exit (what the Xvfb test compares with --headless).
     #[arg(long)]
@@ -322,7 +327,7 @@ fn play(args: PlayArgs) -> Result<(), String> {
     }
     if args.headless {
         let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
-        let run = play::headless::HeadlessPlay { frames: args.frames, every: args.every, out: args.out };
+        let run = play::headless::HeadlessPlay { frames: args.frames, every: args.every, out: args.out, overlay: args.overlay };
         let report = play::headless::run_headless_play(&gpu, &options, &run)?;
         println!("frames: {} PNGs in {}; per-frame timings: {}", report.images.len(), run.out.display(), report.csv.display());
         if let Some(ms) = report.mean_gpu_ms {

@@ -196,7 +196,8 @@ impl RenderOutputs {
             size,
             // Render attachment too: debug overlays (DDGI's probe spheres) rasterize into it.
             hdr: texture("hdr_radiance", HDR_FORMAT, U::STORAGE_BINDING | U::TEXTURE_BINDING | U::COPY_SRC | U::RENDER_ATTACHMENT),
-            ldr: texture("ldr_image", LDR_FORMAT, U::STORAGE_BINDING | U::TEXTURE_BINDING | U::COPY_SRC),
+            // Render attachment too: an image overlay (a debug UI) rasterizes into it.
+            ldr: texture("ldr_image", LDR_FORMAT, U::STORAGE_BINDING | U::TEXTURE_BINDING | U::COPY_SRC | U::RENDER_ATTACHMENT),
         }
     }
 }
@@ -221,18 +222,21 @@ pub struct SurfaceTarget {
     pub lost: std::sync::atomic::AtomicBool,
 }
 
-/// Something drawn over the presented image, after the blit (the demo's egui overlay). It records
-/// into the frame's encoder as the graph pass [`SurfaceOverlay::label`].
-pub trait SurfaceOverlay: Send + Sync + 'static {
+/// Something drawn over the finished image (a debug UI such as `ddgi_overlay`'s egui): it records
+/// into the frame's encoder as the graph pass [`ImageOverlay::label`], after the tonemap, into the
+/// tonemapped image ([`RenderOutputs::ldr`], [`LDR_FORMAT`], sRGB-encoded values), so that the
+/// window shows it and the frames an app saves hold it.
+pub trait ImageOverlay: Send + Sync + 'static {
     /// The pass label (wgpu label, timing span and overlay name).
     fn label(&self) -> &'static str;
-    /// Records the overlay's draws into `target` (the surface texture, `size` pixels).
+    /// Records the overlay's draws into `target` (the tonemapped image, `size` pixels, to be loaded
+    /// and drawn over).
     fn record(&self, gpu: &GpuContext, encoder: &mut wgpu::CommandEncoder, target: &wgpu::TextureView, size: (u32, u32));
 }
 
-/// The overlay drawn when the frame is presented to a window; absent: nothing is drawn.
+/// The overlay drawn over every frame's tonemapped image; absent: nothing is drawn.
 #[derive(Resource, Clone)]
-pub struct SurfaceOverlayHook(pub Arc<dyn SurfaceOverlay>);
+pub struct ImageOverlayHook(pub Arc<dyn ImageOverlay>);
 
 /// Per-pass GPU time of each frame, and which passes were left out and why.
 #[derive(Resource, Default)]
@@ -499,7 +503,7 @@ pub struct CameraFrame<'w> {
     timer: ResMut<'w, GpuTimer>,
     timings: ResMut<'w, FrameTimings>,
     surface: Option<Res<'w, SurfaceTarget>>,
-    overlay: Option<Res<'w, SurfaceOverlayHook>>,
+    overlay: Option<Res<'w, ImageOverlayHook>>,
     display: Option<Res<'w, DisplayTransform>>,
     taa: Option<ResMut<'w, TaaState>>,
     exposure: Option<Res<'w, ExposureState>>,
@@ -641,6 +645,12 @@ impl CameraFrame<'_> {
                 dispatch(ctx.encoder, ctx.label, &program.pipeline, &[&group0, &group1], workgroups(size));
             });
         }
+        if let Some(overlay) = self.overlay.as_ref().map(|o| o.0.clone()) {
+            let mut pass = graph.add_pass(overlay.label());
+            pass.read(&ldr);
+            let out = pass.write(&mut ldr);
+            pass.render(move |ctx| overlay.record(ctx.gpu, ctx.encoder, ctx.view(out), (size.width, size.height)));
+        }
         graph.export(&hdr);
         graph.export(&ldr);
         let surface = self.surface.as_ref();
@@ -671,13 +681,6 @@ impl CameraFrame<'_> {
                 rp.set_bind_group(0, &group0, &[]);
                 rp.draw(0..3, 0..1);
             });
-            if let Some(overlay) = self.overlay.as_ref().map(|o| o.0.clone()) {
-                let mut pass = graph.add_pass(overlay.label());
-                pass.read(&swap);
-                let out = pass.write(&mut swap);
-                let (width, height) = (target.config.width, target.config.height);
-                pass.render(move |ctx| overlay.record(ctx.gpu, ctx.encoder, ctx.view(out), (width, height)));
-            }
             graph.export(&swap);
         }
 

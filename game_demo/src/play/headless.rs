@@ -20,6 +20,22 @@ pub struct HeadlessPlay {
     /// Write a PNG every this many frames (0: only the last).
     pub every: u32,
     pub out: PathBuf,
+    /// Draw the DDGI overlay into the frames ([`overlay_views`]).
+    pub overlay: bool,
+}
+
+/// What `play --headless --overlay` shows: the overlay's windows (at 1.25 pixels per point), the
+/// probes as small spheres shaded by their irradiance and the volume's bounds as a wireframe.
+pub fn overlay_views(app: &mut bevy_app::App) {
+    super::add_overlay(app);
+    let world = app.world_mut();
+    let mut overlay = world.resource_mut::<ddgi_overlay::DdgiOverlay>();
+    overlay.visible = true;
+    overlay.headless_pixels_per_point = 1.25;
+    let mut view = world.resource_mut::<ddgi::DdgiProbeView>();
+    view.color = ddgi::DdgiProbeColor::Irradiance;
+    view.radius = 0.06;
+    world.resource_mut::<ddgi_overlay::DdgiVisualizerViews>().bounds = true;
 }
 
 /// What a headless run measured.
@@ -38,6 +54,9 @@ pub fn run_headless_play(gpu: &GpuContext, options: &PlayOptions, run: &Headless
     std::fs::create_dir_all(&run.out).map_err(|e| format!("{}: {e}", run.out.display()))?;
     let mut app = headless_app(gpu, RenderSize { width: options.width, height: options.height }, STEP_SECONDS);
     setup_play(&mut app, options, true)?;
+    if run.overlay {
+        overlay_views(&mut app);
+    }
     let mut players_per_frame = Vec::new();
     let mut images = Vec::new();
     let mut error = None;

@@ -4,7 +4,7 @@
 //! - [`level`]: the level (kit-bashed Kenney models and procedural rooms) and its animations;
 //! - [`navmesh`]: where one can walk (spade's constrained Delaunay triangulation);
 //! - [`controller`]: the first-person controller and the scripted tour;
-//! - [`overlay`]: the egui overlay; [`window`]: its hooks into the engine's windowed runner; [`headless`]: the scripted
+//! - [`overlay`]: the demo's panels in the DDGI overlay (`ddgi_overlay`); [`window`]: its hooks into the engine's windowed runner; [`headless`]: the scripted
 //!   walk without a window; [`soak`]: thousands of frames checked for NaN, memory growth and
 //!   timing drift; [`tour`]: the open world's tour with camera-following cascades.
 
@@ -121,6 +121,14 @@ pub fn setup_play(app: &mut App, options: &PlayOptions, scripted: bool) -> Resul
     }
     app.init_resource::<DdgiProbeView>();
     Ok(level)
+}
+
+/// Adds the DDGI overlay (`ddgi_overlay`, hidden until F1 or [`ddgi_overlay::DdgiOverlay::visible`])
+/// with the demo's own panels: the navigation mesh, the entity inspector, the screenshot button.
+pub fn add_overlay(app: &mut App) {
+    app.add_plugins(ddgi_overlay::DdgiOverlayPlugin);
+    app.init_resource::<overlay::ScreenshotRequest>();
+    app.world_mut().resource_mut::<ddgi_overlay::DdgiOverlayPanels>().add(overlay::DemoPanels::default());
 }
 
 /// Writes the last frame's tonemapped image as a PNG.

@@ -62,6 +62,8 @@ pub struct TourWindow {
 impl WindowHooks for TourWindow {
     fn build(&mut self, window: &mut WindowContext) -> Result<(), String> {
         setup_tour(&mut window.app, self.cascades.clone());
+        // The DDGI overlay (F1): every cascade selectable.
+        window.app.add_plugins(ddgi_overlay::DdgiOverlayPlugin);
         self.scene.clone().spawn(window.app.world_mut());
         Ok(())
     }

@@ -11,12 +11,9 @@
 
 use std::collections::HashSet;
 use std::path::PathBuf;
-use std::sync::{Arc, Mutex};
-use std::time::Instant;
 
+use ddgi_overlay::DdgiOverlay;
 use engine::app::Time;
-use engine::gpu::GpuContext;
-use engine::render::{SurfaceOverlay, SurfaceOverlayHook};
 use engine::window::{WindowContext, WindowHooks};
 use glam::Vec2;
 use winit::dpi::PhysicalSize;
@@ -26,7 +23,7 @@ use winit::window::{CursorGrabMode, Window, WindowAttributes};
 
 use super::controller::{Player, PlayerInput, ScriptedTour};
 use super::level::DoorControl;
-use super::overlay::{OverlayState, overlay_ui, pick_probe_in_world};
+use super::overlay::ScreenshotRequest;
 use super::{PlayOptions, save_screenshot, setup_play};
 
 /// Mouse-look sensitivity, radians per pixel of mouse motion.
@@ -71,14 +68,10 @@ pub fn run_window(options: PlayOptions, script: Option<WindowScript>) -> Result<
         faults,
         minimized: None,
         resume: None,
-        overlay: OverlayState::default(),
-        egui: None,
         keys: HashSet::new(),
         look: Vec2::ZERO,
         jump: false,
         grabbed: false,
-        cursor: Vec2::ZERO,
-        last_frame: None,
         screenshot_requested: false,
     };
     engine::window::run_window(hooks).map_err(|e| e.to_string())
@@ -94,15 +87,10 @@ struct DemoWindow {
     minimized: Option<Minimized>,
     /// What the app that lost its device leaves to the next one.
     resume: Option<Resume>,
-    overlay: OverlayState,
-    /// The overlay's egui, made anew with each app (it draws with the app's device).
-    egui: Option<Egui>,
     keys: HashSet<KeyCode>,
     look: Vec2,
     jump: bool,
     grabbed: bool,
-    cursor: Vec2,
-    last_frame: Option<Instant>,
     screenshot_requested: bool,
 }
 
@@ -121,69 +109,6 @@ struct Resume {
     player: Option<Player>,
     tour: Option<ScriptedTour>,
     door: Option<DoorControl>,
-}
-
-/// The overlay's egui context, its window-system state and its painter.
-struct Egui {
-    context: egui::Context,
-    winit: egui_winit::State,
-    painter: Arc<EguiPainter>,
-}
-
-/// egui's draws, recorded as the overlay pass after the frame's blit.
-struct EguiPainter {
-    renderer: Mutex<egui_wgpu::Renderer>,
-    frame: Mutex<Option<EguiFrame>>,
-}
-
-struct EguiFrame {
-    jobs: Vec<egui::ClippedPrimitive>,
-    textures: egui::TexturesDelta,
-    pixels_per_point: f32,
-}
-
-impl Drop for EguiFrame {
-    /// A frame dropped unpresented (the window closing) lets its texture updates go.
-    fn drop(&mut self) {
-        self.textures.clear();
-    }
-}
-
-impl SurfaceOverlay for EguiPainter {
-    fn label(&self) -> &'static str {
-        "egui_overlay"
-    }
-
-    fn record(&self, gpu: &GpuContext, encoder: &mut engine::wgpu::CommandEncoder, target: &engine::wgpu::TextureView, size: (u32, u32)) {
-        let Some(frame) = self.frame.lock().unwrap_or_else(|e| e.into_inner()).take() else { return };
-        let mut renderer = self.renderer.lock().unwrap_or_else(|e| e.into_inner());
-        for (id, deltas) in &frame.textures.set {
-            for delta in deltas {
-                renderer.update_texture(&gpu.device, &gpu.queue, *id, delta);
-            }
-        }
-        let screen = egui_wgpu::ScreenDescriptor { size_in_pixels: [size.0, size.1], pixels_per_point: frame.pixels_per_point };
-        renderer.update_buffers(&gpu.device, &gpu.queue, encoder, &frame.jobs, &screen);
-        {
-            let pass = encoder.begin_render_pass(&engine::wgpu::RenderPassDescriptor {
-                label: Some("egui_overlay"),
-                color_attachments: &[Some(engine::wgpu::RenderPassColorAttachment {
-                    view: target,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: engine::wgpu::Operations { load: engine::wgpu::LoadOp::Load, store: engine::wgpu::StoreOp::Store },
-                })],
-                depth_stencil_attachment: None,
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            renderer.render(&mut pass.forget_lifetime(), &frame.jobs, &screen);
-        }
-        for id in &frame.textures.free {
-            renderer.free_texture(id);
-        }
-    }
 }
 
 impl WindowHooks for DemoWindow {
@@ -209,20 +134,7 @@ impl WindowHooks for DemoWindow {
         }
         setup_play(app, &self.options, self.script.is_some())?;
 
-        let renderer = egui_wgpu::Renderer::new(&window.gpu.device, window.format, egui_wgpu::RendererOptions::default());
-        let painter = Arc::new(EguiPainter { renderer: Mutex::new(renderer), frame: Mutex::new(None) });
-        app.insert_resource(SurfaceOverlayHook(painter.clone()));
-        let context = egui::Context::default();
-        let max_texture = window.gpu.device.limits().max_texture_dimension_2d as usize;
-        let winit = egui_winit::State::new(
-            context.clone(),
-            egui::ViewportId::ROOT,
-            &window.window,
-            Some(window.window.scale_factor() as f32),
-            None,
-            Some(max_texture),
-        );
-        self.egui = Some(Egui { context, winit, painter });
+        super::add_overlay(app);
         if let Some(resume) = self.resume.take() {
             let world = app.world_mut();
             if let Some(player) = resume.player {
@@ -247,7 +159,6 @@ impl WindowHooks for DemoWindow {
         let world = window.app.world_mut();
         let player = world.query::<&Player>().iter(world).next().cloned();
         self.resume = Some(Resume { player, tour: world.remove_resource::<ScriptedTour>(), door: world.remove_resource::<DoorControl>() });
-        self.egui = None;
     }
 
     fn device_event(&mut self, _window: &mut WindowContext, event: &DeviceEvent) {
@@ -259,9 +170,11 @@ impl WindowHooks for DemoWindow {
     }
 
     fn window_event(&mut self, window: &mut WindowContext, event: &WindowEvent) {
-        let Some(egui) = &mut self.egui else { return };
         let scripted = self.script.is_some();
-        let egui_consumed = self.overlay.visible && egui.winit.on_window_event(&window.window, event).consumed;
+        // The overlay (ddgi_overlay) saw the event first: F1 has toggled it, a click in the view
+        // with it open has picked a probe.
+        let egui_consumed = window.event_consumed_by_ui();
+        let overlay_visible = window.app.world().get_resource::<DdgiOverlay>().is_some_and(|o| o.visible);
         match event {
             WindowEvent::KeyboardInput { event, .. } => {
                 let PhysicalKey::Code(code) = event.physical_key else { return };
@@ -270,12 +183,7 @@ impl WindowHooks for DemoWindow {
                     match code {
                         KeyCode::Escape if self.grabbed => self.set_grab(&window.window, false),
                         KeyCode::Escape => window.exit(),
-                        KeyCode::F1 => {
-                            self.overlay.visible = !self.overlay.visible;
-                            if self.overlay.visible {
-                                self.set_grab(&window.window, false);
-                            }
-                        }
+                        KeyCode::F1 if overlay_visible => self.set_grab(&window.window, false),
                         KeyCode::F12 => self.screenshot_requested = true,
                         KeyCode::KeyE if !egui_consumed => {
                             let open = super::level::door_is_open(window.app.world_mut());
@@ -294,15 +202,10 @@ impl WindowHooks for DemoWindow {
                     self.keys.remove(&code);
                 }
             }
-            WindowEvent::CursorMoved { position, .. } => self.cursor = Vec2::new(position.x as f32, position.y as f32),
-            WindowEvent::MouseInput { state: ElementState::Pressed, button: MouseButton::Left, .. } if !egui_consumed => {
-                if self.overlay.visible {
-                    if !egui.context.egui_wants_pointer_input() {
-                        pick_probe_in_world(window.app.world_mut(), self.cursor);
-                    }
-                } else if !self.grabbed && !scripted {
-                    self.set_grab(&window.window, true);
-                }
+            WindowEvent::MouseInput { state: ElementState::Pressed, button: MouseButton::Left, .. }
+                if !egui_consumed && !overlay_visible && !self.grabbed && !scripted =>
+            {
+                self.set_grab(&window.window, true);
             }
             WindowEvent::Focused(false) => {
                 self.keys.clear();
@@ -314,35 +217,19 @@ impl WindowHooks for DemoWindow {
         }
     }
 
-    /// Input, and the overlay's UI (an empty frame when hidden, so egui's textures stay in step).
+    /// The player's input (the overlay takes its own through the engine's runner).
     fn before_frame(&mut self, window: &mut WindowContext) {
-        let now = Instant::now();
-        let dt = self.last_frame.map_or(0.0, |l| (now - l).as_secs_f64());
-        self.last_frame = Some(now);
-        self.overlay.frame(dt);
         if self.script.is_none() {
             let input = self.player_input();
             window.app.world_mut().insert_resource(input);
         }
-        let Some(egui) = &mut self.egui else { return };
-        let raw = egui.winit.take_egui_input(&window.window);
-        let world = window.app.world_mut();
-        let overlay = &mut self.overlay;
-        let output = egui.context.run_pass(raw, |ctx| overlay_ui(ctx, overlay, world));
-        egui.winit.handle_platform_output(&window.window, output.platform_output);
-        let jobs = egui.context.tessellate(output.shapes, output.pixels_per_point);
-        // A frame that was never presented (surface unavailable) keeps its texture updates: they go
-        // first.
-        let mut pending = egui.painter.frame.lock().unwrap_or_else(|e| e.into_inner());
-        let mut textures = pending.take().map(|mut f| std::mem::take(&mut f.textures)).unwrap_or_default();
-        textures.append(output.textures_delta);
-        *pending = Some(EguiFrame { jobs, textures, pixels_per_point: output.pixels_per_point });
     }
 
     /// Screenshots (F12, the overlay's button, the script's last frame) and the scripted faults.
     fn after_redraw(&mut self, window: &mut WindowContext, rendered: bool) -> Result<(), String> {
         if rendered {
-            if std::mem::take(&mut self.overlay.screenshot_requested) || std::mem::take(&mut self.screenshot_requested) {
+            let button = window.app.world_mut().get_resource_mut::<ScreenshotRequest>().is_some_and(|mut r| std::mem::take(&mut r.0));
+            if button || std::mem::take(&mut self.screenshot_requested) {
                 let path = PathBuf::from("screenshots").join(format!("screenshot_{:05}.png", window.frames()));
                 match save_screenshot(&window.gpu, window.app.world(), &path) {
                     Ok(()) => log::warn!("screenshot: {}", path.display()),

@@ -25,6 +25,7 @@ pub const MAX_CASCADES: u32 = 8;
 /// Cost: each cascade is a volume of `probe_counts` probes, so `count` times the probes of one; far
 /// cascades update only every few frames (`max_update_period`), and with adaptive budgets
 /// (`volume.adaptive`) quiet probes rest. Memory: `count` times one volume's.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(default, deny_unknown_fields))]
 #[derive(Component, Clone, Debug, PartialEq)]
 pub struct DdgiCascades {
     /// Number of cascades, 1–8. `None`: as many as it takes for the coarsest cascade to reach the

@@ -157,11 +157,14 @@ impl DdgiProbeColor {
     }
 }
 
-/// The probe debug view: every probe of the first volume drawn as a small sphere in the image
-/// (pass `ddgi_probe_spheres`, after the composite, depth-tested against the G-buffer). Costs one
-/// instanced draw of 576 vertices per probe when on, nothing when off.
+/// The probe debug view: every probe of one volume (`volume`, the first by default) drawn as a
+/// small sphere in the image (pass `ddgi_probe_spheres`, after the composite, depth-tested against
+/// the G-buffer). Costs one instanced draw of 576 vertices per probe when on, nothing when off.
 #[derive(Resource, Clone, Copy, Debug, PartialEq)]
 pub struct DdgiProbeView {
+    /// The volume (or cascade) whose probes are drawn, by its entity; `None`, or an entity that
+    /// lights nothing: the first volume in gather order. The [`DdgiDebugPasses`] draw the same one.
+    pub volume: Option<Entity>,
     /// What the spheres show; [`DdgiProbeColor::Off`] draws nothing.
     pub color: DdgiProbeColor,
     /// Sphere radius as a fraction of the smallest probe spacing.
@@ -174,7 +177,7 @@ pub struct DdgiProbeView {
 
 impl Default for DdgiProbeView {
     fn default() -> Self {
-        Self { color: DdgiProbeColor::Off, radius: 0.12, selected: None, max_error: 0.1 }
+        Self { volume: None, color: DdgiProbeColor::Off, radius: 0.12, selected: None, max_error: 0.1 }
     }
 }
 
@@ -261,4 +264,38 @@ pub(crate) fn add_probe_spheres(
         rp.set_bind_group(2, &group2, &[]);
         rp.draw(0..vertices, 0..count);
     });
+}
+
+/// A debug pass of an app or another crate drawn over one volume, after the probe spheres and before
+/// the temporal anti-aliasing (e.g. `ddgi_overlay`'s visualizer). Register it in
+/// [`DdgiDebugPasses`]; the `"ddgi"` frame script calls it every frame for the volume
+/// [`DdgiProbeView::volume`] selects (the first volume when none is selected, nothing when there
+/// is no volume).
+pub trait DdgiDebugPass: Send + Sync + 'static {
+    /// Adds the pass (or leaves it out) for `volume`, whose resources are `handles`: it may read
+    /// and write `depth` (the G-buffer's reversed-Z depth) and `hdr` (the lit image).
+    #[allow(clippy::too_many_arguments)]
+    fn add(
+        &self,
+        graph: &mut RenderGraph,
+        frame: &CameraFrame,
+        volume: &VolumeGpu,
+        handles: &mut VolumeHandles,
+        depth: &mut Handle<GraphTexture>,
+        hdr: &mut Handle<GraphTexture>,
+    );
+}
+
+/// The debug passes the `"ddgi"` frame script draws over the selected volume ([`DdgiDebugPass`]),
+/// in order. Absent or empty: none.
+#[derive(Resource, Clone, Default)]
+pub struct DdgiDebugPasses(pub Vec<Arc<dyn DdgiDebugPass>>);
+
+/// The index in `volumes` (gather order) of the volume `view` selects: its entity's, else 0.
+pub fn selected_volume(volumes: &[(Entity, VolumeGpu)], view: Option<&DdgiProbeView>) -> Option<usize> {
+    if volumes.is_empty() {
+        return None;
+    }
+    let wanted = view.and_then(|v| v.volume);
+    Some(wanted.and_then(|e| volumes.iter().position(|(v, _)| *v == e)).unwrap_or(0))
 }

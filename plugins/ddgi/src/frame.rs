@@ -198,6 +198,8 @@ pub struct DdgiFrame<'w> {
     pub sky_light: Option<Res<'w, crate::DdgiSkyLight>>,
     /// Contact occlusion of the indirect light, when set.
     pub contact_occlusion: Option<Res<'w, crate::DdgiContactOcclusion>>,
+    /// Debug passes of the app drawn over the selected volume, when set.
+    pub debug_passes: Option<Res<'w, crate::DdgiDebugPasses>>,
 }
 
 impl DdgiFrame<'_> {
@@ -396,8 +398,9 @@ impl DdgiFrame<'_> {
         occlusion
     }
 
-    /// Adds the probe debug view of the first volume when [`DdgiProbeView`] is on: one sphere per
-    /// probe, rasterized into `hdr` against the G-buffer's depth.
+    /// Adds the probe debug view of the selected volume ([`DdgiProbeView::volume`], the first by
+    /// default) when [`DdgiProbeView`] is on — one sphere per probe, rasterized into `hdr` against
+    /// the G-buffer's depth — then the app's [`crate::DdgiDebugPasses`] over the same volume.
     pub fn add_probe_spheres(
         &mut self,
         graph: &mut RenderGraph,
@@ -406,11 +409,17 @@ impl DdgiFrame<'_> {
         depth: &mut Handle<GraphTexture>,
         hdr: &mut Handle<GraphTexture>,
     ) {
-        let Some(view) = self.probe_view.as_deref().copied().filter(|v| v.color != DdgiProbeColor::Off) else { return };
-        let Some(handles) = volumes.first_mut() else { return };
-        match self.pipelines.probe_spheres_program(&frame.gpu) {
-            Ok(program) => add_probe_spheres(graph, frame, program, &self.volumes.volumes[handles.index].1, handles, depth, hdr, &view),
-            Err(e) => log::error!("DDGI probe view: {e}"),
+        let Some(selected) = crate::debug_view::selected_volume(&self.volumes.volumes, self.probe_view.as_deref()) else { return };
+        let Some(handles) = volumes.iter_mut().find(|h| h.index == selected) else { return };
+        let volume = &self.volumes.volumes[selected].1;
+        if let Some(view) = self.probe_view.as_deref().copied().filter(|v| v.color != DdgiProbeColor::Off) {
+            match self.pipelines.probe_spheres_program(&frame.gpu) {
+                Ok(program) => add_probe_spheres(graph, frame, program, volume, handles, depth, hdr, &view),
+                Err(e) => log::error!("DDGI probe view: {e}"),
+            }
+        }
+        for pass in self.debug_passes.iter().flat_map(|p| p.0.iter()) {
+            pass.add(graph, frame, volume, handles, depth, hdr);
         }
     }
 

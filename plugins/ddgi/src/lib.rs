@@ -91,6 +91,7 @@ pub mod cascades;
 pub mod debug_view;
 pub mod frame;
 pub mod gpu;
+pub mod inspect;
 pub mod pipelines;
 pub mod resources;
 pub mod sync;
@@ -103,8 +104,9 @@ use engine::render::gpu_scene::{flush_uploads, prepare_gpu_scene};
 use engine::render::{FrameScript, frame_script_is};
 
 pub use cascades::{DdgiCascade, DdgiCascades, DdgiFirstCameraCascades};
-pub use debug_view::{DdgiContactOcclusion, DdgiOutput, DdgiProbeColor, DdgiProbeView, DdgiSkyLight};
+pub use debug_view::{DdgiContactOcclusion, DdgiDebugPass, DdgiDebugPasses, DdgiOutput, DdgiProbeColor, DdgiProbeView, DdgiSkyLight};
 pub use frame::{DdgiFrame, VolumeHandles, render_ddgi_frame};
+pub use inspect::{DdgiProbeStateCounts, DdgiUpdateControl};
 pub use pipelines::DdgiPipelines;
 pub use resources::{DdgiGpuVolumes, VolumeGpu};
 pub use sync::{rays_counter, rays_traced, volume_suffix};
@@ -176,12 +178,15 @@ impl Plugin for DdgiPlugin {
             .init_resource::<DdgiOutput>()
             .init_resource::<DdgiSkyLight>()
             .init_resource::<DdgiContactOcclusion>()
+            .init_resource::<DdgiUpdateControl>()
             .add_systems(
                 engine::app::Prepare,
                 (
                     sync::read_back_ddgi_probes,
                     cascades::follow_ddgi_cascades,
+                    inspect::reset_ddgi_volumes,
                     resources::prepare_ddgi_volumes,
+                    inspect::pause_ddgi_updates,
                     sync::upload_ddgi_probe_pins,
                 )
                     .chain()

@@ -6,6 +6,7 @@ use glam::{DVec3, UVec2, UVec3, Vec3};
 
 /// Which weights the sampling function applies when it blends the 8 probes around a point. Each
 /// can be switched off, for the ablation `none → back-face → Chebyshev → normal bias`.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(default, deny_unknown_fields))]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct DdgiWeights {
     /// Wrap-shading weight: probes behind the surface fade out. Costs a dot product per probe.
@@ -58,6 +59,7 @@ impl Default for DdgiWeights {
 /// hysteresis can also rise with fewer rays (`hysteresis_exponent`), which calms a quiet probe's
 /// maps further but slows how it follows light that builds up over many bounces. Probes that, like
 /// their six neighbours, see almost no light are switched off (and woken by the re-checks).
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(default, deny_unknown_fields))]
 #[derive(Clone, Debug, PartialEq)]
 pub struct DdgiAdaptive {
     /// Whether the budgets adapt (and probes rest or go dark); false: the fixed budget, every
@@ -164,6 +166,7 @@ impl DdgiAdaptive {
 /// Cost grows with `probe count × rays_per_probe` (tracing, shading) and with
 /// `probe count × texels²` (the map updates); the camera's gather costs 8 probe lookups per pixel
 /// whatever the grid.
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize), serde(default, deny_unknown_fields))]
 #[derive(Component, Clone, Debug, PartialEq)]
 pub struct DdgiVolume {
     /// World-space box the probes fill, `(min, max)`, in double precision (world coordinates, not
