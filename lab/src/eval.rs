@@ -26,8 +26,8 @@ use time_series::SceneChange;
 /// Paths per pixel of the path tracer configurations compared with the reference: the ladder on
 /// which [`spp_at_equal_flip`] finds each DDGI configuration's equal.
 pub const PATH_TRACE_LADDER: [u32; 4] = [1, 4, 16, 64];
-/// Paths per pixel of the path tracer timed at [`EvalOptions::timing_size`] (two frames of
-/// [`SAMPLES_PER_FRAME`]): its GPU ms per path per pixel there.
+/// Paths per pixel of the path tracer timed at [`EvalOptions::timing_size`] (two frames of 16):
+/// its GPU ms per path per pixel there.
 pub const TIMING_SPP: u32 = 32;
 /// The size at which `game_demo eval` times the path tracer and DDGI besides the evaluation's own.
 pub const DISPLAY_SIZE: [u32; 2] = [1920, 1080];
