@@ -607,7 +607,7 @@ pub fn run(gpu: &GpuContext, facts: &SceneFacts, scene: SceneDescription, option
             None
         };
         let equal = equal_flip.map_or(String::new(), |e| {
-            let ratio = |r: Option<f64>| r.map_or("n/a".to_string(), |r| format!("{r:.1}×"));
+            let ratio = |r: Option<f64>| r.map_or("n/a".to_string(), |r| format!("{r:.3}×"));
             format!(
                 ", path tracer at equal FLIP {}, GPU-time ratio {} ({width}×{height}), {} ({})",
                 spp_text(&e),
@@ -756,8 +756,8 @@ fn write_report(out: &Path, name: &str, adapter: &str, options: &EvalOptions, ro
             r.error.rmse,
             r.error.relative_mse,
             r.equal_flip.map_or("-".into(), |e| spp_text(&e)),
-            r.equal_flip.map_or("-".into(), |e| e.gpu_time_ratio.map_or("n/a".into(), |v| format!("{v:.2}"))),
-            r.equal_flip.map_or("-".into(), |e| e.gpu_time_ratio_at_timing_size.map_or("n/a".into(), |v| format!("{v:.2}"))),
+            r.equal_flip.map_or("-".into(), |e| e.gpu_time_ratio.map_or("n/a".into(), |v| format!("{v:.3}"))),
+            r.equal_flip.map_or("-".into(), |e| e.gpu_time_ratio_at_timing_size.map_or("n/a".into(), |v| format!("{v:.3}"))),
         );
     }
     let timed = timing_size.map_or(String::new(), |[w, h]| {
