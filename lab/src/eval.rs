@@ -26,8 +26,8 @@ use time_series::SceneChange;
 /// Paths per pixel of the path tracer configurations compared with the reference: the ladder on
 /// which [`spp_at_equal_flip`] finds each DDGI configuration's equal.
 pub const PATH_TRACE_LADDER: [u32; 4] = [1, 4, 16, 64];
-/// Paths per pixel of the path tracer timed at [`EvalOptions::timing_size`] (two frames of
-/// [`SAMPLES_PER_FRAME`]): its GPU ms per path per pixel there.
+/// Paths per pixel of the path tracer timed at [`EvalOptions::timing_size`] (two frames of 16):
+/// its GPU ms per path per pixel there.
 pub const TIMING_SPP: u32 = 32;
 /// The size at which `game_demo eval` times the path tracer and DDGI besides the evaluation's own.
 pub const DISPLAY_SIZE: [u32; 2] = [1920, 1080];
@@ -607,7 +607,7 @@ pub fn run(gpu: &GpuContext, facts: &SceneFacts, scene: SceneDescription, option
             None
         };
         let equal = equal_flip.map_or(String::new(), |e| {
-            let ratio = |r: Option<f64>| r.map_or("n/a".to_string(), |r| format!("{r:.1}×"));
+            let ratio = |r: Option<f64>| r.map_or("n/a".to_string(), |r| format!("{r:.3}×"));
             format!(
                 ", path tracer at equal FLIP {}, GPU-time ratio {} ({width}×{height}), {} ({})",
                 spp_text(&e),
@@ -756,8 +756,8 @@ fn write_report(out: &Path, name: &str, adapter: &str, options: &EvalOptions, ro
             r.error.rmse,
             r.error.relative_mse,
             r.equal_flip.map_or("-".into(), |e| spp_text(&e)),
-            r.equal_flip.map_or("-".into(), |e| e.gpu_time_ratio.map_or("n/a".into(), |v| format!("{v:.2}"))),
-            r.equal_flip.map_or("-".into(), |e| e.gpu_time_ratio_at_timing_size.map_or("n/a".into(), |v| format!("{v:.2}"))),
+            r.equal_flip.map_or("-".into(), |e| e.gpu_time_ratio.map_or("n/a".into(), |v| format!("{v:.3}"))),
+            r.equal_flip.map_or("-".into(), |e| e.gpu_time_ratio_at_timing_size.map_or("n/a".into(), |v| format!("{v:.3}"))),
         );
     }
     let timed = timing_size.map_or(String::new(), |[w, h]| {

@@ -227,11 +227,14 @@ struct StaticSamples {
 }
 
 /// Frames a configuration runs before the change: DDGI `settle_frames` (it must have converged
-/// for its static phase to be static), the others as many as their still image needs.
+/// for its static phase to be static); direct light enough for a static phase (its temporal
+/// anti-aliasing's flicker is its temporal noise); the path tracer as many as its still image
+/// needs (it accumulates, so it has no static phase: its frames before the change converge).
 fn settle_frames_of(config: &Config, settle_frames: u32) -> u32 {
     match config {
         Config::Ddgi { .. } | Config::DdgiCascades { .. } => settle_frames,
-        _ => config.frames(),
+        Config::Direct => config.frames().max(1 + STATIC_FRAMES as u32),
+        Config::PathTrace { .. } => config.frames(),
     }
 }
 
@@ -659,6 +662,7 @@ fn write_report(
          frame and over time); temporal only: against the mean of those frames (only what changes from frame to frame: the \
          method's flicker and crawling noise, whatever its error); after the change: frames 0 on against the still reference \
          of the changed scene (the error and flicker while the method follows the change and once it has). \
+         The path tracer, which accumulates from one frame before the change, has no static phase (n/a). \
          [video_quality.csv](video_quality.csv) has them with the CPU seconds each configuration's three took.\n\n\
          ![ColorVideoVDP JOD per configuration](video_quality.png)\n\n{}\
          Mean FLIP per frame, one series per configuration, log scale{plot_note}:\n\n![mean FLIP per frame](time_series.png)\n\n\
