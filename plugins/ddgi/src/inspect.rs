@@ -120,7 +120,7 @@ impl VolumeGpu {
     }
 
     /// Bytes of GPU memory the volume holds: the sum of the sizes of its buffers (as created,
-    /// [`wgpu::Buffer::size`]) and of its two atlases (texels × bytes per texel of their format).
+    /// [`engine::wgpu::Buffer::size`]) and of its two atlases (texels × bytes per texel of their format).
     pub fn memory_bytes(&self) -> u64 {
         self.gpu_resources().iter().map(|(_, bytes)| bytes).sum()
     }
