@@ -67,7 +67,7 @@ fuzz:
 lint: toolchain
 	$(CARGO) fmt --all --check
 	$(CARGO) clippy --workspace --all-targets -- -D warnings
-	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps -p engine -p ddgi -p pathtrace
+	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps -p engine -p ddgi -p ddgi_overlay -p pathtrace
 
 # rust-toolchain.toml pins the toolchain; rustup installs it when it can download. A machine that
 # cannot, whose `stable` toolchain is that same release, gets `stable` linked under the pinned name

@@ -275,8 +275,10 @@ impl Config {
     }
 
     /// Sets `app` up to render this configuration (its frame script and settings); `seed` seeds
-    /// the random sequences of the methods that have any.
+    /// the random sequences of the methods that have any. Large scenes' BLAS builds show a bar on
+    /// a terminal ([`crate::progress::show_blas_builds`]).
     pub fn configure(&self, app: &mut App, seed: u32) {
+        crate::progress::show_blas_builds(app);
         match self {
             Config::Direct => {}
             Config::PathTrace { .. } => {

@@ -60,8 +60,10 @@ pub const TLAS_REBUILD_COST_RATIO: f64 = 1.5;
 
 /// Moving instances from which a TLAS refit runs on rayon's thread pool by default
 /// ([`RayTracingScene::parallel_refit_from`]). Fewer are refitted on the frame's thread: waking the
-/// pool's threads costs tens of microseconds, more than the refit of a few hundred leaves.
-pub const TLAS_PARALLEL_REFIT_MOVERS: usize = 512;
+/// pool's threads and their scattered writes cost more than the refit of a few thousand leaves
+/// (H200 host, 16 cores, `bench trace --scene forest --cpu-only`: 1,000 movers 0.394 ms on one
+/// thread against 0.544 in parallel; 10,000 movers 3.496 against 2.038).
+pub const TLAS_PARALLEL_REFIT_MOVERS: usize = 4096;
 
 /// Threads rayon's pool needs for the refit to go parallel by default: on fewer cores (a 2-core
 /// machine shared with other work) the pool's hand-offs cost more than the split saves.

@@ -84,6 +84,8 @@ pub fn setup_play(app: &mut App, options: &PlayOptions, scripted: bool) -> Resul
     // What a player sees: the filmic transform and an exposure that follows day and night, indoors
     // and out (image files of the engine's own commands keep the radiometric clamp).
     app.insert_resource(engine::render::DisplayTransform::AgX).insert_resource(engine::render::DefaultAutoExposure::default());
+    // A terminal bar while large scenes' BLASes build.
+    lab::progress::show_blas_builds(app);
     let assets = if options.use_assets { level::kenney_assets_or_note() } else { None };
     let level = demo_level(assets.as_deref());
     let player = PlayerPlugin::new(level.layout.clone(), PlayerSettings::default()).map_err(|e| format!("navigation mesh: {e}"))?;

@@ -49,6 +49,8 @@ fn walk_the_tour(time: Res<Time>, mut cameras: Query<&mut Transform, With<Camera
 /// by the caller).
 pub fn setup_tour(app: &mut App, cascades: ddgi::DdgiCascades) {
     app.insert_resource(Sky::Uniform(OPEN_SKY));
+    // A terminal bar while the forest's BLASes build.
+    lab::progress::show_blas_builds(app);
     ddgi::use_ddgi_cascades(app, cascades, ddgi::DdgiOutput::Full);
     app.add_systems(Update, walk_the_tour);
 }
