@@ -232,11 +232,19 @@ fn run(args: &Args) -> Result<(), String> {
         distance_texels: 16,
         ..Default::default()
     };
-    let ours = [
-        ("ours, fixed", ddgi::DdgiVolume { adaptive: ddgi::DdgiAdaptive::off(), ..base.clone() }),
-        ("ours, adaptive", ddgi::DdgiVolume { adaptive: ddgi::DdgiAdaptive { enabled: true, ..Default::default() }, ..base.clone() }),
+    let mut ours = vec![
+        ("ours, fixed".to_string(), ddgi::DdgiVolume { adaptive: ddgi::DdgiAdaptive::off(), ..base.clone() }),
+        ("ours, adaptive".to_string(), ddgi::DdgiVolume { adaptive: ddgi::DdgiAdaptive { enabled: true, ..Default::default() }, ..base.clone() }),
     ];
+    // Ours at sgl-3d's ray count: adaptive budgets capped at the rays sgl-3d traced per update
+    // (its own frame cap and update periods), so that both are compared per update at one count.
+    if let Some(rays) = rows.first().and_then(|r| r.rays_per_update).filter(|r| r.is_finite() && *r >= 1.0) {
+        let budget = rays.round() as u32;
+        let adaptive = ddgi::DdgiAdaptive { enabled: true, frame_budget: Some(budget), ..Default::default() };
+        ours.push((format!("ours, adaptive, {budget} rays a frame (sgl-3d's)"), ddgi::DdgiVolume { adaptive, ..base.clone() }));
+    }
     for (name, volume) in ours {
+        let name = name.as_str();
         println!("{name}: {} frames…", args.frames);
         let config = Config::Ddgi { name: name.into(), volume: Box::new(volume), occlusion: Default::default(), taa: false };
         let row = run_ours(&gpu, &scene, &config, args, &reference, &mut images)?;
