@@ -763,6 +763,29 @@ pub fn depth_test() -> wgpu::DepthStencilState {
     }
 }
 
+/// Begins a render pass that draws over the lit image `color`, depth-tested against the G-buffer's
+/// `depth` ([`depth_test`]): both loaded and kept (the probe spheres, the DDGI visualizer).
+pub fn begin_pass_over_image<'p>(
+    ctx: &'p mut crate::graph::PassContext<'_>,
+    color: crate::graph::Write<GraphTexture>,
+    depth: crate::graph::Write<GraphTexture>,
+) -> wgpu::RenderPass<'p> {
+    let keep = wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store };
+    let (color, depth) = (ctx.view(color), ctx.view(depth));
+    ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some(ctx.label),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment { view: color, depth_slice: None, resolve_target: None, ops: keep })],
+        depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+            view: depth,
+            depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store }),
+            stencil_ops: None,
+        }),
+        timestamp_writes: None,
+        occlusion_query_set: None,
+        multiview_mask: None,
+    })
+}
+
 /// The blit pipeline for presenting to a surface of `format` (must not be an sRGB format: the image
 /// is already encoded).
 pub fn blit_program(gpu: &GpuContext, format: wgpu::TextureFormat) -> Result<Program<wgpu::RenderPipeline>, crate::shader::ShaderError> {

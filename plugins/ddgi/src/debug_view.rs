@@ -241,23 +241,7 @@ pub(crate) fn add_probe_spheres(
         let group0 = ctx.bind_group(&*program, 0, &group0);
         let group1 = ctx.bind_group(&*program, 1, &group1);
         let group2 = ctx.bind_group(&*program, 2, &group2);
-        let mut rp = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some(ctx.label),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: ctx.view(color),
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store },
-            })],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: ctx.view(depth),
-                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store }),
-                stencil_ops: None,
-            }),
-            timestamp_writes: None,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
+        let mut rp = engine::render::begin_pass_over_image(ctx, color, depth);
         rp.set_pipeline(&program.pipeline);
         rp.set_bind_group(0, &group0, &[]);
         rp.set_bind_group(1, &group1, &[]);
