@@ -437,6 +437,10 @@ enum BenchCommand {
         /// Skip the GPU throughput table.
         #[arg(long)]
         cpu_only: bool,
+        /// Which direction each thread of a probe traces: `fibonacci` (thread k, direction k) or
+        /// `coherent` (directions sorted so that a warp's rays cover one patch of the sphere).
+        #[arg(long, value_enum, default_value = "fibonacci")]
+        ray_order: RayOrderArg,
         /// Also write the results as JSON to this file (the same figures as the Markdown).
         #[arg(long)]
         json: Option<PathBuf>,
@@ -493,6 +497,13 @@ enum BenchCommand {
 }
 
 /// `render --mode`.
+/// `bench trace --ray-order`: see `lab::bench::RayOrder`.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, clap::ValueEnum)]
+enum RayOrderArg {
+    Fibonacci,
+    Coherent,
+}
+
 #[derive(Clone, Copy, PartialEq, Eq, Debug, clap::ValueEnum)]
 enum ModeArg {
     /// Direct light with hard shadows.
@@ -1042,8 +1053,14 @@ fn bench_walk(
 }
 
 fn bench(command: BenchCommand) -> Result<(), String> {
-    let (name, iterations, no_flat_rebuild, cpu_only, json) = match command {
-        BenchCommand::Trace { scene, iterations, no_flat_rebuild, cpu_only, json } => (scene, iterations, no_flat_rebuild, cpu_only, json),
+    let (name, iterations, no_flat_rebuild, cpu_only, ray_order, json) = match command {
+        BenchCommand::Trace { scene, iterations, no_flat_rebuild, cpu_only, ray_order, json } => {
+            let ray_order = match ray_order {
+                RayOrderArg::Fibonacci => bench::RayOrder::Fibonacci,
+                RayOrderArg::Coherent => bench::RayOrder::Coherent,
+            };
+            (scene, iterations, no_flat_rebuild, cpu_only, ray_order, json)
+        }
         BenchCommand::Classify { scene, probes: grid, frames, json } => {
             let description = load(&scene)?;
             let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
@@ -1115,7 +1132,7 @@ fn bench(command: BenchCommand) -> Result<(), String> {
         }
     };
     let scene = load(&name)?;
-    let bounds = scene.bounds().ok_or("the scene has no geometry")?;
+    let bounds = bench::world_bounds(&scene).ok_or("the scene has no geometry")?;
     let triangles = scene.instanced_triangle_count();
     let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
     let started = std::time::Instant::now();
@@ -1124,10 +1141,11 @@ fn bench(command: BenchCommand) -> Result<(), String> {
     println!("scene prepared (BLAS and TLAS built, uploaded) in {:.2?}", started.elapsed());
     let mut report = serde_json::json!({
         "bench": "trace", "scene": name, "triangles": triangles, "adapter": gpu.adapter_name(), "iterations": iterations,
+        "ray_order": format!("{ray_order:?}"),
         "prepare_ms": started.elapsed().as_secs_f64() * 1e3,
     });
     if !cpu_only {
-        let cells = bench::trace_throughput(&gpu, &app, bounds, iterations.max(1))?;
+        let cells = bench::trace_throughput(&gpu, &app, bounds, iterations.max(1), ray_order)?;
         report["throughput"] = cells
             .iter()
             .map(|c| serde_json::json!({"probes": c.grid, "rays_per_probe": c.rays_per_probe, "rays": c.rays, "median_ms": c.median_ms, "mrays_per_second": c.mrays_per_second()}))
@@ -1150,7 +1168,7 @@ fn bench(command: BenchCommand) -> Result<(), String> {
     }
     if !cpu_only {
         let (grid, rays) = ([32, 8, 32], 128);
-        let w = bench::traversal_work(&gpu, &app, bounds, grid, rays)?;
+        let w = bench::traversal_work(&gpu, &app, bounds, grid, rays, ray_order)?;
         report["traversal_work_per_ray"] = serde_json::json!({
             "probes": grid, "rays_per_probe": rays, "tlas_nodes": w[0], "instances_entered": w[1], "blas_nodes": w[2], "triangles": w[3],
         });
