@@ -600,13 +600,17 @@ fn the_blas_build_hook_is_told_of_every_build_in_order_up_to_the_totals() {
 fn bench_trace_work_per_ray_is_the_same_for_a_scene_placed_far_from_the_origin() {
     let Some(gpu) = testkit::gpu("bench_trace_work_per_ray_is_the_same_for_a_scene_placed_far_from_the_origin") else { return };
     let (grid, rays) = ([6, 6, 6], 64);
-    let work = |origin: glam::DVec3, order: lab::bench::RayOrder| {
+    let work = |origin: glam::DVec3, ray_order: lab::bench::RayOrder| {
         let mut scene = (scenes::find("cornell").expect("built-in").build)();
         scene.origin = origin;
         let bounds = lab::bench::world_bounds(&scene).expect("bounds");
         let app = lab::bench::prepared_app(&gpu, scene);
         let rebases = app.world().resource::<engine::scene::RenderOrigin>().rebases;
-        (lab::bench::traversal_work(&gpu, &app, bounds, grid, rays, order).expect("work"), rebases)
+        (
+            lab::bench::traversal_work(&gpu, &app, bounds, grid, rays, lab::bench::TraceVariant { ray_order, workgroup_size: 64 })
+                .expect("work"),
+            rebases,
+        )
     };
     let (near, _) = work(glam::DVec3::ZERO, lab::bench::RayOrder::Fibonacci);
     let (far, rebases) = work(glam::DVec3::new(5000.0, 0.0, -3000.0), lab::bench::RayOrder::Fibonacci);

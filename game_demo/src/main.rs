@@ -441,6 +441,9 @@ enum BenchCommand {
         /// `coherent` (directions sorted so that a warp's rays cover one patch of the sphere).
         #[arg(long, value_enum, default_value = "fibonacci")]
         ray_order: RayOrderArg,
+        /// Threads a workgroup of the bench kernel.
+        #[arg(long, default_value_t = 64)]
+        workgroup_size: u32,
         /// Also write the results as JSON to this file (the same figures as the Markdown).
         #[arg(long)]
         json: Option<PathBuf>,
@@ -1053,13 +1056,13 @@ fn bench_walk(
 }
 
 fn bench(command: BenchCommand) -> Result<(), String> {
-    let (name, iterations, no_flat_rebuild, cpu_only, ray_order, json) = match command {
-        BenchCommand::Trace { scene, iterations, no_flat_rebuild, cpu_only, ray_order, json } => {
+    let (name, iterations, no_flat_rebuild, cpu_only, variant, json) = match command {
+        BenchCommand::Trace { scene, iterations, no_flat_rebuild, cpu_only, ray_order, workgroup_size, json } => {
             let ray_order = match ray_order {
                 RayOrderArg::Fibonacci => bench::RayOrder::Fibonacci,
                 RayOrderArg::Coherent => bench::RayOrder::Coherent,
             };
-            (scene, iterations, no_flat_rebuild, cpu_only, ray_order, json)
+            (scene, iterations, no_flat_rebuild, cpu_only, bench::TraceVariant { ray_order, workgroup_size }, json)
         }
         BenchCommand::Classify { scene, probes: grid, frames, json } => {
             let description = load(&scene)?;
@@ -1141,11 +1144,11 @@ fn bench(command: BenchCommand) -> Result<(), String> {
     println!("scene prepared (BLAS and TLAS built, uploaded) in {:.2?}", started.elapsed());
     let mut report = serde_json::json!({
         "bench": "trace", "scene": name, "triangles": triangles, "adapter": gpu.adapter_name(), "iterations": iterations,
-        "ray_order": format!("{ray_order:?}"),
+        "ray_order": format!("{:?}", variant.ray_order), "workgroup_size": variant.workgroup_size,
         "prepare_ms": started.elapsed().as_secs_f64() * 1e3,
     });
     if !cpu_only {
-        let cells = bench::trace_throughput(&gpu, &app, bounds, iterations.max(1), ray_order)?;
+        let cells = bench::trace_throughput(&gpu, &app, bounds, iterations.max(1), variant)?;
         report["throughput"] = cells
             .iter()
             .map(|c| serde_json::json!({"probes": c.grid, "rays_per_probe": c.rays_per_probe, "rays": c.rays, "median_ms": c.median_ms, "mrays_per_second": c.mrays_per_second()}))
@@ -1168,7 +1171,7 @@ fn bench(command: BenchCommand) -> Result<(), String> {
     }
     if !cpu_only {
         let (grid, rays) = ([32, 8, 32], 128);
-        let w = bench::traversal_work(&gpu, &app, bounds, grid, rays, ray_order)?;
+        let w = bench::traversal_work(&gpu, &app, bounds, grid, rays, variant)?;
         report["traversal_work_per_ray"] = serde_json::json!({
             "probes": grid, "rays_per_probe": rays, "tlas_nodes": w[0], "instances_entered": w[1], "blas_nodes": w[2], "triangles": w[3],
         });

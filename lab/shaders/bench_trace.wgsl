@@ -33,9 +33,12 @@ fn spherical_fibonacci(i: u32, n: u32) -> vec3<f32> {
     return vec3<f32>(r * cos(phi), r * sin(phi), z);
 }
 
-@compute @workgroup_size(64)
+// Threads a workgroup (lab::bench::TraceKernel sets it; 64 by default).
+override BENCH_GROUP: u32 = 64u;
+
+@compute @workgroup_size(BENCH_GROUP)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
-    let i = id.x + id.y * 65535u * 64u;
+    let i = id.x + id.y * 65535u * BENCH_GROUP;
     if i >= bench.ray_count {
         return;
     }

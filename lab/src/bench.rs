@@ -9,7 +9,7 @@ use engine::bevy_ecs::prelude::*;
 use engine::gpu::GpuContext;
 use engine::render::{GpuScene, RenderSize};
 use engine::rng::SplitMix64;
-use engine::rt::{RayTracingScene, ray_workgroups};
+use engine::rt::RayTracingScene;
 use engine::scene::{Assets, Mesh, MeshInstance, SceneDescription, Transform};
 use engine::shader::compute_program_with_constants;
 use engine::wgpu;
@@ -47,6 +47,21 @@ pub enum RayOrder {
     /// Directions sorted along a Hilbert curve over their octahedral map: a warp's rays cover one
     /// compact patch of the sphere.
     Coherent,
+}
+
+/// How the bench kernel runs: the variants `bench trace` can compare.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TraceVariant {
+    /// Which direction each thread of a probe traces.
+    pub ray_order: RayOrder,
+    /// Threads a workgroup.
+    pub workgroup_size: u32,
+}
+
+impl Default for TraceVariant {
+    fn default() -> Self {
+        Self { ray_order: RayOrder::Fibonacci, workgroup_size: 64 }
+    }
 }
 
 /// Direction i of n spherical Fibonacci points (the bench shader's formula).
@@ -124,6 +139,7 @@ struct TraceKernel {
     /// Where each ray count's coherent order starts in `bench_order`.
     order_offsets: Vec<(u32, u32)>,
     ray_order: RayOrder,
+    workgroup_size: u32,
     params: wgpu::Buffer,
     work: wgpu::Buffer,
     queries: wgpu::QuerySet,
@@ -131,8 +147,17 @@ struct TraceKernel {
 }
 
 impl TraceKernel {
-    fn new(gpu: &GpuContext, app: &App, count_work: bool, ray_order: RayOrder) -> Result<Self, String> {
-        let constants: &[(&str, f64)] = if count_work { &[("RT_COUNT_WORK", 1.0)] } else { &[] };
+    fn new(gpu: &GpuContext, app: &App, count_work: bool, variant: TraceVariant) -> Result<Self, String> {
+        let TraceVariant { ray_order, workgroup_size } = variant;
+        let limit = gpu.device.limits().max_compute_invocations_per_workgroup.min(gpu.device.limits().max_compute_workgroup_size_x);
+        if workgroup_size == 0 || workgroup_size > limit {
+            return Err(format!("workgroup size {workgroup_size}: {} allows 1 to {limit}", gpu.adapter_name()));
+        }
+        let mut constants = vec![("BENCH_GROUP", f64::from(workgroup_size))];
+        if count_work {
+            constants.push(("RT_COUNT_WORK", 1.0));
+        }
+        let constants = constants.as_slice();
         let program = engine::shader::register(SHADERS)
             .and_then(|()| compute_program_with_constants(&gpu.device, "bench_trace.wgsl", "main", "trace", constants))
             .map_err(|e| e.to_string())?;
@@ -171,6 +196,7 @@ impl TraceKernel {
             groups,
             order_offsets,
             ray_order,
+            workgroup_size,
             params,
             work,
             queries: gpu.device.create_query_set(&wgpu::QuerySetDescriptor {
@@ -204,8 +230,8 @@ impl TraceKernel {
             pass.set_pipeline(&self.program.pipeline);
             pass.set_bind_group(0, &self.groups[0], &[]);
             pass.set_bind_group(1, &self.groups[1], &[]);
-            let (x, y) = ray_workgroups(p.ray_count);
-            pass.dispatch_workgroups(x, y, 1);
+            let groups = p.ray_count.div_ceil(self.workgroup_size).max(1);
+            pass.dispatch_workgroups(groups.min(65535), groups.div_ceil(65535), 1);
         }
         encoder.resolve_query_set(&self.queries, 0..2, &self.resolve, 0);
         gpu.queue.submit([encoder.finish()]);
@@ -256,12 +282,12 @@ pub fn trace_throughput(
     app: &App,
     bounds: (DVec3, DVec3),
     iterations: u32,
-    ray_order: RayOrder,
+    variant: TraceVariant,
 ) -> Result<Vec<TraceCell>, String> {
     if !gpu.timestamps {
         return Err(format!("{} has no timestamp queries: GPU times cannot be measured", gpu.adapter_name()));
     }
-    let kernel = TraceKernel::new(gpu, app, false, ray_order)?;
+    let kernel = TraceKernel::new(gpu, app, false, variant)?;
     let bounds = render_space(app, bounds);
     let mut rng = SplitMix64::new(0x5EED_1234_ABCD);
     let mut cells = Vec::new();
@@ -293,9 +319,9 @@ pub fn traversal_work(
     bounds: (DVec3, DVec3),
     grid: [u32; 3],
     rays_per_probe: u32,
-    ray_order: RayOrder,
+    variant: TraceVariant,
 ) -> Result<[f64; 4], String> {
-    let kernel = TraceKernel::new(gpu, app, true, ray_order)?;
+    let kernel = TraceKernel::new(gpu, app, true, variant)?;
     let bounds = render_space(app, bounds);
     let p = params_for(&mut SplitMix64::new(0xD1A6), bounds, grid, rays_per_probe);
     kernel.run(gpu, &p)?;
