@@ -607,8 +607,9 @@ fn bench_trace_work_per_ray_is_the_same_for_a_scene_placed_far_from_the_origin()
         let app = lab::bench::prepared_app(&gpu, scene);
         let rebases = app.world().resource::<engine::scene::RenderOrigin>().rebases;
         (
-            lab::bench::traversal_work(&gpu, &app, bounds, grid, rays, lab::bench::TraceVariant { ray_order, workgroup_size: 64 })
-                .expect("work"),
+            lab::bench::traversal_work(&gpu, &app, bounds, grid, rays, lab::bench::TraceVariant { ray_order, ..Default::default() })
+                .expect("work")
+                .counts(),
             rebases,
         )
     };
@@ -621,5 +622,26 @@ fn bench_trace_work_per_ray_is_the_same_for_a_scene_placed_far_from_the_origin()
     for k in 0..4 {
         assert!((far[k] - near[k]).abs() <= 0.01 * near[k].max(1.0), "far {far:?} against {near:?}");
         assert!((coherent[k] - near[k]).abs() <= 1e-9 * near[k].max(1.0), "coherent {coherent:?} against {near:?}");
+    }
+}
+
+/// The bench's persistent kernel (a lane takes the next ray inside the traversal loop) finds the
+/// hits the thread-a-ray kernel finds, ray for ray, in either ray order.
+#[test]
+fn the_persistent_bench_kernel_finds_the_same_hits() {
+    let Some(gpu) = testkit::gpu("the_persistent_bench_kernel_finds_the_same_hits") else { return };
+    let scene = (scenes::find("door_room").expect("built-in").build)();
+    let bounds = lab::bench::world_bounds(&scene).expect("bounds");
+    let app = lab::bench::prepared_app(&gpu, scene);
+    let (grid, rays) = ([5, 4, 3], 64);
+    for ray_order in [lab::bench::RayOrder::Fibonacci, lab::bench::RayOrder::Coherent] {
+        let one = lab::bench::TraceVariant { ray_order, ..Default::default() };
+        let expected = lab::bench::hit_distances(&gpu, &app, bounds, grid, rays, one).expect("thread a ray");
+        // Fewer workgroups than rays / 64, and a share that does not divide the rays evenly.
+        let persistent = lab::bench::TraceVariant { persistent_groups: Some(7), ..one };
+        let got = lab::bench::hit_distances(&gpu, &app, bounds, grid, rays, persistent).expect("persistent");
+        let hits = expected.iter().filter(|t| **t < 1e29).count();
+        assert!(hits > expected.len() / 4, "{hits} of {} rays hit: the rays should meet the room", expected.len());
+        assert_eq!(got, expected, "{ray_order:?}");
     }
 }

@@ -55,6 +55,8 @@ for step in "$@"; do
     tracecoh_*) scene=${step#tracecoh_}; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild --ray-order coherent ;;
     # tracewg_SCENE-SIZE: the same with SIZE threads a workgroup (TRACE_ARGS: more options, e.g. "--ray-order coherent").
     tracewg_*) IFS=- read -r scene size <<< "${step#tracewg_}"; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild --workgroup-size "$size" ${TRACE_ARGS:-} ;;
+    # tracepers_SCENE-GROUPS: the persistent kernel with GROUPS workgroups (TRACE_ARGS as above).
+    tracepers_*) IFS=- read -r scene groups <<< "${step#tracepers_}"; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild --persistent-groups "$groups" ${TRACE_ARGS:-} ;;
     tracecpu_*) scene=${step#tracecpu_}; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild --cpu-only ;;
     classify_*) scene=${step#classify_}; run "$step" $B bench classify --scene "$scene" ;;
     classifyfine_*) scene=${step#classifyfine_}; run "$step" $B bench classify --scene "$scene" --probes 32,16,32 ;;

@@ -42,6 +42,9 @@ const RT_NO_HIT: u32 = 0xffffffffu;
 // (x: TLAS nodes, y: instances entered, z: BLAS nodes, w: triangles tested). Off, it costs nothing.
 override RT_COUNT_WORK: bool = false;
 var<private> rt_work: vec4<u32>;
+// Also counted with RT_COUNT_WORK: the traversal loop's steps (its iterations and the triangle
+// tests inside them), whose spread over a warp's lanes measures how much of the warp idles.
+var<private> rt_steps: u32;
 // Groups waiting in the walk of both levels (8-wide trees are shallow; the TLAS's depth is checked
 // against its share on the CPU, engine::rt::TLAS_STACK_SIZE).
 const RT_STACK_SIZE: u32 = 48u;
@@ -216,6 +219,9 @@ fn rt_trace(ray: Ray, any_hit: bool) -> RayHit {
     var group = vec2<u32>(0u, 0x80000000u);
     var prims = vec2<u32>(0u, 0u);
     loop {
+        if RT_COUNT_WORK {
+            rt_steps += 1u;
+        }
         if (group.y & 0xff000000u) != 0u && prims.y == 0u {
             let hits = group.y;
             let child_bit = firstLeadingBit(hits);
@@ -263,6 +269,7 @@ fn rt_trace(ray: Ray, any_hit: bool) -> RayHit {
                 let index = triangle_offset + prims.x + local;
                 if RT_COUNT_WORK {
                     rt_work.w += 1u;
+                    rt_steps += 1u;
                 }
                 let h = rt_intersect_triangle(index, origin, tri_dir, ray.tmin, best.t);
                 if h.hit {

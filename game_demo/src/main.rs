@@ -444,6 +444,14 @@ enum BenchCommand {
         /// Threads a workgroup of the bench kernel.
         #[arg(long, default_value_t = 64)]
         workgroup_size: u32,
+        /// Time the persistent kernel with this many workgroups (each walks its share of the rays; a
+        /// thread takes the next ray as soon as its own is done) instead of a thread a ray.
+        #[arg(long)]
+        persistent_groups: Option<u32>,
+        /// Only the traversal work per ray (no timings): the counts do not depend on the GPU, so
+        /// lavapipe gives the same as any other.
+        #[arg(long, conflicts_with = "cpu_only")]
+        work_only: bool,
         /// Also write the results as JSON to this file (the same figures as the Markdown).
         #[arg(long)]
         json: Option<PathBuf>,
@@ -1056,13 +1064,31 @@ fn bench_walk(
 }
 
 fn bench(command: BenchCommand) -> Result<(), String> {
-    let (name, iterations, no_flat_rebuild, cpu_only, variant, json) = match command {
-        BenchCommand::Trace { scene, iterations, no_flat_rebuild, cpu_only, ray_order, workgroup_size, json } => {
+    let (name, iterations, no_flat_rebuild, cpu_only, work_only, variant, json) = match command {
+        BenchCommand::Trace {
+            scene,
+            iterations,
+            no_flat_rebuild,
+            cpu_only,
+            ray_order,
+            workgroup_size,
+            persistent_groups,
+            work_only,
+            json,
+        } => {
             let ray_order = match ray_order {
                 RayOrderArg::Fibonacci => bench::RayOrder::Fibonacci,
                 RayOrderArg::Coherent => bench::RayOrder::Coherent,
             };
-            (scene, iterations, no_flat_rebuild, cpu_only, bench::TraceVariant { ray_order, workgroup_size }, json)
+            (
+                scene,
+                iterations,
+                no_flat_rebuild,
+                cpu_only,
+                work_only,
+                bench::TraceVariant { ray_order, workgroup_size, persistent_groups },
+                json,
+            )
         }
         BenchCommand::Classify { scene, probes: grid, frames, json } => {
             let description = load(&scene)?;
@@ -1144,10 +1170,10 @@ fn bench(command: BenchCommand) -> Result<(), String> {
     println!("scene prepared (BLAS and TLAS built, uploaded) in {:.2?}", started.elapsed());
     let mut report = serde_json::json!({
         "bench": "trace", "scene": name, "triangles": triangles, "adapter": gpu.adapter_name(), "iterations": iterations,
-        "ray_order": format!("{:?}", variant.ray_order), "workgroup_size": variant.workgroup_size,
+        "ray_order": format!("{:?}", variant.ray_order), "workgroup_size": variant.workgroup_size, "persistent_groups": variant.persistent_groups,
         "prepare_ms": started.elapsed().as_secs_f64() * 1e3,
     });
-    if !cpu_only {
+    if !cpu_only && !work_only {
         let cells = bench::trace_throughput(&gpu, &app, bounds, iterations.max(1), variant)?;
         report["throughput"] = cells
             .iter()
@@ -1173,12 +1199,25 @@ fn bench(command: BenchCommand) -> Result<(), String> {
         let (grid, rays) = ([32, 8, 32], 128);
         let w = bench::traversal_work(&gpu, &app, bounds, grid, rays, variant)?;
         report["traversal_work_per_ray"] = serde_json::json!({
-            "probes": grid, "rays_per_probe": rays, "tlas_nodes": w[0], "instances_entered": w[1], "blas_nodes": w[2], "triangles": w[3],
+            "probes": grid, "rays_per_probe": rays, "tlas_nodes": w.tlas_nodes, "instances_entered": w.instances,
+            "blas_nodes": w.blas_nodes, "triangles": w.triangles, "steps": w.steps, "simt_efficiency": w.simt_efficiency,
         });
         println!(
-            "\nTraversal work per ray at {}×{}×{} × {rays} rays: {:.1} TLAS nodes, {:.2} instances entered, {:.1} BLAS nodes, {:.1} triangles tested",
-            grid[0], grid[1], grid[2], w[0], w[1], w[2], w[3]
+            "\nTraversal work per ray at {}×{}×{} × {rays} rays: {:.1} TLAS nodes, {:.2} instances entered, {:.1} BLAS nodes, {:.1} triangles tested; \
+             {:.1} loop steps, SIMT efficiency {:.0}% (lanes' steps over 32 × their warp's most)",
+            grid[0],
+            grid[1],
+            grid[2],
+            w.tlas_nodes,
+            w.instances,
+            w.blas_nodes,
+            w.triangles,
+            w.steps,
+            100.0 * w.simt_efficiency
         );
+    }
+    if work_only {
+        return write_json(json.as_deref(), report);
     }
     println!("\n## CPU cost per frame of instance and TLAS updates and uploads (median of 9 frames)\n");
     println!("| moving instances | CPU ms (total) | of which TLAS refit/rebuild + upload | same, refit on one thread | TLAS rebuilt |");

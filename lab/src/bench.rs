@@ -56,11 +56,14 @@ pub struct TraceVariant {
     pub ray_order: RayOrder,
     /// Threads a workgroup.
     pub workgroup_size: u32,
+    /// `Some(n)`: the persistent kernel, n workgroups each walking its share of the rays, a lane
+    /// taking the next ray as soon as its own is done; `None`: a thread a ray.
+    pub persistent_groups: Option<u32>,
 }
 
 impl Default for TraceVariant {
     fn default() -> Self {
-        Self { ray_order: RayOrder::Fibonacci, workgroup_size: 64 }
+        Self { ray_order: RayOrder::Fibonacci, workgroup_size: 64, persistent_groups: None }
     }
 }
 
@@ -135,11 +138,13 @@ pub const SHADERS: &[engine::shader::ShaderModule] = &[("bench_trace.wgsl", incl
 /// traversal steps (RT_COUNT_WORK).
 struct TraceKernel {
     program: engine::shader::Program<wgpu::ComputePipeline>,
+    hits: wgpu::Buffer,
     groups: [wgpu::BindGroup; 2],
     /// Where each ray count's coherent order starts in `bench_order`.
     order_offsets: Vec<(u32, u32)>,
     ray_order: RayOrder,
     workgroup_size: u32,
+    persistent_groups: Option<u32>,
     params: wgpu::Buffer,
     work: wgpu::Buffer,
     queries: wgpu::QuerySet,
@@ -148,8 +153,15 @@ struct TraceKernel {
 
 impl TraceKernel {
     fn new(gpu: &GpuContext, app: &App, count_work: bool, variant: TraceVariant) -> Result<Self, String> {
-        let TraceVariant { ray_order, workgroup_size } = variant;
+        let TraceVariant { ray_order, workgroup_size, persistent_groups } = variant;
+        // Work is counted by the thread-a-ray kernel only.
+        let persistent_groups = persistent_groups.filter(|_| !count_work);
+        if persistent_groups.is_some_and(|n| n == 0 || n > 65535) {
+            return Err(format!("{persistent_groups:?} persistent workgroups: 1 to 65,535"));
+        }
         let limit = gpu.device.limits().max_compute_invocations_per_workgroup.min(gpu.device.limits().max_compute_workgroup_size_x);
+        // bench_steps in the shader holds 1,024 threads.
+        let limit = limit.min(1024);
         if workgroup_size == 0 || workgroup_size > limit {
             return Err(format!("workgroup size {workgroup_size}: {} allows 1 to {limit}", gpu.adapter_name()));
         }
@@ -157,9 +169,13 @@ impl TraceKernel {
         if count_work {
             constants.push(("RT_COUNT_WORK", 1.0));
         }
+        if let Some(n) = persistent_groups {
+            constants.push(("BENCH_PERSISTENT_GROUPS", f64::from(n)));
+        }
         let constants = constants.as_slice();
+        let entry = if persistent_groups.is_some() { "persistent" } else { "main" };
         let program = engine::shader::register(SHADERS)
-            .and_then(|()| compute_program_with_constants(&gpu.device, "bench_trace.wgsl", "main", "trace", constants))
+            .and_then(|()| compute_program_with_constants(&gpu.device, "bench_trace.wgsl", entry, "trace", constants))
             .map_err(|e| e.to_string())?;
         let scene = app.world().resource::<GpuScene>();
         let rt = app.world().resource::<RayTracingScene>();
@@ -168,9 +184,9 @@ impl TraceKernel {
             gpu.device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size, usage, mapped_at_creation: false })
         };
         use wgpu::BufferUsages as U;
-        let hits = buffer("bench_hits", u64::from(max_rays) * 4, U::STORAGE);
+        let hits = buffer("bench_hits", u64::from(max_rays) * 4, U::STORAGE | U::COPY_SRC);
         let params = buffer("bench_params", size_of::<BenchParams>() as u64, U::UNIFORM | U::COPY_DST);
-        let work = buffer("bench_work", 16, U::STORAGE | U::COPY_SRC | U::COPY_DST);
+        let work = buffer("bench_work", 24, U::STORAGE | U::COPY_SRC | U::COPY_DST);
         let (mut orders, mut order_offsets) = (Vec::new(), Vec::new());
         for n in RAYS {
             order_offsets.push((n, orders.len() as u32));
@@ -193,10 +209,12 @@ impl TraceKernel {
         ];
         Ok(Self {
             program,
+            hits,
             groups,
             order_offsets,
             ray_order,
             workgroup_size,
+            persistent_groups,
             params,
             work,
             queries: gpu.device.create_query_set(&wgpu::QuerySetDescriptor {
@@ -216,7 +234,7 @@ impl TraceKernel {
             RayOrder::Coherent => self.order_offsets.iter().find(|(n, _)| *n == p.rays_per_probe).map_or(u32::MAX, |&(_, offset)| offset),
         };
         gpu.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&p));
-        gpu.queue.write_buffer(&self.work, 0, &[0; 16]);
+        gpu.queue.write_buffer(&self.work, 0, &[0; 24]);
         let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("bench_trace") });
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -230,8 +248,13 @@ impl TraceKernel {
             pass.set_pipeline(&self.program.pipeline);
             pass.set_bind_group(0, &self.groups[0], &[]);
             pass.set_bind_group(1, &self.groups[1], &[]);
-            let groups = p.ray_count.div_ceil(self.workgroup_size).max(1);
-            pass.dispatch_workgroups(groups.min(65535), groups.div_ceil(65535), 1);
+            match self.persistent_groups {
+                Some(n) => pass.dispatch_workgroups(n, 1, 1),
+                None => {
+                    let groups = p.ray_count.div_ceil(self.workgroup_size).max(1);
+                    pass.dispatch_workgroups(groups.min(65535), groups.div_ceil(65535), 1);
+                }
+            }
         }
         encoder.resolve_query_set(&self.queries, 0..2, &self.resolve, 0);
         gpu.queue.submit([encoder.finish()]);
@@ -240,9 +263,9 @@ impl TraceKernel {
     }
 
     /// Work counted by the last dispatch (diagnostic variant only).
-    fn work(&self, gpu: &GpuContext) -> Result<[u32; 4], String> {
+    fn work(&self, gpu: &GpuContext) -> Result<[u32; 6], String> {
         let w: Vec<u32> = bytemuck::pod_collect_to_vec(&engine::render::readback::read_buffer(gpu, &self.work));
-        Ok([w[0], w[1], w[2], w[3]])
+        w.try_into().map_err(|w: Vec<u32>| format!("bench_work: {} words read back, 6 expected", w.len()))
     }
 }
 
@@ -311,8 +334,50 @@ pub fn trace_throughput(
     Ok(cells)
 }
 
-/// Average traversal work per ray for one grid × rays cell: TLAS nodes, instances entered, BLAS
-/// nodes, triangles tested.
+/// The closest-hit distance of every ray of one grid × rays cell (the rays `traversal_work`
+/// counts), traced by `variant`'s kernel.
+pub fn hit_distances(
+    gpu: &GpuContext,
+    app: &App,
+    bounds: (DVec3, DVec3),
+    grid: [u32; 3],
+    rays_per_probe: u32,
+    variant: TraceVariant,
+) -> Result<Vec<f32>, String> {
+    let kernel = TraceKernel::new(gpu, app, false, variant)?;
+    let p = params_for(&mut SplitMix64::new(0xD1A6), render_space(app, bounds), grid, rays_per_probe);
+    kernel.run(gpu, &p)?;
+    let mut t: Vec<f32> = bytemuck::pod_collect_to_vec(&engine::render::readback::read_buffer(gpu, &kernel.hits));
+    t.truncate(p.ray_count as usize);
+    Ok(t)
+}
+
+/// Traversal work per ray of one grid × rays cell (the kernel's RT_COUNT_WORK variant).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TraversalWork {
+    /// TLAS nodes tested, per ray.
+    pub tlas_nodes: f64,
+    /// Instances entered, per ray.
+    pub instances: f64,
+    /// BLAS nodes tested, per ray.
+    pub blas_nodes: f64,
+    /// Triangles tested, per ray.
+    pub triangles: f64,
+    /// Steps of the traversal loop (its iterations and the triangle tests in them), per ray.
+    pub steps: f64,
+    /// The steps of all lanes over 32 × each warp's most (warps of 32 consecutive threads of a
+    /// workgroup): the share of a warp's lanes busy while it walks, if lanes stepped in lockstep.
+    pub simt_efficiency: f64,
+}
+
+impl TraversalWork {
+    /// TLAS nodes, instances entered, BLAS nodes and triangles tested, per ray.
+    pub fn counts(&self) -> [f64; 4] {
+        [self.tlas_nodes, self.instances, self.blas_nodes, self.triangles]
+    }
+}
+
+/// Traversal work per ray for one grid × rays cell.
 pub fn traversal_work(
     gpu: &GpuContext,
     app: &App,
@@ -320,13 +385,21 @@ pub fn traversal_work(
     grid: [u32; 3],
     rays_per_probe: u32,
     variant: TraceVariant,
-) -> Result<[f64; 4], String> {
+) -> Result<TraversalWork, String> {
     let kernel = TraceKernel::new(gpu, app, true, variant)?;
     let bounds = render_space(app, bounds);
     let p = params_for(&mut SplitMix64::new(0xD1A6), bounds, grid, rays_per_probe);
     kernel.run(gpu, &p)?;
-    let w = kernel.work(gpu)?;
-    Ok(w.map(|v| f64::from(v) / f64::from(p.ray_count)))
+    let w = kernel.work(gpu)?.map(f64::from);
+    let per_ray = |v: f64| v / f64::from(p.ray_count);
+    Ok(TraversalWork {
+        tlas_nodes: per_ray(w[0]),
+        instances: per_ray(w[1]),
+        blas_nodes: per_ray(w[2]),
+        triangles: per_ray(w[3]),
+        steps: per_ray(w[4]),
+        simt_efficiency: if w[5] > 0.0 { w[4] / w[5] } else { 1.0 },
+    })
 }
 
 /// CPU cost of one frame's TLAS update when some instances move: medians over the frames of each way.
