@@ -422,7 +422,7 @@ enum BenchCommand {
     /// Closest-hit throughput of probe-like rays (grids 16×8×16 … 32×32×32, 32 … 256 rays per probe;
     /// GPU timestamps of the trace pass alone) and the CPU cost of TLAS updates when instances move.
     #[command(
-        after_long_help = "Examples:\n  game_demo bench trace --scene cathedral --iterations 15 --no-flat-rebuild\n  game_demo bench trace --scene forest --cpu-only   # the TLAS refit for moving instances only"
+        after_long_help = "Examples:\n  game_demo bench trace --scene cathedral --iterations 15 --no-flat-rebuild\n  game_demo bench trace --scene forest --cpu-only   # the TLAS refit for moving instances only\n  game_demo bench trace --scene forest --rebraid 4   # a re-braided TLAS (up to 4 primitives an instance)\n  game_demo bench trace --scene forest --work-only --no-flat-rebuild   # traversal work per ray, no timing"
     )]
     Trace {
         /// A built-in scene or a scene file.
@@ -437,6 +437,15 @@ enum BenchCommand {
         /// Skip the GPU throughput table.
         #[arg(long)]
         cpu_only: bool,
+        /// Skip the GPU throughput table but count the traversal work per ray (quick on a software
+        /// adapter).
+        #[arg(long)]
+        work_only: bool,
+        /// TLAS re-braiding budget: the TLAS may have up to this many times as many primitives as
+        /// instances, opening static instances' BLAS nodes (0 or 1: off). Default: the engine's
+        /// (engine::rt::TLAS_REBRAID_BUDGET).
+        #[arg(long)]
+        rebraid: Option<f32>,
         /// Also write the results as JSON to this file (the same figures as the Markdown).
         #[arg(long)]
         json: Option<PathBuf>,
@@ -1042,8 +1051,10 @@ fn bench_walk(
 }
 
 fn bench(command: BenchCommand) -> Result<(), String> {
-    let (name, iterations, no_flat_rebuild, cpu_only, json) = match command {
-        BenchCommand::Trace { scene, iterations, no_flat_rebuild, cpu_only, json } => (scene, iterations, no_flat_rebuild, cpu_only, json),
+    let (name, iterations, no_flat_rebuild, cpu_only, work_only, rebraid, json) = match command {
+        BenchCommand::Trace { scene, iterations, no_flat_rebuild, cpu_only, work_only, rebraid, json } => {
+            (scene, iterations, no_flat_rebuild, cpu_only, work_only, rebraid, json)
+        }
         BenchCommand::Classify { scene, probes: grid, frames, json } => {
             let description = load(&scene)?;
             let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
@@ -1122,11 +1133,21 @@ fn bench(command: BenchCommand) -> Result<(), String> {
     let mut app = bench::prepared_app(&gpu, scene);
     println!("# bench trace: {name} ({triangles} triangles) on {}", gpu.adapter_name());
     println!("scene prepared (BLAS and TLAS built, uploaded) in {:.2?}", started.elapsed());
+    let prepare_ms = started.elapsed().as_secs_f64() * 1e3;
+    let build = bench::tlas_build(&mut app, rebraid);
+    println!(
+        "TLAS (re-braiding budget {}): {} primitives over {} instances, built and uploaded in {:.2} ms",
+        build.budget,
+        build.primitives,
+        build.instances,
+        build.time.as_secs_f64() * 1e3
+    );
     let mut report = serde_json::json!({
         "bench": "trace", "scene": name, "triangles": triangles, "adapter": gpu.adapter_name(), "iterations": iterations,
-        "prepare_ms": started.elapsed().as_secs_f64() * 1e3,
+        "prepare_ms": prepare_ms, "rebraid_budget": build.budget, "tlas_primitives": build.primitives,
+        "tlas_instances": build.instances, "tlas_build_ms": build.time.as_secs_f64() * 1e3,
     });
-    if !cpu_only {
+    if !cpu_only && !work_only {
         let cells = bench::trace_throughput(&gpu, &app, bounds, iterations.max(1))?;
         report["throughput"] = cells
             .iter()
