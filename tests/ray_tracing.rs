@@ -694,3 +694,31 @@ fn an_opened_instance_that_moves_is_refitted_as_one_leaf() {
     }
     compare("moved", &app, &gpu, &random_rays(bounds, 1000, 0x40E5));
 }
+
+/// `bench trace` spreads its probes over the scene's bounds: a scene whose camera stands far from
+/// the world's origin (the render origin follows it) must get the same rays as at the origin, so its
+/// traversal work per ray is the same, and the coherent ray order changes the order of the rays,
+/// not the work.
+#[test]
+fn bench_trace_work_per_ray_is_the_same_for_a_scene_placed_far_from_the_origin() {
+    let Some(gpu) = testkit::gpu("bench_trace_work_per_ray_is_the_same_for_a_scene_placed_far_from_the_origin") else { return };
+    let (grid, rays) = ([6, 6, 6], 64);
+    let work = |origin: glam::DVec3, order: lab::bench::RayOrder| {
+        let mut scene = (scenes::find("cornell").expect("built-in").build)();
+        scene.origin = origin;
+        let bounds = lab::bench::world_bounds(&scene).expect("bounds");
+        let app = lab::bench::prepared_app(&gpu, scene);
+        let rebases = app.world().resource::<engine::scene::RenderOrigin>().rebases;
+        (lab::bench::traversal_work(&gpu, &app, bounds, grid, rays, order).expect("work"), rebases)
+    };
+    let (near, _) = work(glam::DVec3::ZERO, lab::bench::RayOrder::Fibonacci);
+    let (far, rebases) = work(glam::DVec3::new(5000.0, 0.0, -3000.0), lab::bench::RayOrder::Fibonacci);
+    let (coherent, _) = work(glam::DVec3::ZERO, lab::bench::RayOrder::Coherent);
+    eprintln!("work per ray (TLAS nodes, instances, BLAS nodes, triangles): {near:?} at the origin, {far:?} far, {coherent:?} coherent");
+    assert!(rebases > 0, "the far scene's camera should have moved the render origin");
+    assert!(near[2] > 1.0 && near[3] > 1.0, "{near:?}: the rays should walk the scene");
+    for k in 0..4 {
+        assert!((far[k] - near[k]).abs() <= 0.01 * near[k].max(1.0), "far {far:?} against {near:?}");
+        assert!((coherent[k] - near[k]).abs() <= 1e-9 * near[k].max(1.0), "coherent {coherent:?} against {near:?}");
+    }
+}

@@ -51,6 +51,8 @@ for step in "$@"; do
     seriesgrid-*) IFS=- read -r _ scene grid rest error <<< "$step"; run "$step" $B eval --scene "$scene" --time-series --width 256 --height 256 --reference-spp 4096 --probes "$grid" --rest-frames "$rest" --rest-error "$error" --out "$R/$step" --cache /tmp/cache$TAG ${SERIES_ARGS:-} ;;
     seriesrest-*) IFS=- read -r _ scene rest error <<< "$step"; run "$step" $B eval --scene "$scene" --time-series --width 256 --height 256 --reference-spp 4096 --rest-frames "$rest" --rest-error "$error" --out "$R/$step" --cache /tmp/cache$TAG ${SERIES_ARGS:-} ;;
     trace_*) scene=${step#trace_}; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild ;;
+    # tracecoh_SCENE: the same with each probe's rays in coherent order (a warp's rays in one patch of the sphere).
+    tracecoh_*) scene=${step#tracecoh_}; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild --ray-order coherent ;;
     tracecpu_*) scene=${step#tracecpu_}; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild --cpu-only ;;
     classify_*) scene=${step#classify_}; run "$step" $B bench classify --scene "$scene" ;;
     classifyfine_*) scene=${step#classifyfine_}; run "$step" $B bench classify --scene "$scene" --probes 32,16,32 ;;

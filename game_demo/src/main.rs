@@ -446,6 +446,10 @@ enum BenchCommand {
         /// (engine::rt::TLAS_REBRAID_BUDGET).
         #[arg(long)]
         rebraid: Option<f32>,
+        /// Which direction each thread of a probe traces: `fibonacci` (thread k, direction k) or
+        /// `coherent` (directions sorted so that a warp's rays cover one patch of the sphere).
+        #[arg(long, value_enum, default_value = "fibonacci")]
+        ray_order: RayOrderArg,
         /// Also write the results as JSON to this file (the same figures as the Markdown).
         #[arg(long)]
         json: Option<PathBuf>,
@@ -502,6 +506,13 @@ enum BenchCommand {
 }
 
 /// `render --mode`.
+/// `bench trace --ray-order`: see `lab::bench::RayOrder`.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, clap::ValueEnum)]
+enum RayOrderArg {
+    Fibonacci,
+    Coherent,
+}
+
 #[derive(Clone, Copy, PartialEq, Eq, Debug, clap::ValueEnum)]
 enum ModeArg {
     /// Direct light with hard shadows.
@@ -1051,9 +1062,13 @@ fn bench_walk(
 }
 
 fn bench(command: BenchCommand) -> Result<(), String> {
-    let (name, iterations, no_flat_rebuild, cpu_only, work_only, rebraid, json) = match command {
-        BenchCommand::Trace { scene, iterations, no_flat_rebuild, cpu_only, work_only, rebraid, json } => {
-            (scene, iterations, no_flat_rebuild, cpu_only, work_only, rebraid, json)
+    let (name, iterations, no_flat_rebuild, cpu_only, work_only, rebraid, ray_order, json) = match command {
+        BenchCommand::Trace { scene, iterations, no_flat_rebuild, cpu_only, work_only, rebraid, ray_order, json } => {
+            let ray_order = match ray_order {
+                RayOrderArg::Fibonacci => bench::RayOrder::Fibonacci,
+                RayOrderArg::Coherent => bench::RayOrder::Coherent,
+            };
+            (scene, iterations, no_flat_rebuild, cpu_only, work_only, rebraid, ray_order, json)
         }
         BenchCommand::Classify { scene, probes: grid, frames, json } => {
             let description = load(&scene)?;
@@ -1126,7 +1141,7 @@ fn bench(command: BenchCommand) -> Result<(), String> {
         }
     };
     let scene = load(&name)?;
-    let bounds = scene.bounds().ok_or("the scene has no geometry")?;
+    let bounds = bench::world_bounds(&scene).ok_or("the scene has no geometry")?;
     let triangles = scene.instanced_triangle_count();
     let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
     let started = std::time::Instant::now();
@@ -1144,11 +1159,12 @@ fn bench(command: BenchCommand) -> Result<(), String> {
     );
     let mut report = serde_json::json!({
         "bench": "trace", "scene": name, "triangles": triangles, "adapter": gpu.adapter_name(), "iterations": iterations,
+        "ray_order": format!("{ray_order:?}"),
         "prepare_ms": prepare_ms, "rebraid_budget": build.budget, "tlas_primitives": build.primitives,
         "tlas_instances": build.instances, "tlas_build_ms": build.time.as_secs_f64() * 1e3,
     });
     if !cpu_only && !work_only {
-        let cells = bench::trace_throughput(&gpu, &app, bounds, iterations.max(1))?;
+        let cells = bench::trace_throughput(&gpu, &app, bounds, iterations.max(1), ray_order)?;
         report["throughput"] = cells
             .iter()
             .map(|c| serde_json::json!({"probes": c.grid, "rays_per_probe": c.rays_per_probe, "rays": c.rays, "median_ms": c.median_ms, "mrays_per_second": c.mrays_per_second()}))
@@ -1171,7 +1187,7 @@ fn bench(command: BenchCommand) -> Result<(), String> {
     }
     if !cpu_only {
         let (grid, rays) = ([32, 8, 32], 128);
-        let w = bench::traversal_work(&gpu, &app, bounds, grid, rays)?;
+        let w = bench::traversal_work(&gpu, &app, bounds, grid, rays, ray_order)?;
         report["traversal_work_per_ray"] = serde_json::json!({
             "probes": grid, "rays_per_probe": rays, "tlas_nodes": w[0], "instances_entered": w[1], "blas_nodes": w[2], "triangles": w[3],
         });

@@ -11,6 +11,8 @@ struct BenchParams {
     ray_count: u32,
     grid_counts: vec3<u32>,
     max_distance: f32,
+    // Where this ray count's coherent order starts in bench_order; 0xffffffff: Fibonacci order.
+    order_offset: u32,
 }
 
 @group(1) @binding(0) var<uniform> bench: BenchParams;
@@ -18,6 +20,8 @@ struct BenchParams {
 @group(1) @binding(1) var<storage, read_write> bench_hits: array<f32>;
 // Traversal work summed over all rays, when the pipeline counts it (RT_COUNT_WORK).
 @group(1) @binding(2) var<storage, read_write> bench_work: array<atomic<u32>, 4>;
+// Coherent orders (lab::bench::coherent_ray_order) of each ray count, one after another.
+@group(1) @binding(3) var<storage, read> bench_order: array<u32>;
 
 const GOLDEN_ANGLE: f32 = 2.39996322972865;
 
@@ -36,7 +40,10 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let probe = i / bench.rays_per_probe;
-    let ray_index = i % bench.rays_per_probe;
+    var ray_index = i % bench.rays_per_probe;
+    if bench.order_offset != 0xffffffffu {
+        ray_index = bench_order[bench.order_offset + ray_index];
+    }
     let nx = bench.grid_counts.x;
     let ny = bench.grid_counts.y;
     let cell = vec3<u32>(probe % nx, (probe / nx) % ny, probe / (nx * ny));

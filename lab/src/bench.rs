@@ -13,7 +13,7 @@ use engine::rt::{RayTracingScene, ray_workgroups};
 use engine::scene::{Assets, Mesh, MeshInstance, SceneDescription, Transform};
 use engine::shader::compute_program_with_constants;
 use engine::wgpu;
-use glam::{Mat4, Quat, Vec3};
+use glam::{DVec3, Mat4, Quat, Vec3};
 
 /// Probe grids and rays per probe of the published DDGI throughput tables.
 pub const GRIDS: [[u32; 3]; 4] = [[16, 8, 16], [32, 8, 32], [32, 16, 32], [32, 32, 32]];
@@ -31,6 +31,58 @@ struct BenchParams {
     ray_count: u32,
     grid_counts: [u32; 3],
     max_distance: f32,
+    /// Where this ray count's order starts in `bench_order`, or u32::MAX for the Fibonacci order.
+    order_offset: u32,
+    _pad: [u32; 3],
+}
+
+/// The order in which a probe's rays are given to threads: which spherical Fibonacci direction
+/// thread k of a probe traces.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum RayOrder {
+    /// Thread k traces direction k: consecutive directions sit a golden angle apart, so a warp's
+    /// 32 rays fan out over a band around the whole sphere.
+    #[default]
+    Fibonacci,
+    /// Directions sorted along a Hilbert curve over their octahedral map: a warp's rays cover one
+    /// compact patch of the sphere.
+    Coherent,
+}
+
+/// Direction i of n spherical Fibonacci points (the bench shader's formula).
+fn spherical_fibonacci(i: u32, n: u32) -> Vec3 {
+    const GOLDEN_ANGLE: f32 = 2.399_963_3;
+    let z = 1.0 - (2.0 * i as f32 + 1.0) / n as f32;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = i as f32 * GOLDEN_ANGLE;
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+/// Threads that run in lockstep on the GPUs we tune for (an NVIDIA warp).
+const WARP: usize = 32;
+
+/// The spherical Fibonacci indices of `n` directions in coherent order: split recursively at a
+/// multiple of a warp along the axis over which the directions spread most, so that every warp's
+/// rays cover one compact patch of the sphere (an octant for 256 rays).
+pub fn coherent_ray_order(n: u32) -> Vec<u32> {
+    fn split(ids: &mut [u32], n: u32) {
+        if ids.len() <= WARP {
+            return;
+        }
+        let dirs = |ids: &[u32]| ids.iter().map(|&i| spherical_fibonacci(i, n)).collect::<Vec<_>>();
+        let d = dirs(ids);
+        let lo = d.iter().fold(Vec3::splat(f32::MAX), |a, &b| a.min(b));
+        let hi = d.iter().fold(Vec3::splat(f32::MIN), |a, &b| a.max(b));
+        let axis = (hi - lo).max_position();
+        ids.sort_by(|&a, &b| spherical_fibonacci(a, n)[axis].total_cmp(&spherical_fibonacci(b, n)[axis]));
+        let left = ids.len().div_ceil(2 * WARP) * WARP;
+        let (a, b) = ids.split_at_mut(left.min(ids.len()));
+        split(a, n);
+        split(b, n);
+    }
+    let mut order: Vec<u32> = (0..n).collect();
+    split(&mut order, n);
+    order
 }
 
 /// A random rotation (axis and angle uniform), for the per-dispatch rotation of the ray directions.
@@ -69,6 +121,9 @@ pub const SHADERS: &[engine::shader::ShaderModule] = &[("bench_trace.wgsl", incl
 struct TraceKernel {
     program: engine::shader::Program<wgpu::ComputePipeline>,
     groups: [wgpu::BindGroup; 2],
+    /// Where each ray count's coherent order starts in `bench_order`.
+    order_offsets: Vec<(u32, u32)>,
+    ray_order: RayOrder,
     params: wgpu::Buffer,
     work: wgpu::Buffer,
     queries: wgpu::QuerySet,
@@ -76,7 +131,7 @@ struct TraceKernel {
 }
 
 impl TraceKernel {
-    fn new(gpu: &GpuContext, app: &App, count_work: bool) -> Result<Self, String> {
+    fn new(gpu: &GpuContext, app: &App, count_work: bool, ray_order: RayOrder) -> Result<Self, String> {
         let constants: &[(&str, f64)] = if count_work { &[("RT_COUNT_WORK", 1.0)] } else { &[] };
         let program = engine::shader::register(SHADERS)
             .and_then(|()| compute_program_with_constants(&gpu.device, "bench_trace.wgsl", "main", "trace", constants))
@@ -91,6 +146,13 @@ impl TraceKernel {
         let hits = buffer("bench_hits", u64::from(max_rays) * 4, U::STORAGE);
         let params = buffer("bench_params", size_of::<BenchParams>() as u64, U::UNIFORM | U::COPY_DST);
         let work = buffer("bench_work", 16, U::STORAGE | U::COPY_SRC | U::COPY_DST);
+        let (mut orders, mut order_offsets) = (Vec::new(), Vec::new());
+        for n in RAYS {
+            order_offsets.push((n, orders.len() as u32));
+            orders.extend(coherent_ray_order(n));
+        }
+        let order = buffer("bench_order", (orders.len() * 4) as u64, U::STORAGE | U::COPY_DST);
+        gpu.queue.write_buffer(&order, 0, bytemuck::cast_slice(&orders));
         let groups = [
             program.bind_group(&gpu.device, 0, &rt.scene_bindings(scene)),
             program.bind_group(
@@ -100,12 +162,15 @@ impl TraceKernel {
                     ("bench", params.as_entire_binding()),
                     ("bench_hits", hits.as_entire_binding()),
                     ("bench_work", work.as_entire_binding()),
+                    ("bench_order", order.as_entire_binding()),
                 ],
             ),
         ];
         Ok(Self {
             program,
             groups,
+            order_offsets,
+            ray_order,
             params,
             work,
             queries: gpu.device.create_query_set(&wgpu::QuerySetDescriptor {
@@ -119,7 +184,12 @@ impl TraceKernel {
 
     /// One dispatch; returns its GPU milliseconds.
     fn run(&self, gpu: &GpuContext, p: &BenchParams) -> Result<f64, String> {
-        gpu.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(p));
+        let mut p = *p;
+        p.order_offset = match self.ray_order {
+            RayOrder::Fibonacci => u32::MAX,
+            RayOrder::Coherent => self.order_offsets.iter().find(|(n, _)| *n == p.rays_per_probe).map_or(u32::MAX, |&(_, offset)| offset),
+        };
+        gpu.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&p));
         gpu.queue.write_buffer(&self.work, 0, &[0; 16]);
         let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("bench_trace") });
         {
@@ -150,6 +220,19 @@ impl TraceKernel {
     }
 }
 
+/// The world-space bounds of a scene's geometry, its placement ([`SceneDescription::origin`])
+/// included: where the bench spreads its probes.
+pub fn world_bounds(scene: &SceneDescription) -> Option<(DVec3, DVec3)> {
+    scene.bounds().map(|(lo, hi)| (scene.origin + lo.as_dvec3(), scene.origin + hi.as_dvec3()))
+}
+
+/// World-space bounds in the render space the TLAS is built in: the render origin follows the
+/// scene's camera (the forest's stands 95 m from the world's origin, beyond the rebase distance).
+fn render_space(app: &App, (lo, hi): (DVec3, DVec3)) -> (Vec3, Vec3) {
+    let origin = app.world().get_resource::<engine::scene::RenderOrigin>().copied().unwrap_or_default();
+    (origin.to_render(lo), origin.to_render(hi))
+}
+
 fn params_for(rng: &mut SplitMix64, bounds: (Vec3, Vec3), grid: [u32; 3], rays_per_probe: u32) -> BenchParams {
     let (lo, hi) = bounds;
     let extent = (hi - lo).max(Vec3::splat(1e-3));
@@ -162,15 +245,24 @@ fn params_for(rng: &mut SplitMix64, bounds: (Vec3, Vec3), grid: [u32; 3], rays_p
         ray_count: grid[0] * grid[1] * grid[2] * rays_per_probe,
         grid_counts: grid,
         max_distance: 1e30,
+        order_offset: u32::MAX,
+        _pad: [0; 3],
     }
 }
 
 /// Times the trace pass for every grid × rays cell: `iterations` timed dispatches after warm-up, median.
-pub fn trace_throughput(gpu: &GpuContext, app: &App, bounds: (Vec3, Vec3), iterations: u32) -> Result<Vec<TraceCell>, String> {
+pub fn trace_throughput(
+    gpu: &GpuContext,
+    app: &App,
+    bounds: (DVec3, DVec3),
+    iterations: u32,
+    ray_order: RayOrder,
+) -> Result<Vec<TraceCell>, String> {
     if !gpu.timestamps {
         return Err(format!("{} has no timestamp queries: GPU times cannot be measured", gpu.adapter_name()));
     }
-    let kernel = TraceKernel::new(gpu, app, false)?;
+    let kernel = TraceKernel::new(gpu, app, false, ray_order)?;
+    let bounds = render_space(app, bounds);
     let mut rng = SplitMix64::new(0x5EED_1234_ABCD);
     let mut cells = Vec::new();
     let bar = crate::progress::bar((GRIDS.len() * RAYS.len()) as u64, "bench trace", "cells");
@@ -195,8 +287,16 @@ pub fn trace_throughput(gpu: &GpuContext, app: &App, bounds: (Vec3, Vec3), itera
 
 /// Average traversal work per ray for one grid × rays cell: TLAS nodes, instances entered, BLAS
 /// nodes, triangles tested.
-pub fn traversal_work(gpu: &GpuContext, app: &App, bounds: (Vec3, Vec3), grid: [u32; 3], rays_per_probe: u32) -> Result<[f64; 4], String> {
-    let kernel = TraceKernel::new(gpu, app, true)?;
+pub fn traversal_work(
+    gpu: &GpuContext,
+    app: &App,
+    bounds: (DVec3, DVec3),
+    grid: [u32; 3],
+    rays_per_probe: u32,
+    ray_order: RayOrder,
+) -> Result<[f64; 4], String> {
+    let kernel = TraceKernel::new(gpu, app, true, ray_order)?;
+    let bounds = render_space(app, bounds);
     let p = params_for(&mut SplitMix64::new(0xD1A6), bounds, grid, rays_per_probe);
     kernel.run(gpu, &p)?;
     let w = kernel.work(gpu)?;
@@ -541,12 +641,38 @@ mod tests {
     use super::*;
 
     #[test]
+    fn the_coherent_order_is_a_permutation_whose_warps_cover_compact_patches() {
+        for n in [32, 64, 128, 256, 1024] {
+            let order = coherent_ray_order(n);
+            let mut sorted = order.clone();
+            sorted.sort_unstable();
+            assert_eq!(sorted, (0..n).collect::<Vec<_>>(), "{n} rays");
+            // The widest angle between a warp's rays and their mean direction, over the warps.
+            let spread = |ids: &[u32]| {
+                let mean = ids.iter().map(|&i| spherical_fibonacci(i, n)).sum::<Vec3>().normalize_or_zero();
+                ids.iter().map(|&i| spherical_fibonacci(i, n).dot(mean)).fold(1.0f32, f32::min)
+            };
+            let fibonacci: Vec<u32> = (0..n).collect();
+            let worst = |ids: &[u32]| ids.chunks(32).map(spread).fold(1.0f32, f32::min);
+            // Up to 64 directions a warp is half the sphere or all of it whatever the order.
+            if n <= 64 {
+                continue;
+            }
+            // From 4 warps a probe on, a coherent warp stays within a cone (the cosine to its
+            // widest ray over 0.2); the Fibonacci order's warps span bands around the sphere.
+            println!("{n} rays: widest ray of a warp at cosine {} (Fibonacci order {})", worst(&order), worst(&fibonacci));
+            assert!(n < 256 || worst(&order) > 0.5, "{n} rays: coherent warps spread to cosine {}", worst(&order));
+            assert!(worst(&order) > worst(&fibonacci) + 0.15, "{n} rays");
+        }
+    }
+
+    #[test]
     fn the_bench_shader_is_registered_and_its_params_match_naga_layout() {
         let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
         engine::shader::check_shader_folder(&dir, SHADERS).unwrap_or_else(|e| panic!("{e}"));
         engine::shader::register(SHADERS).expect("register");
         let host = engine::gpu_struct_layout!(BenchParams in "bench_trace.wgsl" {
-            rotation, grid_origin, rays_per_probe, grid_spacing, ray_count, grid_counts, max_distance,
+            rotation, grid_origin, rays_per_probe, grid_spacing, ray_count, grid_counts, max_distance, order_offset,
         });
         engine::shader::check_struct_layout(&host).unwrap_or_else(|e| panic!("{e}"));
     }
