@@ -599,7 +599,7 @@ fn braided_scene() -> SceneDescription {
     let mut s = SceneDescription { name: "braided".into(), ..Default::default() };
     let meshes = [s.add_mesh(sheet(24)), s.add_mesh(sheet(48)), s.add_mesh(engine::shapes::cuboid("cube", Vec3::splat(0.5)))];
     let m = s.add_material(Material::diffuse("grey", Vec3::splat(0.5)));
-    let mut rng = SplitMix64::new(0xB2A1_D5);
+    let mut rng = SplitMix64::new(0x00B2_A1D5);
     for i in 0..150 {
         let t = Transform::from_xyz(rng.range(-4.0, 4.0), rng.range(0.0, 3.0), rng.range(-4.0, 4.0))
             .with_rotation(Quat::from_axis_angle(rng.direction(), rng.range(0.0, 6.0)))
