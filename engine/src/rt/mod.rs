@@ -189,9 +189,9 @@ fn world_aabb((lo, hi): (Vec3, Vec3), world: &Affine3A) -> Option<Aabb> {
 
 /// The default of [`RayTracingScene::rebraid_budget`]: re-braiding off (see
 /// [`RayTracingScene::set_rebraid_budget`]). Off because the work it saves was small where it was
-/// counted (`forest`, 32×8×32 × 128 rays, lavapipe: 7.6 node tests a ray off, 7.1 at a budget of 4,
-/// 6.5 at 16) against a TLAS build 6× (4) to 100× (16) slower and a refit whose fixed cost grows
-/// with the TLAS; `game_demo bench trace --rebraid B` compares it on a GPU.
+/// counted (`forest`, 32×8×32 × 128 rays: 34.0 node tests a ray off, 32.2 at a budget of 4, 30.2
+/// at 16) against a slower TLAS build and a refit whose fixed cost grows with the TLAS;
+/// `game_demo bench trace --rebraid B` compares it on a GPU.
 pub const TLAS_REBRAID_BUDGET: f32 = 0.0;
 
 /// Re-braiding opens a BLAS node only when the summed world-space half areas of its children are at
