@@ -592,6 +592,109 @@ fn the_blas_build_hook_is_told_of_every_build_in_order_up_to_the_totals() {
     assert_eq!(app.world().resource::<RayTracingScene>().progress.counts(), total);
 }
 
+/// Overlapping, rotated and non-uniformly scaled instances of meshes whose BLASes are several levels
+/// deep (wavy sheets of 1,152 and 4,608 triangles) and of a cube (one BLAS node, never opened), as
+/// a forest's trees overlap.
+fn braided_scene() -> SceneDescription {
+    let mut s = SceneDescription { name: "braided".into(), ..Default::default() };
+    let meshes = [s.add_mesh(sheet(24)), s.add_mesh(sheet(48)), s.add_mesh(engine::shapes::cuboid("cube", Vec3::splat(0.5)))];
+    let m = s.add_material(Material::diffuse("grey", Vec3::splat(0.5)));
+    let mut rng = SplitMix64::new(0x00B2_A1D5);
+    for i in 0..150 {
+        let t = Transform::from_xyz(rng.range(-4.0, 4.0), rng.range(0.0, 3.0), rng.range(-4.0, 4.0))
+            .with_rotation(Quat::from_axis_angle(rng.direction(), rng.range(0.0, 6.0)))
+            .with_scale(Vec3::new(rng.range(0.5, 3.0), rng.range(0.3, 2.0), rng.range(0.5, 3.0)));
+        s.add_node(&format!("item{i}"), t, None, vec![NodeContent::Meshes(vec![(meshes[i % 3], m)])]);
+    }
+    s
+}
+
+/// The instance slots re-braiding opened (with a TLAS entry below the BLAS root).
+fn opened_slots(app: &App) -> std::collections::BTreeSet<u32> {
+    let (_, entries) = app.world().resource::<RayTracingScene>().tlas_cpu();
+    entries.iter().filter(|e| e.start_node != 0).map(|e| e.instance).collect()
+}
+
+/// Sets the re-braiding budget and runs the frame that rebuilds the TLAS with it.
+fn rebraid(app: &mut App, budget: f32) -> usize {
+    app.world_mut().resource_mut::<RayTracingScene>().set_rebraid_budget(budget);
+    run_headless(app, 1);
+    let rt = app.world().resource::<RayTracingScene>();
+    assert!(rt.stats.tlas_rebuilt, "a new budget rebuilds the TLAS");
+    rt.tlas_primitive_count()
+}
+
+/// Asserts that two traces of the same rays found the same closest hits and any-hit answers. Two
+/// triangles met at exactly the same distance may be found in another order: then the hit must be
+/// on the ray at that distance by the CPU reference.
+fn assert_same_hits(what: &str, app: &App, rays: &[GpuRay], want: &[TraceResult], got: &[TraceResult]) {
+    let cpu = cpu_reference(app);
+    for (i, (w, g)) in want.iter().zip(got).enumerate() {
+        if bytemuck::bytes_of(w) == bytemuck::bytes_of(g) {
+            continue;
+        }
+        let tie = w.t == g.t && w.any_hit == g.any_hit && cpu.hit_t(&rays[i], g.instance, g.primitive).is_some_and(|t| close(t, w.t));
+        assert!(tie, "{what}, ray {i} {:?}: one leaf per instance {w:?}, re-braided {g:?}", rays[i]);
+    }
+}
+
+#[test]
+fn a_rebraided_tlas_gives_the_hits_of_one_leaf_per_instance() {
+    let Some(gpu) = testkit::gpu("a_rebraided_tlas_gives_the_hits_of_one_leaf_per_instance") else { return };
+    let scene = braided_scene();
+    let bounds = scene.bounds().expect("bounds");
+    let mut app = app_for(&gpu, scene);
+    let instances = rebraid(&mut app, 0.0);
+    assert_eq!(instances, 150, "off: one TLAS leaf per instance");
+    let rays = random_rays(bounds, 2000, 0xB2A1);
+    let (closest, any) = (trace(&app, &gpu, &rays, false), trace(&app, &gpu, &rays, true));
+    let hits = closest.iter().filter(|r| r.instance != u32::MAX).count();
+    assert!(hits > rays.len() / 5, "too few hits ({hits} of {}) for the test to mean anything", rays.len());
+    for budget in [2.0, 4.0, 64.0] {
+        let primitives = rebraid(&mut app, budget);
+        // The sheets' roots have only inner children: some instances must have been opened.
+        assert!(primitives > instances && primitives as f32 <= budget * instances as f32, "budget {budget}: {primitives} primitives");
+        let what = format!("budget {budget} ({primitives} primitives)");
+        assert_same_hits(&what, &app, &rays, &closest, &trace(&app, &gpu, &rays, false));
+        assert_same_hits(&what, &app, &rays, &any, &trace(&app, &gpu, &rays, true));
+    }
+    // And the CPU reference agrees with the most opened TLAS.
+    compare("budget 64", &app, &gpu, &rays);
+}
+
+#[test]
+fn an_opened_instance_that_moves_is_refitted_as_one_leaf() {
+    let Some(gpu) = testkit::gpu("an_opened_instance_that_moves_is_refitted_as_one_leaf") else { return };
+    let scene = braided_scene();
+    let bounds = scene.bounds().expect("bounds");
+    let mut app = app_for(&gpu, scene);
+    rebraid(&mut app, 8.0);
+    let opened = opened_slots(&app);
+    let mut rng = SplitMix64::new(3);
+    let mut move_some = |app: &mut App| {
+        let world = app.world_mut();
+        let mut q = world.query::<(&engine::scene::Name, &mut Transform)>();
+        for (_, mut t) in q.iter_mut(world).filter(|(name, _)| matches!(name.0.as_str(), "item1" | "item4" | "item7" | "item10")) {
+            t.translation += Vec3::new(rng.range(-0.5, 0.5), rng.range(-0.5, 0.5), rng.range(-0.5, 0.5));
+            t.rotation *= Quat::from_rotation_y(rng.range(-0.5, 0.5));
+        }
+        run_headless(app, 1);
+        let rt = app.world().resource::<RayTracingScene>();
+        (rt.stats, rt.tlas_primitive_count())
+    };
+    // Items 1, 4, 7 and 10 are instances of the 4,608-triangle sheet, opened at a budget of 8; the
+    // rebuild keeps them at their roots.
+    let (stats, primitives) = move_some(&mut app);
+    let now = opened_slots(&app);
+    assert!(stats.tlas_rebuilt, "opened movers are rebuilt at their roots: {stats:?}");
+    assert_eq!(opened.difference(&now).count(), 4, "the four movers were opened and are no more: {opened:?} then {now:?}");
+    for frame in 0..3 {
+        let (stats, now) = move_some(&mut app);
+        assert!(!stats.tlas_rebuilt && stats.tlas_refitted_leaves == 4 && now == primitives, "frame {frame}: {stats:?}, {now}");
+    }
+    compare("moved", &app, &gpu, &random_rays(bounds, 1000, 0x40E5));
+}
+
 /// `bench trace` spreads its probes over the scene's bounds: a scene whose camera stands far from
 /// the world's origin (the render origin follows it) must get the same rays as at the origin, so its
 /// traversal work per ray is the same, and the coherent ray order changes the order of the rays,

@@ -57,6 +57,8 @@ for step in "$@"; do
     tracewg_*) IFS=- read -r scene size <<< "${step#tracewg_}"; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild --workgroup-size "$size" ${TRACE_ARGS:-} ;;
     # tracepers_SCENE-GROUPS: the persistent kernel with GROUPS workgroups (TRACE_ARGS as above).
     tracepers_*) IFS=- read -r scene groups <<< "${step#tracepers_}"; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild --persistent-groups "$groups" ${TRACE_ARGS:-} ;;
+    # tracerb_SCENE-BUDGET: the TLAS partially re-braided at BUDGET primitives an instance (TRACE_ARGS as above).
+    tracerb_*) IFS=- read -r scene budget <<< "${step#tracerb_}"; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild --rebraid "$budget" ${TRACE_ARGS:-} ;;
     tracecpu_*) scene=${step#tracecpu_}; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild --cpu-only ;;
     classify_*) scene=${step#classify_}; run "$step" $B bench classify --scene "$scene" ;;
     classifyfine_*) scene=${step#classifyfine_}; run "$step" $B bench classify --scene "$scene" --probes 32,16,32 ;;

@@ -19,12 +19,13 @@ struct GpuBlas {
     _pad1: u32,
 }
 
-// A TLAS leaf: the instance a ray enters there, and where its BLAS lives (as in GpuBlas).
+// A TLAS leaf: the instance a ray enters there, where its BLAS lives (as in GpuBlas), and the BLAS
+// node the walk starts at (0, the root; a node below it where re-braiding opened the instance).
 struct TlasEntry {
     instance: u32,
     node_offset: u32,
     triangle_offset: u32,
-    _pad: u32,
+    start_node: u32,
 }
 
 @group(0) @binding(7) var<storage, read> blas_nodes: array<vec4<u32>>;
@@ -193,8 +194,8 @@ fn rt_tlas_entry(index: u32) -> TlasEntry {
 // nodes together whether they are in the TLAS or in an instance's BLAS. Each step tests one CWBVH
 // node (TLAS or BLAS, same code), then either the triangles it hit (in a BLAS) or one of the TLAS
 // entries it hit: entering an instance pushes what is left of the TLAS walk, takes the ray into
-// instance space and starts the BLAS walk at its root; the walk returns to the TLAS when the stack
-// is back at the level it entered at.
+// instance space and starts the BLAS walk at the entry's start node; the walk returns to the TLAS
+// when the stack is back at the level it entered at.
 fn rt_trace(ray: Ray, any_hit: bool) -> RayHit {
     var best = rt_no_hit(ray.tmax);
     var best_triangle = 0u;
@@ -311,9 +312,10 @@ fn rt_trace(ray: Ray, any_hit: bool) -> RayHit {
             tri_dir = (local_from_world * vec4<f32>(ray.direction, 0.0)).xyz;
             dir = rt_safe_direction(tri_dir);
             oct_inv4 = rt_octant_inv4(dir);
-            // The BLAS root, as the only inner child of a virtual parent; the TLAS entries left
-            // wait on the stack.
-            group = vec2<u32>(0u, 0x80000000u);
+            // The entry's start node (the BLAS root unless re-braided), as the only inner child of
+            // a virtual parent (its one hit bit, no imask bits below it: the child index is the
+            // base); the TLAS entries left wait on the stack.
+            group = vec2<u32>(entry.start_node, 0x80000000u);
             prims = vec2<u32>(0u, 0u);
             continue;
         }

@@ -422,7 +422,7 @@ enum BenchCommand {
     /// Closest-hit throughput of probe-like rays (grids 16×8×16 … 32×32×32, 32 … 256 rays per probe;
     /// GPU timestamps of the trace pass alone) and the CPU cost of TLAS updates when instances move.
     #[command(
-        after_long_help = "Examples:\n  game_demo bench trace --scene cathedral --iterations 15 --no-flat-rebuild\n  game_demo bench trace --scene forest --cpu-only   # the TLAS refit for moving instances only"
+        after_long_help = "Examples:\n  game_demo bench trace --scene cathedral --iterations 15 --no-flat-rebuild\n  game_demo bench trace --scene forest --cpu-only   # the TLAS refit for moving instances only\n  game_demo bench trace --scene forest --rebraid 4   # a re-braided TLAS (up to 4 primitives an instance)\n  game_demo bench trace --scene forest --work-only --no-flat-rebuild   # traversal work per ray, no timing"
     )]
     Trace {
         /// A built-in scene or a scene file.
@@ -437,6 +437,11 @@ enum BenchCommand {
         /// Skip the GPU throughput table.
         #[arg(long)]
         cpu_only: bool,
+        /// TLAS re-braiding budget: the TLAS may have up to this many times as many primitives as
+        /// instances, opening static instances' BLAS nodes (0 or 1: off). Default: the engine's
+        /// (engine::rt::TLAS_REBRAID_BUDGET).
+        #[arg(long)]
+        rebraid: Option<f32>,
         /// Which direction each thread of a probe traces: `fibonacci` (thread k, direction k) or
         /// `coherent` (directions sorted so that a warp's rays cover one patch of the sphere).
         #[arg(long, value_enum, default_value = "fibonacci")]
@@ -1064,12 +1069,13 @@ fn bench_walk(
 }
 
 fn bench(command: BenchCommand) -> Result<(), String> {
-    let (name, iterations, no_flat_rebuild, cpu_only, work_only, variant, json) = match command {
+    let (name, iterations, no_flat_rebuild, cpu_only, work_only, rebraid, variant, json) = match command {
         BenchCommand::Trace {
             scene,
             iterations,
             no_flat_rebuild,
             cpu_only,
+            rebraid,
             ray_order,
             workgroup_size,
             persistent_groups,
@@ -1086,6 +1092,7 @@ fn bench(command: BenchCommand) -> Result<(), String> {
                 no_flat_rebuild,
                 cpu_only,
                 work_only,
+                rebraid,
                 bench::TraceVariant { ray_order, workgroup_size, persistent_groups },
                 json,
             )
@@ -1168,10 +1175,20 @@ fn bench(command: BenchCommand) -> Result<(), String> {
     let mut app = bench::prepared_app(&gpu, scene);
     println!("# bench trace: {name} ({triangles} triangles) on {}", gpu.adapter_name());
     println!("scene prepared (BLAS and TLAS built, uploaded) in {:.2?}", started.elapsed());
+    let prepare_ms = started.elapsed().as_secs_f64() * 1e3;
+    let build = bench::tlas_build(&mut app, rebraid);
+    println!(
+        "TLAS (re-braiding budget {}): {} primitives over {} instances, built and uploaded in {:.2} ms",
+        build.budget,
+        build.primitives,
+        build.instances,
+        build.time.as_secs_f64() * 1e3
+    );
     let mut report = serde_json::json!({
         "bench": "trace", "scene": name, "triangles": triangles, "adapter": gpu.adapter_name(), "iterations": iterations,
         "ray_order": format!("{:?}", variant.ray_order), "workgroup_size": variant.workgroup_size, "persistent_groups": variant.persistent_groups,
-        "prepare_ms": started.elapsed().as_secs_f64() * 1e3,
+        "prepare_ms": prepare_ms, "rebraid_budget": build.budget, "tlas_primitives": build.primitives,
+        "tlas_instances": build.instances, "tlas_build_ms": build.time.as_secs_f64() * 1e3,
     });
     if !cpu_only && !work_only {
         let cells = bench::trace_throughput(&gpu, &app, bounds, iterations.max(1), variant)?;

@@ -206,7 +206,7 @@ fn persistent(@builtin(workgroup_id) group_id: vec3<u32>, @builtin(local_invocat
             tri_dir = (local_from_world * vec4<f32>(ray.direction, 0.0)).xyz;
             dir = rt_safe_direction(tri_dir);
             oct_inv4 = rt_octant_inv4(dir);
-            group = vec2<u32>(0u, 0x80000000u);
+            group = vec2<u32>(entry.start_node, 0x80000000u);
             prims = vec2<u32>(0u, 0u);
             continue;
         }

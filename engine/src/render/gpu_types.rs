@@ -163,7 +163,7 @@ pub fn gpu_structs() -> Vec<crate::shader::HostStruct> {
         }),
         layout!(GpuLight in "scene.inc.wgsl" { position, kind, direction, range, radiance, spot_scale, spot_offset, _pad0, _pad1, _pad2 }),
         layout!(GpuBlas in "ray_tracing.inc.wgsl" { node_offset, triangle_offset, node_count, triangle_count, first_index, base_vertex, _pad0, _pad1 }),
-        layout!(TlasEntry in "ray_tracing.inc.wgsl" { instance, node_offset, triangle_offset, _pad }),
+        layout!(TlasEntry in "ray_tracing.inc.wgsl" { instance, node_offset, triangle_offset, start_node }),
         layout!(Ray in "ray_tracing.inc.wgsl" { origin, tmin, direction, tmax }),
         layout!(TraceResult in "trace_rays.wgsl" { t, instance, primitive, flags, barycentrics, any_hit, _pad, albedo, emissive }),
     ]

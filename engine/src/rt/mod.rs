@@ -11,10 +11,15 @@
 //!   one node test serves both levels. It is collapsed from a binary BVH (obvhs PLOC plus
 //!   reinsertion) that stays on the CPU: each wide node opens its largest descendants until it has
 //!   eight children, placed in the slots of the ray octants they are nearest for. Its leaves are
-//!   [`TlasEntry`]s (instance slot and where the BLAS lives). When entities move only their leaves
-//!   are updated, the binary BVH is refitted and the wide nodes over changed children are
-//!   re-encoded; it is rebuilt when instances are added or removed, or when refitting has let its
-//!   quality decay. Many movers are refitted in parallel on rayon's pool: the binary BVH is cut into
+//!   [`TlasEntry`]s (instance slot, where the BLAS lives and the BLAS node the walk starts at).
+//!   With partial re-braiding ([`RayTracingScene::set_rebraid_budget`]; Benthin, Woop, Wald and
+//!   Áfra, HPG 2017) the build's primitives are (instance, BLAS node) pairs: static instances'
+//!   largest BLAS nodes are opened into leaves of their own, each bounded by its node's box in world
+//!   space, so that a ray crossing overlapping instances enters only the parts it meets. Instances
+//!   that move stay one leaf (opened ones are rebuilt at their root when they first move). When
+//!   entities move only their leaves are updated, the binary BVH is refitted and the wide nodes over
+//!   changed children are re-encoded; it is rebuilt when instances are added or removed, or when
+//!   refitting has let its quality decay. Many movers are refitted in parallel on rayon's pool: the binary BVH is cut into
 //!   subtrees whose nodes are contiguous, each refitted through its own slice, then the few nodes
 //!   above them (the same TLAS as on one thread). Only changed nodes are uploaded, those near each
 //!   other in one copy. A static scene does no BVH work per frame.
@@ -158,11 +163,13 @@ pub struct TlasEntry {
     pub node_offset: u32,
     /// First triangle of the instance's BLAS in `blas_triangles`.
     pub triangle_offset: u32,
-    /// Padding to the WGSL layout.
-    pub _pad: u32,
+    /// The BLAS node the walk starts at (relative to `node_offset`): 0, the root, for an instance
+    /// that is not opened; a node below it when re-braiding opened the instance (one entry per
+    /// node of the cut).
+    pub start_node: u32,
 }
 
-/// One TLAS primitive: an instance's entry, with its BLAS's local-space bounds.
+/// One TLAS primitive: an instance's entry, with its BLAS start node's local-space bounds.
 #[derive(Clone, Copy, Debug)]
 struct TlasPrim {
     local: (Vec3, Vec3),
@@ -179,6 +186,19 @@ fn world_aabb((lo, hi): (Vec3, Vec3), world: &Affine3A) -> Option<Aabb> {
     }
     aabb.valid().then_some(aabb)
 }
+
+/// The default of [`RayTracingScene::rebraid_budget`]: re-braiding off (see
+/// [`RayTracingScene::set_rebraid_budget`]). Off because the work it saves was small where it was
+/// counted (`forest`, 32×8×32 × 128 rays: 34.0 node tests a ray off, 32.2 at a budget of 4, 30.2
+/// at 16) against a slower TLAS build and a refit whose fixed cost grows with the TLAS;
+/// `game_demo bench trace --rebraid B` compares it on a GPU.
+pub const TLAS_REBRAID_BUDGET: f32 = 0.0;
+
+/// Re-braiding opens a BLAS node only when the summed world-space half areas of its children are at
+/// most this many times its own: where the children are nearly as large as the node (a tree's root
+/// children span the tree), opening multiplies the TLAS leaves a ray meets without sparing it a
+/// node test.
+pub const TLAS_REBRAID_AREA_RATIO: f32 = 2.0;
 
 /// Sentinel for "none" in the TLAS's index tables.
 const NONE: u32 = u32::MAX;
@@ -351,6 +371,19 @@ pub struct RayTracingScene {
     /// Moving instances from which the TLAS refit runs on rayon's thread pool (default
     /// [`default_parallel_refit_from`]; `usize::MAX`: never, 0: always). Both ways give the same TLAS.
     pub parallel_refit_from: usize,
+    /// Re-braiding (partial re-braiding, Benthin, Woop, Wald and Áfra, HPG 2017): the TLAS build
+    /// may have up to this many times as many primitives as instances, opening the BLAS nodes of
+    /// static instances with the largest world-space boxes into TLAS leaves of their own (each
+    /// entered at that node). 0 or anything up to 1: off, one leaf per instance. Default
+    /// [`TLAS_REBRAID_BUDGET`]; set it with [`RayTracingScene::set_rebraid_budget`], which rebuilds
+    /// the TLAS on the next frame. Instances that have moved are never opened, so a refit stays one
+    /// leaf per mover.
+    rebraid_budget: f32,
+    /// A rebuild was asked for (a setting changed).
+    rebuild_requested: bool,
+    /// Instance slots that have moved since the scene was loaded: kept at their BLAS root by
+    /// re-braiding (a freed slot that a new instance takes keeps its mark).
+    slot_moved: Vec<bool>,
     /// Scratch: inner nodes already queued for refit, wide nodes to re-encode, the movers of each
     /// subtree of the refit plan.
     marked: Vec<bool>,
@@ -391,6 +424,9 @@ impl RayTracingScene {
             built_cost: 0.0,
             refit_plan: None,
             parallel_refit_from: default_parallel_refit_from(),
+            rebraid_budget: TLAS_REBRAID_BUDGET,
+            rebuild_requested: false,
+            slot_moved: Vec::new(),
             marked: Vec::new(),
             wide_marked: Vec::new(),
             refit_buckets: Vec::new(),
@@ -432,6 +468,24 @@ impl RayTracingScene {
     /// The TLAS as uploaded (CPU copy): its 8-wide nodes and their entries, eight per node.
     pub fn tlas_cpu(&self) -> (&[CwBvhNode], &[TlasEntry]) {
         (&self.gpu_tlas, &self.gpu_entries)
+    }
+
+    /// The re-braiding budget ([`RayTracingScene::set_rebraid_budget`]).
+    pub fn rebraid_budget(&self) -> f32 {
+        self.rebraid_budget
+    }
+
+    /// Sets the re-braiding budget: the TLAS build may have up to `budget` times as many primitives
+    /// as instances (0, or anything up to 1: off). The TLAS is rebuilt on the next frame. A budget
+    /// that is not a finite number is taken as 0.
+    pub fn set_rebraid_budget(&mut self, budget: f32) {
+        self.rebraid_budget = if budget.is_finite() { budget.max(0.0) } else { 0.0 };
+        self.rebuild_requested = true;
+    }
+
+    /// TLAS primitives (instance leaves and, with re-braiding, the opened BLAS nodes) in the TLAS.
+    pub fn tlas_primitive_count(&self) -> usize {
+        self.tlas_prims.len()
     }
 
     /// The BLAS of mesh `index`, once built.
@@ -568,21 +622,30 @@ impl RayTracingScene {
         // A BLAS that is not on the GPU (over the buffer limit) is not traced.
         let info = self.gpu_blas.get(mesh as usize).filter(|b| b.node_offset != u32::MAX)?;
         let aabb = world_aabb(local, world)?;
-        let entry = TlasEntry { instance: slot, node_offset: info.node_offset, triangle_offset: info.triangle_offset, _pad: 0 };
+        let entry = TlasEntry { instance: slot, node_offset: info.node_offset, triangle_offset: info.triangle_offset, start_node: 0 };
         Some((TlasPrim { local, entry }, aabb))
     }
 
     /// Rebuilds the TLAS from every live instance whose BLAS is ready.
     fn rebuild_tlas(&mut self, gpu: &GpuContext, instances: &[(u32, u32, Affine3A)]) {
-        let mut aabbs = Vec::with_capacity(instances.len());
-        self.tlas_prims.clear();
-        self.slot_prims.clear();
+        self.rebuild_requested = false;
+        let mut roots = Vec::with_capacity(instances.len());
         for &(slot, mesh, world) in instances {
             let Some((prim, aabb)) = self.instance_prim(slot, mesh, &world) else { continue };
-            if self.slot_prims.len() <= slot as usize {
-                self.slot_prims.resize(slot as usize + 1, NONE);
+            roots.push((prim, aabb, mesh, world));
+        }
+        let opened = self.open_instances(roots);
+        let mut aabbs = Vec::with_capacity(opened.len());
+        self.tlas_prims.clear();
+        self.slot_prims.clear();
+        for (prim, aabb) in opened {
+            let slot = prim.entry.instance as usize;
+            if self.slot_prims.len() <= slot {
+                self.slot_prims.resize(slot + 1, NONE);
             }
-            self.slot_prims[slot as usize] = self.tlas_prims.len() as u32;
+            if self.slot_prims[slot] == NONE {
+                self.slot_prims[slot] = self.tlas_prims.len() as u32;
+            }
             self.tlas_prims.push(prim);
             aabbs.push(aabb);
         }
@@ -621,6 +684,77 @@ impl RayTracingScene {
         self.collapse_tlas();
         self.stats.tlas_rebuilt = true;
         self.upload_tlas_all(gpu);
+    }
+
+    /// Partial re-braiding: replaces instance roots by BLAS nodes below them while the primitives
+    /// stay within [`RayTracingScene::rebraid_budget`] times the instances. The node with the
+    /// largest world-space box is opened first (its box is what rays meet most); a node is opened
+    /// only when every child is an inner node (a leaf's triangles can only be reached through their
+    /// node) and its children's summed world half areas are at most [`TLAS_REBRAID_AREA_RATIO`]
+    /// times its own. Instances that have moved are not opened. Returns the primitives with their
+    /// world boxes, each instance's together, its first one first.
+    fn open_instances(&self, roots: Vec<(TlasPrim, Aabb, u32, Affine3A)>) -> Vec<(TlasPrim, Aabb)> {
+        let budget = (f64::from(self.rebraid_budget) * roots.len() as f64).min(u32::MAX as f64) as usize;
+        if budget <= roots.len() {
+            return roots.into_iter().map(|(p, a, ..)| (p, a)).collect();
+        }
+        // Each primitive: (prim, world box, index of its instance in `roots`).
+        let mut prims: Vec<(TlasPrim, Aabb, u32)> = Vec::with_capacity(budget);
+        // Candidates by world half area (positive floats order as their bits).
+        let mut heap = std::collections::BinaryHeap::new();
+        for (i, (prim, aabb, _, _)) in roots.iter().enumerate() {
+            let moved = self.slot_moved.get(prim.entry.instance as usize).copied().unwrap_or(false);
+            if !moved {
+                heap.push((aabb.half_area().max(0.0).to_bits(), prims.len() as u32));
+            }
+            prims.push((*prim, *aabb, i as u32));
+        }
+        let mut children: Vec<(TlasPrim, Aabb)> = Vec::with_capacity(8);
+        while let Some((_, p)) = heap.pop() {
+            let (prim, aabb, root) = prims[p as usize];
+            let (_, _, mesh, world) = &roots[root as usize];
+            let Some(blas) = self.blas(*mesh as usize) else { continue };
+            let Some(node) = blas.nodes.get(prim.entry.start_node as usize) else { continue };
+            children.clear();
+            let mut all_inner = true;
+            for s in 0..8 {
+                if node.is_child_empty(s) {
+                    continue;
+                }
+                if node.is_leaf(s) {
+                    all_inner = false;
+                    break;
+                }
+                let b = node.child_aabb(s);
+                let local = (Vec3::from(b.min), Vec3::from(b.max));
+                let Some(child_aabb) = world_aabb(local, world) else {
+                    all_inner = false;
+                    break;
+                };
+                let entry = TlasEntry { start_node: node.child_node_index(s), ..prim.entry };
+                children.push((TlasPrim { local, entry }, child_aabb));
+            }
+            if !all_inner || children.is_empty() || prims.len() + children.len() - 1 > budget {
+                continue;
+            }
+            let area: f32 = children.iter().map(|(_, a)| a.half_area()).sum();
+            if area > TLAS_REBRAID_AREA_RATIO * aabb.half_area() {
+                continue;
+            }
+            for (k, &(child, child_aabb)) in children.iter().enumerate() {
+                let at = if k == 0 { p as usize } else { prims.len() };
+                let item = (child, child_aabb, root);
+                if k == 0 {
+                    prims[at] = item
+                } else {
+                    prims.push(item)
+                }
+                heap.push((child_aabb.half_area().max(0.0).to_bits(), at as u32));
+            }
+        }
+        // Each instance's primitives together (the refit finds an instance's by its first).
+        prims.sort_by_key(|&(_, _, root)| root);
+        prims.into_iter().map(|(p, a, _)| (p, a)).collect()
     }
 
     /// Collapses the binary TLAS into the 8-wide one the GPU walks: each wide node takes the Bvh2
@@ -719,6 +853,17 @@ impl RayTracingScene {
     /// them on this thread, and the wide nodes are re-encoded in parallel: the same nodes get the
     /// same bounds as on one thread, so the TLAS is the same either way.
     fn refit_tlas(&mut self, gpu: &GpuContext, uploads: &mut Uploads, moved: &[(u32, u32, Affine3A)]) -> bool {
+        // An instance that re-braiding opened and that now moves is rebuilt at its root (once: it
+        // stays there), so that a refit moves one leaf per mover.
+        let mut opened_mover = false;
+        for &(slot, _, _) in moved {
+            self.note_moved(slot);
+            let prim = self.slot_prims.get(slot as usize).copied().unwrap_or(NONE);
+            opened_mover |= self.tlas_prims.get(prim as usize).is_some_and(|p| p.entry.start_node != 0);
+        }
+        if opened_mover {
+            return false;
+        }
         let Some(mut bvh) = self.tlas.take() else { return moved.is_empty() };
         self.marked.clear();
         self.marked.resize(bvh.nodes.len(), false);
@@ -758,6 +903,15 @@ impl RayTracingScene {
         self.stats.tlas_refitted_leaves += moved.len();
         self.stats.tlas_refit_parallel = parallel;
         true
+    }
+
+    /// Remembers that instance `slot` has moved: re-braiding no longer opens it.
+    fn note_moved(&mut self, slot: u32) {
+        let slot = slot as usize;
+        if self.slot_moved.len() <= slot {
+            self.slot_moved.resize(slot + 1, false);
+        }
+        self.slot_moved[slot] = true;
     }
 
     /// The refit on the frame's thread: every moved leaf, then each inner node above them once.
@@ -1093,7 +1247,10 @@ pub fn prepare_ray_tracing_scene(
         rt.upload_blas(&gpu, &scene);
     }
     let changes = scene.instance_changes();
-    if new_blas || changes.structure_changed {
+    if new_blas || changes.structure_changed || rt.rebuild_requested {
+        for &slot in &changes.moved {
+            rt.note_moved(slot);
+        }
         rt.rebuild_tlas(&gpu, &scene.live_instances());
     } else if !changes.moved.is_empty() {
         let moved: Vec<(u32, u32, Affine3A)> =
