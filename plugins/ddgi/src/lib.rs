@@ -87,6 +87,7 @@
 #![warn(missing_docs)]
 
 pub mod atlas;
+pub mod calm;
 pub mod cascades;
 pub mod debug_view;
 pub mod frame;
