@@ -264,10 +264,20 @@ fn probe_update_ms(frame: &engine::render::FrameTiming) -> Option<f64> {
     frame.passes.iter().any(|p| p.label == "ddgi_budget" && !p.ran).then_some(0.0)
 }
 
-/// The probe update of the frames `frames` (app frame indices) of `timings`: the mean GPU ms per
-/// frame (0 for a frame that left it out), the median of the frames that updated, the share of
-/// frames that updated, and each pass's mean per frame.
-fn static_update(timings: &FrameTimings, frames: std::ops::Range<u64>) -> (Option<f64>, Option<f64>, Option<f64>, Vec<(String, f64)>) {
+/// The probe update over some frames ([`static_update`]).
+struct UpdateCost {
+    /// Mean GPU ms per frame, 0 for a frame that left the update out.
+    mean_ms: Option<f64>,
+    /// Median GPU ms of the frames that updated.
+    median_ms: Option<f64>,
+    /// The share of frames that updated.
+    updating: Option<f64>,
+    /// Each pass's mean GPU ms per frame.
+    passes: Vec<(String, f64)>,
+}
+
+/// The probe update of the frames `frames` (app frame indices) of `timings`.
+fn static_update(timings: &FrameTimings, frames: std::ops::Range<u64>) -> UpdateCost {
     let window: Vec<&engine::render::FrameTiming> = timings.frames.iter().filter(|t| frames.contains(&t.frame)).collect();
     let per_frame: Vec<(&engine::render::FrameTiming, f64)> = window.iter().filter_map(|t| probe_update_ms(t).map(|ms| (*t, ms))).collect();
     let all: Vec<f64> = per_frame.iter().map(|(_, ms)| *ms).collect();
@@ -286,7 +296,7 @@ fn static_update(timings: &FrameTimings, frames: std::ops::Range<u64>) -> (Optio
     }
     let n = per_frame.len().max(1) as f64;
     let passes = passes.into_iter().map(|(l, sum)| (l, sum / n)).collect();
-    (mean(&all), median(&mut updating), share, passes)
+    UpdateCost { mean_ms: mean(&all), median_ms: median(&mut updating), updating: share, passes }
 }
 
 /// Which way a series of errors was still moving at its end.
@@ -462,15 +472,14 @@ pub fn run(
         let first_static = u64::from(settle).saturating_sub(1 + STATIC_FRAMES as u64);
         let first_timed = first_static.saturating_sub(TIMED_FRAMES as u64);
         let static_rays: Vec<f64> = rays.iter().filter(|(f, _)| (first_timed..u64::from(settle)).contains(f)).map(|(_, r)| *r).collect();
-        let (update_ms, update_ms_median, updating, passes) =
-            static_update(app.world().resource::<FrameTimings>(), first_timed..first_static);
+        let cost = static_update(app.world().resource::<FrameTimings>(), first_timed..first_static);
         statics.push(StaticPhase {
             config: config.name(),
             rays: mean(&static_rays),
-            update_ms,
-            update_ms_median,
-            updating,
-            passes,
+            update_ms: cost.mean_ms,
+            update_ms_median: cost.median_ms,
+            updating: cost.updating,
+            passes: cost.passes,
             flip: mean(&samples.flips),
             flicker: mean(&samples.flicker),
         });
