@@ -7,6 +7,12 @@ use std::collections::VecDeque;
 use crate::gpu::{DdgiProbeData, PROBE_FRESH, PROBE_INACTIVE};
 use crate::volume::{CALM_ERROR, CALM_UPDATES, DdgiAdaptive};
 
+/// The largest share of a calm volume's active probes that may be fresh. A still scene's re-checks
+/// (every `recheck_interval` frames) switch a few dark probes back on, fresh, and classification
+/// switches them off again: that is the steady state, not a change. A volume that starts or whose
+/// probes restart in numbers is not calm.
+pub const CALM_FRESH: f64 = 0.125;
+
 /// One volume's calm-phase update period and what decides it.
 #[derive(Clone, Debug)]
 pub struct DdgiCalm {
@@ -55,8 +61,8 @@ pub struct CalmJudgement {
     pub fresh: u32,
     /// Mean temporal error of the settled active probes.
     pub mean_error: f32,
-    /// Whether the update was calm: no fresh active probe and the mean error under
-    /// [`CALM_ERROR`] × `error_target`.
+    /// Whether the update was calm: at most [`CALM_FRESH`] of the active probes fresh, and the
+    /// mean error of the others under [`CALM_ERROR`] × `error_target`.
     pub calm: bool,
 }
 
@@ -72,7 +78,7 @@ pub fn judge(probes: &[DdgiProbeData], adaptive: &DdgiAdaptive) -> CalmJudgement
         }
     }
     let mean_error = if settled > 0 { (sum / f64::from(settled)) as f32 } else { 0.0 };
-    let calm = fresh == 0 && mean_error <= CALM_ERROR * adaptive.error_target;
+    let calm = f64::from(fresh) <= CALM_FRESH * f64::from(settled + fresh) && mean_error <= CALM_ERROR * adaptive.error_target;
     CalmJudgement { settled, fresh, mean_error, calm }
 }
 
@@ -186,8 +192,13 @@ mod tests {
         let j = update(&mut calm, &busy);
         assert!(!j.calm && (j.mean_error - 0.11).abs() < 1e-6, "{j:?}");
         assert_eq!(calm.period, 1);
-        // A fresh active probe is not calm; an inactive one does not count.
+        // Fresh active probes beyond an eighth are not calm; inactive ones do not count.
         assert!(!judge(&[probe(PROBE_FRESH, 0.0)], &adaptive).calm);
+        let mut few = vec![probe(0, 0.0); 8];
+        few.push(probe(PROBE_FRESH, 0.0));
+        assert!(judge(&few, &adaptive).calm);
+        few.push(probe(PROBE_FRESH, 0.0));
+        assert!(!judge(&few, &adaptive).calm);
         assert!(judge(&[probe(PROBE_INACTIVE | PROBE_FRESH, 0.0)], &adaptive).calm);
         assert!(!judge(&[probe(0, f32::NAN)], &adaptive).calm);
     }

@@ -128,8 +128,9 @@ pub struct DdgiAdaptive {
     /// memory (bfloat16 in the texel's spare words).
     pub rest_smoothing: Option<f32>,
     /// Longest *volume* update period in calm phases, in frames (1: the volume updates every
-    /// frame, as without it). While the volume is calm — every active probe past its first
-    /// updates and their mean error under [`CALM_ERROR`] × `error_target`, at
+    /// frame, as without it). While the volume is calm — its active probes past their first
+    /// update (but for a few a re-check switched back on) and their mean error under
+    /// [`CALM_ERROR`] × `error_target`, at
     /// [`CALM_UPDATES`] updates in a row — its period doubles (1 → 2 → 4 …, up to this): on the
     /// frames between, the whole probe update (`ddgi_budget`, `ddgi_trace`, `ddgi_probe_update`)
     /// is left out and the gather reads the last maps. Anything the CPU sees change drops the
