@@ -121,6 +121,10 @@ enum Command {
         /// (DdgiAdaptive::max_update_period; 1: the volume updates every frame).
         #[arg(long, value_parser = clap::value_parser!(u32).range(1..=64))]
         max_update_period: Option<u32>,
+        /// Adaptive configuration: the share of the error target under which a volume counts as
+        /// calm (DdgiAdaptive::calm_error).
+        #[arg(long)]
+        calm_error: Option<f32>,
         /// Also DDGI's experiments: quality for probe densities 8×4×8, 16×8×16, 32×16×32 × irradiance
         /// maps of 4, 8, 16 texels, and the ablation of the visibility weights (none → back-face →
         /// Chebyshev → normal bias → contact occlusion).
@@ -1234,6 +1238,7 @@ fn main() -> ExitCode {
             dark_fraction,
             rest_smoothing,
             max_update_period,
+            calm_error,
             experiments,
             out,
             cache,
@@ -1278,6 +1283,7 @@ fn main() -> ExitCode {
                 dark_fraction: dark_fraction.unwrap_or(defaults.dark_fraction),
                 rest_smoothing: rest_smoothing.or(defaults.rest_smoothing),
                 max_update_period: max_update_period.unwrap_or(defaults.max_update_period),
+                calm_error: calm_error.unwrap_or(defaults.calm_error),
                 ..defaults
             };
             let options = eval::EvalOptions {

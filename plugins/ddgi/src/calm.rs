@@ -5,7 +5,7 @@
 use std::collections::VecDeque;
 
 use crate::gpu::{DdgiProbeData, PROBE_FRESH, PROBE_INACTIVE};
-use crate::volume::{CALM_ERROR, CALM_UPDATES, DdgiAdaptive};
+use crate::volume::{CALM_UPDATES, DdgiAdaptive};
 
 /// The largest share of a calm volume's active probes that may be fresh. A still scene's re-checks
 /// (every `recheck_interval` frames) switch a few dark probes back on, fresh, and classification
@@ -62,7 +62,7 @@ pub struct CalmJudgement {
     /// Mean temporal error of the settled active probes.
     pub mean_error: f32,
     /// Whether the update was calm: at most [`CALM_FRESH`] of the active probes fresh, and the
-    /// mean error of the others under [`CALM_ERROR`] × `error_target`.
+    /// mean error of the others under `calm_error` × `error_target` ([`DdgiAdaptive::calm_error`]).
     pub calm: bool,
 }
 
@@ -78,7 +78,7 @@ pub fn judge(probes: &[DdgiProbeData], adaptive: &DdgiAdaptive) -> CalmJudgement
         }
     }
     let mean_error = if settled > 0 { (sum / f64::from(settled)) as f32 } else { 0.0 };
-    let calm = f64::from(fresh) <= CALM_FRESH * f64::from(settled + fresh) && mean_error <= CALM_ERROR * adaptive.error_target;
+    let calm = f64::from(fresh) <= CALM_FRESH * f64::from(settled + fresh) && mean_error <= adaptive.calm_error * adaptive.error_target;
     CalmJudgement { settled, fresh, mean_error, calm }
 }
 
@@ -139,6 +139,7 @@ impl DdgiCalm {
         }
         self.judged = Some(update);
         let judgement = judge(probes, adaptive);
+        log::debug!("DDGI calm judgement of the update of frame {update}: {judgement:?}, period {}", self.period);
         if !Self::applies(adaptive) {
             self.period = 1;
             return Some(judgement);

@@ -130,7 +130,7 @@ pub struct DdgiAdaptive {
     /// Longest *volume* update period in calm phases, in frames (1: the volume updates every
     /// frame, as without it). While the volume is calm — its active probes past their first
     /// update (but for a few a re-check switched back on) and their mean error under
-    /// [`CALM_ERROR`] × `error_target`, at
+    /// `calm_error` × `error_target`, at
     /// [`CALM_UPDATES`] updates in a row — its period doubles (1 → 2 → 4 …, up to this): on the
     /// frames between, the whole probe update (`ddgi_budget`, `ddgi_trace`, `ddgi_probe_update`)
     /// is left out and the gather reads the last maps. Anything the CPU sees change drops the
@@ -147,11 +147,15 @@ pub struct DdgiAdaptive {
     /// this many frames, and a probe the camera comes to need (switched off for an empty
     /// region) comes back within as many. Cost: none (a few CPU instructions per frame).
     pub max_update_period: u32,
+    /// Share of `error_target` under which the mean error of a volume's active probes counts as
+    /// calm (see `max_update_period`). Higher: the period grows in noisier volumes too (a few
+    /// probes that see a small bright light keep their errors near the target whatever their
+    /// rays: `color_bleed`'s 8 probes sit at 0.65–1.0 of it), but also sooner after a change,
+    /// while light still builds up over bounces, which then converges that many times slower.
+    /// No cost.
+    pub calm_error: f32,
 }
 
-/// A calm update ([`DdgiAdaptive::max_update_period`]): the mean temporal error of the active
-/// probes is under this share of [`DdgiAdaptive::error_target`] (and no active probe is fresh).
-pub const CALM_ERROR: f32 = 0.5;
 /// Calm updates in a row at one volume update period before it doubles
 /// ([`DdgiAdaptive::max_update_period`]).
 pub const CALM_UPDATES: u32 = 8;
@@ -172,6 +176,7 @@ impl Default for DdgiAdaptive {
             hysteresis_exponent: 0.0,
             rest_smoothing: None,
             max_update_period: 4,
+            calm_error: 0.5,
         }
     }
 }
@@ -457,6 +462,9 @@ impl DdgiVolume {
         }
         if !(1..=64).contains(&a.max_update_period) {
             return Err(invalid("adaptive.max_update_period", a.max_update_period, "must be between 1 and 64 frames"));
+        }
+        if !(a.calm_error.is_finite() && a.calm_error >= 0.0) {
+            return Err(invalid("adaptive.calm_error", a.calm_error, "must be finite and not negative"));
         }
         if a.frame_budget == Some(0) {
             return Err(invalid("adaptive.frame_budget", 0, "must be positive (None: no limit)"));
