@@ -117,6 +117,14 @@ enum Command {
         /// resting (DdgiAdaptive::rest_smoothing).
         #[arg(long)]
         rest_smoothing: Option<f32>,
+        /// Adaptive configuration: the longest volume update period of calm phases, in frames
+        /// (DdgiAdaptive::max_update_period; 1: the volume updates every frame).
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..=64))]
+        max_update_period: Option<u32>,
+        /// Adaptive configuration: the share of the error target under which a volume counts as
+        /// calm (DdgiAdaptive::calm_error).
+        #[arg(long)]
+        calm_error: Option<f32>,
         /// Also DDGI's experiments: quality for probe densities 8×4×8, 16×8×16, 32×16×32 × irradiance
         /// maps of 4, 8, 16 texels, and the ablation of the visibility weights (none → back-face →
         /// Chebyshev → normal bias → contact occlusion).
@@ -671,6 +679,10 @@ struct DdgiArgs {
     /// --rays) and dark probes are switched off. `timings.json` records the rays traced per frame.
     #[arg(long)]
     no_adaptive: bool,
+    /// Adaptive budgets: the longest volume update period of calm phases, in frames
+    /// (DdgiAdaptive::max_update_period; 1: the volume updates every frame).
+    #[arg(long, default_value_t = ddgi::DdgiAdaptive::default().max_update_period, value_parser = clap::value_parser!(u32).range(1..=64))]
+    max_update_period: u32,
     /// Camera-following cascades instead of one volume over the scene (0: today's fixed volume):
     /// N nested volumes of --cascade-probes probes each, centred on the camera, each with twice the
     /// spacing of the one inside it, the coarsest as wide as the scene.
@@ -698,6 +710,7 @@ impl DdgiArgs {
             adaptive: ddgi::DdgiAdaptive {
                 enabled: !self.no_adaptive,
                 min_rays: ddgi::DdgiAdaptive::default().min_rays.min(self.rays.max(1)),
+                max_update_period: self.max_update_period,
                 ..Default::default()
             },
             ..Default::default()
@@ -1301,6 +1314,8 @@ fn main() -> ExitCode {
             hysteresis_exponent,
             dark_fraction,
             rest_smoothing,
+            max_update_period,
+            calm_error,
             experiments,
             out,
             cache,
@@ -1344,6 +1359,8 @@ fn main() -> ExitCode {
                 hysteresis_exponent: hysteresis_exponent.unwrap_or(defaults.hysteresis_exponent),
                 dark_fraction: dark_fraction.unwrap_or(defaults.dark_fraction),
                 rest_smoothing: rest_smoothing.or(defaults.rest_smoothing),
+                max_update_period: max_update_period.unwrap_or(defaults.max_update_period),
+                calm_error: calm_error.unwrap_or(defaults.calm_error),
                 ..defaults
             };
             let options = eval::EvalOptions {

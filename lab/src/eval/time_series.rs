@@ -164,13 +164,21 @@ const STATIC_FRAMES: i64 = 30;
 /// timed there runs at whatever clock the GPU has dropped to.
 const TIMED_FRAMES: i64 = 60;
 
-/// What a configuration costs once settled, before the change: mean rays per frame and median
-/// probe-update GPU ms (the median shrugs off the clock changes of small workloads).
+/// What a configuration costs once settled, before the change: means per frame of the rays and
+/// of the probe-update GPU ms, a frame whose probe update the volume's calm update period left
+/// out ([`ddgi::DdgiAdaptive::max_update_period`]) counting 0 in both (a median would hide such
+/// frames, or report only them).
 pub struct StaticPhase {
     pub config: String,
+    /// Mean rays per frame over the timed and the measured frames.
     pub rays: Option<f64>,
+    /// Mean probe-update GPU ms per frame over the timed frames.
     pub update_ms: Option<f64>,
-    /// The median GPU ms of each pass of the probe update.
+    /// The median probe-update GPU ms of the timed frames that updated (what one update costs).
+    pub update_ms_median: Option<f64>,
+    /// The share of the timed frames that updated the probes.
+    pub updating: Option<f64>,
+    /// The mean GPU ms per frame of each pass of the probe update (0 where it was left out).
     pub passes: Vec<(String, f64)>,
     /// Mean FLIP against the reference of the scene before the change (the static phase's error).
     pub flip: Option<f64>,
@@ -216,9 +224,6 @@ struct SeriesRun {
 /// What the frames of a static phase measured, frame by frame.
 #[derive(Default)]
 struct StaticSamples {
-    /// Probe-update GPU ms, in all and by pass: the TIMED_FRAMES frames before the measured ones.
-    update_ms: Vec<f64>,
-    passes: Vec<(String, Vec<f64>)>,
     flips: Vec<f64>,
     flicker: Vec<f64>,
     previous_hdr: Option<Vec<f32>>,
@@ -248,10 +253,50 @@ fn mean(v: &[f64]) -> Option<f64> {
     (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
 }
 
-/// GPU milliseconds of DDGI's probe update in one frame, if it ran.
+/// GPU milliseconds of DDGI's probe update in one frame: the sum of its passes that ran; 0 when the
+/// frame left the update out (its `ddgi_budget` was left out: no volume's update period fell on
+/// it); `None` for a frame without DDGI or without GPU times.
 fn probe_update_ms(frame: &engine::render::FrameTiming) -> Option<f64> {
     let update: Vec<f64> = frame.passes.iter().filter(|p| p.ran && is_probe_update(&p.label)).filter_map(|p| p.gpu_ms).collect();
-    (!update.is_empty()).then(|| update.iter().sum())
+    if !update.is_empty() {
+        return Some(update.iter().sum());
+    }
+    frame.passes.iter().any(|p| p.label == "ddgi_budget" && !p.ran).then_some(0.0)
+}
+
+/// The probe update over some frames ([`static_update`]).
+struct UpdateCost {
+    /// Mean GPU ms per frame, 0 for a frame that left the update out.
+    mean_ms: Option<f64>,
+    /// Median GPU ms of the frames that updated.
+    median_ms: Option<f64>,
+    /// The share of frames that updated.
+    updating: Option<f64>,
+    /// Each pass's mean GPU ms per frame.
+    passes: Vec<(String, f64)>,
+}
+
+/// The probe update of the frames `frames` (app frame indices) of `timings`.
+fn static_update(timings: &FrameTimings, frames: std::ops::Range<u64>) -> UpdateCost {
+    let window: Vec<&engine::render::FrameTiming> = timings.frames.iter().filter(|t| frames.contains(&t.frame)).collect();
+    let per_frame: Vec<(&engine::render::FrameTiming, f64)> = window.iter().filter_map(|t| probe_update_ms(t).map(|ms| (*t, ms))).collect();
+    let all: Vec<f64> = per_frame.iter().map(|(_, ms)| *ms).collect();
+    let mut updating: Vec<f64> =
+        per_frame.iter().filter(|(t, _)| t.passes.iter().any(|p| p.ran && p.label == "ddgi_budget")).map(|(_, ms)| *ms).collect();
+    let share = (!all.is_empty()).then(|| updating.len() as f64 / all.len() as f64);
+    let mut passes: Vec<(String, f64)> = Vec::new();
+    for (t, _) in &per_frame {
+        for p in t.passes.iter().filter(|p| p.ran && is_probe_update(&p.label)) {
+            let ms = p.gpu_ms.unwrap_or(0.0);
+            match passes.iter_mut().find(|(l, _)| *l == p.label) {
+                Some((_, sum)) => *sum += ms,
+                None => passes.push((p.label.clone(), ms)),
+            }
+        }
+    }
+    let n = per_frame.len().max(1) as f64;
+    let passes = passes.into_iter().map(|(l, sum)| (l, sum / n)).collect();
+    UpdateCost { mean_ms: mean(&all), median_ms: median(&mut updating), updating: share, passes }
 }
 
 /// Which way a series of errors was still moving at its end.
@@ -382,19 +427,6 @@ pub fn run(
                     run.samples.ldr.push(tonemap_to_srgb8(&hdr, EXPOSURE));
                     run.samples.previous_hdr = Some(hdr);
                 }
-                if (-1 - STATIC_FRAMES - TIMED_FRAMES..-1 - STATIC_FRAMES).contains(&frame)
-                    && let Some(last) = world.resource::<FrameTimings>().frames.last()
-                    && let Some(ms) = probe_update_ms(last)
-                {
-                    run.samples.update_ms.push(ms);
-                    for pass in last.passes.iter().filter(|p| p.ran && is_probe_update(&p.label)) {
-                        let Some(ms) = pass.gpu_ms else { continue };
-                        match run.samples.passes.iter_mut().find(|(l, _)| *l == pass.label) {
-                            Some((_, v)) => v.push(ms),
-                            None => run.samples.passes.push((pass.label.clone(), vec![ms])),
-                        }
-                    }
-                }
                 continue;
             }
             let hdr = read_hdr(gpu, world);
@@ -419,7 +451,7 @@ pub fn run(
     let mut videos = Vec::new();
     let (still_before, still_after) = (tonemap_to_srgb8(&reference_before, EXPOSURE), tonemap_to_srgb8(&reference, EXPOSURE));
     for run in runs {
-        let SeriesRun { config, app, settle, rows: mut run_rows, mut samples, after_ldr, .. } = run;
+        let SeriesRun { config, app, settle, rows: mut run_rows, samples, after_ldr, .. } = run;
         let video = video_quality(&config.name(), &samples.ldr, &after_ldr, &still_before, &still_after, width, height)?;
         println!(
             "{:>18}: ColorVideoVDP static {} JOD (temporal only {}), after the change {} JOD ({} frames in {:.1} s)",
@@ -434,14 +466,20 @@ pub fn run(
         // Rays per frame come back a few frames late: match them to their rows now.
         let rays: Vec<(u64, f64)> =
             app.world().resource::<FrameTimings>().frames.iter().filter_map(|t| ddgi::rays_traced(t).map(|r| (t.frame, r))).collect();
+        // The timed frames (back to back) and the measured ones after them, up to the last frame
+        // before the change: the rays' mean over all of them (a volume whose calm update period is
+        // 4 updates in about 23 of 91 frames, against 8 of 31), the update's over the timed ones.
         let first_static = u64::from(settle).saturating_sub(1 + STATIC_FRAMES as u64);
-        let static_rays: Vec<f64> = rays.iter().filter(|(f, _)| (first_static..u64::from(settle)).contains(f)).map(|(_, r)| *r).collect();
-        let passes = samples.passes.into_iter().filter_map(|(label, mut ms)| median(&mut ms).map(|m| (label, m))).collect();
+        let first_timed = first_static.saturating_sub(TIMED_FRAMES as u64);
+        let static_rays: Vec<f64> = rays.iter().filter(|(f, _)| (first_timed..u64::from(settle)).contains(f)).map(|(_, r)| *r).collect();
+        let cost = static_update(app.world().resource::<FrameTimings>(), first_timed..first_static);
         statics.push(StaticPhase {
             config: config.name(),
             rays: mean(&static_rays),
-            update_ms: median(&mut samples.update_ms),
-            passes,
+            update_ms: cost.mean_ms,
+            update_ms_median: cost.median_ms,
+            updating: cost.updating,
+            passes: cost.passes,
             flip: mean(&samples.flips),
             flicker: mean(&samples.flicker),
         });
@@ -603,7 +641,7 @@ fn write_report(
          path traced at {} paths per pixel (another seed). Every frame is compared with it (mean FLIP on sRGB at exposure 1, RMSE on \
          linear radiance); frame -1 is the last one before the change, once the method has settled (frames before the change: {}). \
          A path tracer configuration adds its paths per pixel every frame and starts over when the scene changes.\n\n\
-         | configuration | static FLIP | static flicker % | static JOD | static JOD, temporal only | JOD after the change | FLIP before (frame -1) | FLIP at frame 0 | settled FLIP | frames to within 10% of it | frames to at most 10% over it | rays/frame, static | probe update ms, static | rays/frame after |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
+         | configuration | static FLIP | static flicker % | static JOD | static JOD, temporal only | JOD after the change | FLIP before (frame -1) | FLIP at frame 0 | settled FLIP | frames to within 10% of it | frames to at most 10% over it | rays/frame, static | probe update ms per frame, static | ms per update (median) | % of frames updating | rays/frame after |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
         change.description,
         options.width,
         options.height,
@@ -626,6 +664,8 @@ fn write_report(
         let phase = statics.iter().find(|p| p.config == config);
         let rays_before = shown(phase.and_then(|p| p.rays), 0);
         let ms_before = shown(phase.and_then(|p| p.update_ms), 3);
+        let per_update = shown(phase.and_then(|p| p.update_ms_median), 3);
+        let updating = shown(phase.and_then(|p| p.updating).map(|u| 100.0 * u), 0);
         let after: Vec<f64> = series.iter().filter(|r| r.frame >= 0).filter_map(|r| r.rays).collect();
         let rays_after = shown(mean(&after), 0);
         let static_flip = shown(phase.and_then(|p| p.flip), 4);
@@ -634,7 +674,7 @@ fn write_report(
         let jods =
             [video.and_then(|v| v.static_jod), video.and_then(|v| v.static_temporal_jod), video.and_then(|v| v.after_jod)].map(jod_text);
         md += &format!(
-            "| {config} | {static_flip} | {static_flicker} | {} | {} | {} | {} | {} | {settled:.4} | {from} | {recovered} | {rays_before} | {ms_before} | {rays_after} |\n",
+            "| {config} | {static_flip} | {static_flicker} | {} | {} | {} | {} | {} | {settled:.4} | {from} | {recovered} | {rays_before} | {ms_before} | {per_update} | {updating} | {rays_after} |\n",
             jods[0],
             jods[1],
             jods[2],
@@ -648,9 +688,12 @@ fn write_report(
          every frame's FLIP is within 10% of the settled value (\"still falling\" or \"rising\": the last tenth's mean is more than 2% under \
          the tenth before, or more than 2% over it, so the series had not settled and needs more `--frames`). Static: the 30 frames before the last one \
          before the change (static FLIP: their mean FLIP against a reference of the scene before the change; static flicker: the \
-         mean change of a pixel's luminance from one of those frames to the next, over the mean luminance; rays: their mean, \
-         as read back from the GPU; DDGI's probe update, every DDGI pass but the gather and composite: the median GPU ms of the \
-         60 frames before those, which run back to back, nothing read back). The configurations run in lockstep, one frame \
+         mean change of a pixel's luminance from one of those frames to the next, over the mean luminance). Rays/frame, static: \
+         the mean over those frames and the 60 before them, as read back from the GPU; probe update ms per frame (DDGI's \
+         probe update, every DDGI pass but the gather and composite): the mean GPU ms of the 60 frames before the measured ones, \
+         which run back to back, nothing read back. Both are means per frame in which a frame whose probe update the volume's \
+         calm update period left out (`DdgiAdaptive::max_update_period`) counts 0; ms per update: the median over the frames \
+         that updated, and the share of frames that did. The configurations run in lockstep, one frame \
          of each in turn, so that all are timed in the same state of the GPU's clocks. \
          Frames to at most 10% over it: the first frame from which no frame's FLIP is more than 10% above the settled value \
          (the error has come back down; a dip under the settled value on the way does not count against it).\n\n\
@@ -675,12 +718,13 @@ fn write_report(
     write(&out.join("report.md"), &md)
 }
 
-/// The static phase's median GPU ms of each probe-update pass, one column per DDGI configuration
-/// (empty when none ran DDGI).
+/// The static phase's mean GPU ms per frame of each probe-update pass (0 on frames that left it
+/// out), one column per DDGI configuration (empty when none ran DDGI).
 fn pass_table(statics: &[StaticPhase]) -> String {
     let ddgi: Vec<&StaticPhase> = statics.iter().filter(|p| !p.passes.is_empty()).collect();
     let Some(first) = ddgi.first() else { return String::new() };
-    let mut md = String::from("Static phase, median GPU ms of each pass of the probe update:\n\n| pass |");
+    let mut md =
+        String::from("Static phase, mean GPU ms per frame of each pass of the probe update (0 on frames that left it out):\n\n| pass |");
     for p in &ddgi {
         md += &format!(" {} |", p.config);
     }

@@ -430,10 +430,14 @@ impl DdgiFrame<'_> {
         for (_, v) in self.volumes.volumes.iter_mut() {
             v.frames += 1;
             v.readback.request(&frame.gpu, &v.probes, frame_index);
-            // A frame the update period skips traced nothing: its counters are the last update's.
+            // A frame the update period skips traced nothing: its counters are the last update's
+            // (read_back_ddgi_probes reports it as 0 rays).
             if v.updates_this_frame {
                 v.counter_readback.request(&frame.gpu, &v.counters, frame_index);
+                v.recheck_pending = false;
             }
+            let between = v.settings.update_period.max(1) * v.calm.period;
+            v.calm.finish_frame(frame_index, v.updates_this_frame, between);
         }
     }
 

@@ -77,6 +77,8 @@ pub fn pause_ddgi_updates(mut control: ResMut<DdgiUpdateControl>, mut volumes: R
     control.steps = control.steps.saturating_sub(1);
     for (_, v) in volumes.volumes.iter_mut() {
         v.updates_this_frame = step;
+        // Resumed or stepped, a volume updates at every frame until it is calm again.
+        v.calm.reset_next();
     }
 }
 

@@ -40,6 +40,9 @@
 //! over frames) sets its ray count; a converged probe *rests*, updating only every few frames (or,
 //! opt-in, once a slower average of that error, which keeps less of the noise, has settled), and
 //! the per-probe passes run only for the probes traced that frame; dark probes are switched off.
+//! A volume whose probes read back calm updates only every few frames
+//! ([`DdgiAdaptive::max_update_period`], the [`calm`] module), which also saves the passes' fixed
+//! costs, and updates at once again when the CPU sees anything change.
 //!
 //! **Open worlds.** [`DdgiCascades`] keeps nested volumes centred on a camera, each twice as
 //! coarse as the one inside it (RTXGI's scrolling volumes, G3D's and Flax's cascades): a volume
@@ -87,6 +90,7 @@
 #![warn(missing_docs)]
 
 pub mod atlas;
+pub mod calm;
 pub mod cascades;
 pub mod debug_view;
 pub mod frame;

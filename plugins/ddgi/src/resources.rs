@@ -60,7 +60,7 @@ pub struct VolumeGpu {
     /// The distance atlas that sampling reads ([`ATLAS_FORMAT`]): (mean, mean square) of the hit
     /// distance over the layout's distance scale ([`crate::atlas::read_distance`] decodes it).
     pub distance: wgpu::Texture,
-    /// Frames updated so far.
+    /// Frames rendered since the volume was made (updated or not).
     pub frames: u64,
     pub(crate) rng: SplitMix64,
     /// The probe entities, by probe index.
@@ -90,6 +90,12 @@ pub struct VolumeGpu {
     /// GPU, before a frame budget scaled them down (its counters' `total_rays / budget_scale`):
     /// what the cascades' shared budget is divided by ([`crate::DdgiCascades::frame_budget`]).
     pub demanded_rays: Option<f64>,
+    /// The volume-level update period of calm phases ([`crate::DdgiAdaptive::max_update_period`]).
+    pub calm: crate::calm::DdgiCalm,
+    /// A re-check of the switched-off probes is owed: set on re-check frames and when instances
+    /// come or go, cleared by the next frame that updates (a frame the update period leaves out
+    /// does not lose it).
+    pub(crate) recheck_pending: bool,
 }
 
 impl VolumeGpu {
@@ -146,6 +152,8 @@ impl VolumeGpu {
             order: (0, Entity::PLACEHOLDER),
             cascade_blend: 0.0,
             demanded_rays: None,
+            calm: crate::calm::DdgiCalm::default(),
+            recheck_pending: false,
             layout,
         }
     }
@@ -248,6 +256,10 @@ pub struct DdgiGpuVolumes {
     /// Warnings about the scene ([`divergence_warnings`]) and the material generation they are of.
     warnings: Vec<String>,
     warned_generation: Option<u64>,
+    /// What the light of the scene was at the last frame, to see it change (the calm update
+    /// period, [`crate::DdgiAdaptive::max_update_period`]): the lights as uploaded, the sky, and
+    /// the generations of the meshes, materials and images.
+    last_lighting: Option<(Vec<engine::render::gpu_types::GpuLight>, Option<engine::render::Sky>, [u64; 3])>,
 }
 
 /// Materials that reflect all the light they receive (albedo 1 in some channel). A closed scene of
@@ -382,6 +394,17 @@ fn random_rotation(rng: &mut SplitMix64) -> Mat3 {
     Mat3::from_quat(Quat::from_xyzw(a * u2.sin(), a * u2.cos(), b * u3.sin(), b * u3.cos()).normalize())
 }
 
+/// Whether two settings update the probes alike, but for their bounds (a move of the bounds
+/// rebuilds or scrolls the volume) and their frame budget (cascades share one, re-divided each frame).
+fn same_behaviour(a: &DdgiVolume, b: &DdgiVolume) -> bool {
+    let plain = |v: &DdgiVolume| DdgiVolume {
+        bounds: None,
+        adaptive: crate::DdgiAdaptive { frame_budget: None, ..v.adaptive.clone() },
+        ..v.clone()
+    };
+    plain(a) == plain(b)
+}
+
 /// Whether two settings need the same resources (probe layout, ray count, map sizes).
 fn same_resources(a: &DdgiVolume, b: &DdgiVolume) -> bool {
     a.bounds == b.bounds && same_grid(a, b)
@@ -411,6 +434,7 @@ pub fn prepare_ddgi_volumes(
     mut state: ResMut<DdgiGpuVolumes>,
     render_origin: Option<Res<RenderOrigin>>,
     time: Option<Res<engine::app::Time>>,
+    sky: Option<Res<engine::render::Sky>>,
 ) {
     let state = &mut *state;
     let origin = render_origin.map_or(DVec3::ZERO, |o| o.origin);
@@ -441,6 +465,10 @@ pub fn prepare_ddgi_volumes(
     };
     let structure_changed = scene.instance_changes().structure_changed;
     let movers = state.mover_boxes(&scene, &meshes);
+    // The light of the whole scene changed: every volume's calm update period drops to 1.
+    let lighting = (scene.light_data.clone(), sky.map(|s| *s), [meshes.generation(), materials.generation(), images.generation()]);
+    let lighting_changed = state.last_lighting.as_ref() != Some(&lighting);
+    state.last_lighting = Some(lighting);
     if scene_changed || !state.scene_extent_known {
         state.scene_extent = state.scene_bounds(&scene, &meshes).map(|(lo, hi)| (hi - lo).max_element());
         state.scene_extent_known = true;
@@ -456,6 +484,7 @@ pub fn prepare_ddgi_volumes(
             }
         });
         let rebuild = scroll.is_none() && existing.is_none_or(|i| !same_resources(&state.volumes[i].1.settings, volume));
+        let settings_changed = existing.is_some_and(|i| !same_behaviour(&state.volumes[i].1.settings, volume));
         if rebuild {
             // `DdgiVolume::bounds` are in the world; the scene's (from the instances) in render space.
             let bounds = match volume.bounds {
@@ -509,10 +538,9 @@ pub fn prepare_ddgi_volumes(
         v.settings = volume.clone();
         v.order = (cascade.map_or(0, |c| c.level + 1), entity);
         v.cascade_blend = cascade.map_or(0.0, |c| c.blend_cells.max(1e-3));
+        let origin_moved = origin != v.render_origin;
         v.follow_render_origin(origin, limits);
         let scrolled = scroll.is_some_and(|cells| v.scroll(&gpu, cells, limits) > 0 || cells != IVec3::ZERO);
-        let period = u64::from(volume.update_period.max(1));
-        v.updates_this_frame = scrolled || v.frames < 2 || (frame + u64::from(volume.update_phase)).is_multiple_of(period);
         let interval = u64::from(volume.recheck_interval);
         // Probes within a spacing of an instance that moved (where it was or is now) wake; only when
         // instances came or went, or too many moved, does every switched-off probe re-check.
@@ -528,7 +556,16 @@ pub fn prepare_ddgi_volumes(
         if wake_boxes > 0 {
             gpu.queue.write_buffer(&v.wake, 0, bytemuck::cast_slice(&wake));
         }
-        let recheck = structure_changed || wake_all || (interval > 0 && v.frames % interval == 0);
+        // The calm update period: anything seen to change here updates this frame and drops it to 1.
+        let changed = rebuild || settings_changed || scrolled || origin_moved || lighting_changed || structure_changed || !wake.is_empty();
+        if changed || !crate::calm::DdgiCalm::applies(&volume.adaptive) {
+            v.calm.reset(frame);
+        }
+        let period = u64::from(volume.update_period.max(1));
+        v.calm.scheduled = (frame + u64::from(volume.update_phase)).is_multiple_of(period);
+        v.updates_this_frame = scrolled || v.frames < 2 || (v.calm.scheduled && v.calm.due());
+        v.recheck_pending |= structure_changed || wake_all || (interval > 0 && v.frames % interval == 0);
+        let recheck = v.recheck_pending;
         let rotation = random_rotation(&mut v.rng);
         let uniform = DdgiVolumeGpu::new(volume, &v.layout, rotation, volume.sky_radiance, recheck, v.cascade_blend, wake_boxes);
         gpu.queue.write_buffer(&v.uniform, 0, bytemuck::bytes_of(&uniform));

@@ -35,7 +35,9 @@ pub fn rays_traced(timing: &engine::render::FrameTiming) -> Option<f64> {
 /// Prepare stage: copies the probe states that have come back from the GPU into the
 /// [`DdgiProbe`] components (only those that changed, so change detection stays meaningful), and
 /// the rays traced and the probes updated per frame into the frame timings (`ddgi_rays`,
-/// `ddgi_probes_updated`).
+/// `ddgi_probes_updated`: 0 on a frame that left the volume's update out; `ddgi_update_period`:
+/// the frames between the volume's updates at that frame), and judges whether the volume is calm
+/// ([`crate::DdgiAdaptive::max_update_period`]).
 pub fn read_back_ddgi_probes(
     gpu: Res<GpuContext>,
     mut volumes: ResMut<DdgiGpuVolumes>,
@@ -53,12 +55,23 @@ pub fn read_back_ddgi_probes(
                 v.demanded_rays = Some(f64::from(c.total_rays) / f64::from(scale));
             }
         }
-        let Some((_, bytes)) = v.readback.poll(&gpu).pop() else { continue };
+        // Frames whose update the period left out traced nothing: 0 rays, 0 probes updated (so
+        // that a mean over frames counts them); every frame: the frames between updates.
+        for (frame, updated, between) in std::mem::take(&mut v.calm.unreported) {
+            if !updated {
+                timings.record_counter(frame, &rays_counter(k, count), 0.0);
+                timings.record_counter(frame, &format!("ddgi_probes_updated{}", volume_suffix(k, count)), 0.0);
+            }
+            timings.record_counter(frame, &format!("ddgi_update_period{}", volume_suffix(k, count)), f64::from(between));
+        }
+        let Some((frame, bytes)) = v.readback.poll(&gpu).pop() else { continue };
         let data: Vec<DdgiProbeData> = bytemuck::pod_collect_to_vec(&bytes);
         if data.len() < v.layout.probe_count as usize {
             continue;
         }
         v.probe_data = data;
+        let adaptive = v.settings.adaptive.clone();
+        v.calm.observe(frame, &v.probe_data[..v.layout.probe_count as usize], &adaptive);
         for (i, &entity) in v.probe_entities.iter().enumerate() {
             let Ok(mut probe) = probes.get_mut(entity) else { continue };
             let d = v.probe_data[i];
@@ -82,7 +95,7 @@ pub fn read_back_ddgi_probes(
 /// into the GPU's probe data.
 pub fn upload_ddgi_probe_pins(
     gpu: Res<GpuContext>,
-    volumes: Res<DdgiGpuVolumes>,
+    mut volumes: ResMut<DdgiGpuVolumes>,
     pins: Query<(&DdgiProbe, &DdgiProbePin), Changed<DdgiProbePin>>,
     mut unpinned: RemovedComponents<DdgiProbePin>,
     probes: Query<&DdgiProbe>,
@@ -101,12 +114,21 @@ pub fn upload_ddgi_probe_pins(
         let offset = u64::from(probe.index) * size_of::<DdgiProbeData>() as u64 + std::mem::offset_of!(DdgiProbeData, pinned_rays) as u64;
         gpu.queue.write_buffer(&v.probes, offset, bytemuck::cast_slice(&[rays, state]));
     };
+    let mut pinned = Vec::new();
     for (probe, pin) in &pins {
         write(probe, Some(pin));
+        pinned.push(probe.volume);
     }
     for entity in unpinned.read() {
         if let Ok(probe) = probes.get(entity) {
             write(probe, None);
+            pinned.push(probe.volume);
+        }
+    }
+    // A pin changes what its probe does: its volume updates every frame until calm again.
+    for (entity, v) in volumes.volumes.iter_mut() {
+        if pinned.contains(entity) {
+            v.calm.reset_next();
         }
     }
 }

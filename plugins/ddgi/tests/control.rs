@@ -1,5 +1,6 @@
-//! Pause, step and reset of the probe updates ([`DdgiUpdateControl`]), the probe state counts and
-//! a volume's GPU memory, on a real Vulkan driver (lavapipe in CI).
+//! Pause, step and reset of the probe updates ([`DdgiUpdateControl`]), the calm update period
+//! ([`ddgi::DdgiAdaptive::max_update_period`]), the probe state counts and a volume's GPU memory,
+//! on a real Vulkan driver (lavapipe in CI).
 
 use bevy_app::App;
 use bevy_ecs::prelude::*;
@@ -25,6 +26,26 @@ fn cornell_app(gpu: &GpuContext) -> App {
     };
     let settings = HeadlessSettings { width: 48, height: 36, frames: 1, ..Default::default() };
     scene_app(gpu, scene, &settings, |app| use_ddgi(app, volume, DdgiOutput::Full)).expect("app")
+}
+
+/// The Cornell box lit by one 4×4×4 volume with adaptive budgets, 64 rays a probe, calm update
+/// periods up to `max_update_period`.
+fn adaptive_cornell_app(gpu: &GpuContext, max_update_period: u32) -> App {
+    let scene = (scenes::find("cornell").expect("cornell").build)();
+    let volume = DdgiVolume {
+        bounds: scenes::find("cornell").expect("cornell").gi_box(),
+        probe_counts: Some(UVec3::splat(4)),
+        rays_per_probe: 64,
+        adaptive: ddgi::DdgiAdaptive { max_update_period, ..ddgi::DdgiAdaptive::on() },
+        ..Default::default()
+    };
+    let settings = HeadlessSettings { width: 48, height: 36, frames: 1, ..Default::default() };
+    scene_app(gpu, scene, &settings, |app| use_ddgi(app, volume, DdgiOutput::Full)).expect("app")
+}
+
+fn calm_period(app: &App) -> (u32, bool) {
+    let (_, v) = app.world().resource::<DdgiGpuVolumes>().volumes.first().expect("a volume");
+    (v.calm.period, v.updates_this_frame)
 }
 
 /// The volume's atlases and probe data as the GPU holds them, bit for bit.
@@ -89,6 +110,111 @@ fn paused_probes_keep_their_maps_and_a_step_is_one_update() {
     control(&mut app).set_paused(false);
     run_frames(&mut app, 1, |_, _| {});
     assert!(snapshot(&gpu, app.world()).irradiance != after.irradiance, "the resumed volume did not update");
+}
+
+#[test]
+fn a_calm_volume_skips_updates_and_a_light_change_updates_it_at_once() {
+    let Some(gpu) = gpu("a_calm_volume_skips_updates_and_a_light_change_updates_it_at_once") else { return };
+    let mut app = adaptive_cornell_app(&gpu, 4);
+    // The still box settles and its volume's period grows past 1.
+    run_frames(&mut app, 1, |_, _| {});
+    let mut frames = 1;
+    while calm_period(&app).0 < 2 {
+        run_frames(&mut app, 1, |_, _| {});
+        frames += 1;
+        assert!(frames < 400, "the volume of a still scene was not calm after {frames} frames");
+    }
+    eprintln!("calm after {frames} frames");
+    // Then run to its full period, and to a frame that updated: the next one is left out.
+    run_frames(&mut app, 120, |_, _| {});
+    assert_eq!(calm_period(&app).0, 4, "the period did not reach max_update_period");
+    while !calm_period(&app).1 {
+        run_frames(&mut app, 1, |_, _| {});
+    }
+    let before = snapshot(&gpu, app.world());
+    run_frames(&mut app, 1, |_, _| {});
+    assert!(!calm_period(&app).1, "a calm volume at period 4 updated two frames in a row");
+    let skipped = snapshot(&gpu, app.world());
+    assert!(skipped.irradiance == before.irradiance && skipped.distance == before.distance, "a frame left out changed the maps");
+    let updates = |s: &Snapshot| s.probes.iter().map(|p| (p.updates, p.rest)).collect::<Vec<_>>();
+    assert_eq!(updates(&skipped), updates(&before), "a frame left out moved the probes' updates or rests");
+    // The frame timings show it: the trace left out, 0 rays traced, 4 frames between updates.
+    let timings = app.world().resource::<engine::render::FrameTimings>();
+    let left_out: Vec<u64> =
+        timings.frames.iter().filter(|f| f.passes.iter().any(|p| p.label == "ddgi_trace" && !p.ran)).map(|f| f.frame).collect();
+    assert!(left_out.len() > 20, "only {} frames left the update out", left_out.len());
+    // (A frame's count is recorded at the next frame: the last one has none yet.)
+    let rays = timings.counter("ddgi_rays");
+    let last = timings.frames.last().map_or(0, |f| f.frame);
+    for frame in left_out.iter().filter(|&&f| f < last) {
+        let count = rays.iter().find(|(f, _)| f == frame).map(|(_, r)| *r);
+        assert_eq!(count, Some(0.0), "frame {frame} left the update out but reports {count:?} rays");
+    }
+    assert!(timings.counter("ddgi_update_period").iter().any(|(_, p)| *p == 4.0), "no frame reports 4 frames between updates");
+
+    // The lamp dims to a tenth on a frame the period would leave out: that frame updates, the
+    // period is 1 again and the maps darken at once.
+    let world = app.world_mut();
+    let mut lights = world.query::<&mut engine::scene::PointLight>();
+    for mut light in lights.iter_mut(world) {
+        light.intensity *= 0.1;
+    }
+    run_frames(&mut app, 1, |_, _| {});
+    assert_eq!(calm_period(&app), (1, true), "the frame the light changed did not update, or the period stayed");
+    let changed = snapshot(&gpu, app.world());
+    assert!(changed.irradiance != skipped.irradiance, "the maps did not respond to the light in the frame it changed");
+    // And the volume keeps updating every frame while it follows the change.
+    for _ in 0..4 {
+        run_frames(&mut app, 1, |_, _| {});
+        assert_eq!(calm_period(&app), (1, true), "the volume skipped a frame while following the change");
+    }
+    let darker = snapshot(&gpu, app.world());
+    let mean = |s: &Snapshot| {
+        let texels: &[u16] = bytemuck::cast_slice(&s.irradiance);
+        // Stored as E^(1/gamma): the mean irradiance in W/m².
+        let gamma = f64::from(ddgi::gpu::IRRADIANCE_GAMMA);
+        texels.iter().map(|&h| f64::from(half_to_f32(h)).powf(gamma)).sum::<f64>() / texels.len() as f64
+    };
+    assert!(mean(&darker) < 0.97 * mean(&skipped), "irradiance {} after the lamp dimmed, {} before", mean(&darker), mean(&skipped));
+}
+
+/// A half float's value (the atlases' format).
+fn half_to_f32(h: u16) -> f32 {
+    let (sign, exponent, mantissa) = ((h >> 15) & 1, i32::from((h >> 10) & 0x1f), f32::from(h & 0x3ff));
+    let magnitude = match exponent {
+        0 => mantissa * 2f32.powi(-24),
+        31 => f32::INFINITY,
+        e => (1.0 + mantissa / 1024.0) * 2f32.powi(e - 15),
+    };
+    if sign == 1 { -magnitude } else { magnitude }
+}
+
+#[test]
+fn at_period_one_the_calm_machinery_changes_nothing() {
+    // With max_update_period 1 the volume updates at every frame, as before the calm period
+    // existed; and at 4, before the volume is calm, its output is the same bit for bit: the
+    // calm state draws no random numbers and moves no counter of the update.
+    let Some(gpu) = gpu("at_period_one_the_calm_machinery_changes_nothing") else { return };
+    let mut one = adaptive_cornell_app(&gpu, 1);
+    let mut four = adaptive_cornell_app(&gpu, 4);
+    run_frames(&mut one, 12, |_, _| {});
+    run_frames(&mut four, 12, |_, _| {});
+    for app in [&one, &four] {
+        let timings = app.world().resource::<engine::render::FrameTimings>();
+        assert!(timings.frames.len() > 5, "timings came back");
+        assert!(
+            timings.frames.iter().all(|f| f.passes.iter().any(|p| p.label == "ddgi_trace" && p.ran)),
+            "a frame left the update out before the volume was calm"
+        );
+    }
+    let (a, b) = (snapshot(&gpu, one.world()), snapshot(&gpu, four.world()));
+    assert!(a.irradiance == b.irradiance && a.distance == b.distance, "the atlases differ");
+    assert_eq!(a.probes, b.probes, "the probe states differ");
+    // Period 1 never skips, however calm: 200 frames of the still box.
+    run_frames(&mut one, 200, |_, _| {});
+    let timings = one.world().resource::<engine::render::FrameTimings>();
+    assert!(timings.frames.iter().all(|f| f.passes.iter().any(|p| p.label == "ddgi_trace" && p.ran)), "period 1 left an update out");
+    assert_eq!(calm_period(&one), (1, true));
 }
 
 #[test]

@@ -647,12 +647,14 @@ fn mean(v: &[f64]) -> f64 {
 fn adaptive_budgets_trace_fewer_rays_in_a_static_scene_at_the_same_error() {
     let Some(gpu) = gpu("adaptive_budgets_trace_fewer_rays") else { return };
     let reference = path_traced_reference(&gpu, "cornell", REFERENCE_SIZE);
-    let run = |adaptive: bool, rest_smoothing: Option<f32>| {
+    // The per-probe budgets alone (the volume updating every frame), then with the calm update
+    // period (the default).
+    let run = |adaptive: bool, rest_smoothing: Option<f32>, max_update_period: u32| {
         let volume = DdgiVolume {
             bounds: scenes::find("cornell").expect("built-in scene").gi_box(),
             probe_counts: Some(UVec3::new(6, 6, 6)),
             rays_per_probe: 128,
-            adaptive: ddgi::DdgiAdaptive { enabled: adaptive, rest_smoothing, ..Default::default() },
+            adaptive: ddgi::DdgiAdaptive { enabled: adaptive, rest_smoothing, max_update_period, ..Default::default() },
             ..Default::default()
         };
         let settings = HeadlessSettings { width: REFERENCE_SIZE, height: REFERENCE_SIZE, frames: 200, ..Default::default() };
@@ -670,9 +672,10 @@ fn adaptive_budgets_trace_fewer_rays_in_a_static_scene_at_the_same_error() {
         assert!(!rays.is_empty(), "rays per frame were read back");
         (mean_flip(reference.as_raw(), &frame.ldr, REFERENCE_SIZE, REFERENCE_SIZE), mean(&rays))
     };
-    let (fixed_flip, fixed_rays) = run(false, None);
-    let (adaptive_flip, adaptive_rays) = run(true, None);
-    let (settled_flip, settled_rays) = run(true, Some(0.97));
+    let (fixed_flip, fixed_rays) = run(false, None, 1);
+    let (adaptive_flip, adaptive_rays) = run(true, None, 1);
+    let (settled_flip, settled_rays) = run(true, Some(0.97), 1);
+    let (calm_flip, calm_rays) = run(true, None, ddgi::DdgiAdaptive::default().max_update_period);
     eprintln!(
         "static cornell: fixed {fixed_rays:.0} rays per frame, FLIP {fixed_flip:.4}; adaptive {adaptive_rays:.0}, FLIP {adaptive_flip:.4}"
     );
@@ -692,6 +695,11 @@ fn adaptive_budgets_trace_fewer_rays_in_a_static_scene_at_the_same_error() {
         settled_flip <= 1.05 * fixed_flip + 0.005,
         "FLIP against the reference: rest_smoothing 0.97 {settled_flip}, fixed {fixed_flip}"
     );
+    // The defaults: a calm volume updates every few frames (frames left out count 0 rays), at the
+    // same bound on the error.
+    eprintln!("static cornell, calm update period: {calm_rays:.0} rays per frame, FLIP {calm_flip:.4}");
+    assert!(calm_rays < adaptive_rays, "the calm update period traced {calm_rays} rays per frame against {adaptive_rays}");
+    assert!(calm_flip <= 1.05 * fixed_flip + 0.005, "FLIP against the reference: calm update period {calm_flip}, fixed {fixed_flip}");
 }
 
 #[test]
@@ -828,7 +836,8 @@ fn a_frame_budget_caps_the_rays_of_every_frame() {
         bounds: scenes::find("cornell").expect("built-in scene").gi_box(),
         probe_counts: Some(UVec3::new(6, 6, 6)),
         rays_per_probe: 128,
-        adaptive: ddgi::DdgiAdaptive { frame_budget: Some(budget), ..ddgi::DdgiAdaptive::on() },
+        // Every frame updates (no calm period), so that every frame's rays are the budget's.
+        adaptive: ddgi::DdgiAdaptive { frame_budget: Some(budget), max_update_period: 1, ..ddgi::DdgiAdaptive::on() },
         ..Default::default()
     };
     let (frame, app) = run_ddgi(&gpu, (scenes::find("cornell").expect("cornell").build)(), volume, 16, 30);
@@ -847,7 +856,8 @@ fn quiet_probes_rest_and_the_per_probe_passes_skip_them() {
     let volume = |max_rest_frames: u32| DdgiVolume {
         bounds: scenes::find("cornell").expect("built-in scene").gi_box(),
         probe_counts: Some(UVec3::new(6, 6, 6)),
-        adaptive: ddgi::DdgiAdaptive { max_rest_frames, ..ddgi::DdgiAdaptive::on() },
+        // Per-probe resting alone: the volume updates every frame.
+        adaptive: ddgi::DdgiAdaptive { max_rest_frames, max_update_period: 1, ..ddgi::DdgiAdaptive::on() },
         ..Default::default()
     };
     let scene = || (scenes::find("cornell").expect("cornell").build)();

@@ -274,7 +274,12 @@ fn stats_ui(ui: &mut egui::Ui, world: &World, entity: Entity) {
             },
         );
         row("GPU memory", format!("{:.2} MiB", volume.memory_bytes() as f64 / (1024.0 * 1024.0)));
-        row("updates", format!("{} frames", volume.frames));
+        row("frames", format!("{}", volume.frames));
+        let period = volume.settings.update_period.max(1) * volume.calm.period;
+        row(
+            "update period",
+            if volume.calm.period > 1 { format!("every {period} frames (calm)") } else { format!("every {period} frames") },
+        );
     });
 }
 
