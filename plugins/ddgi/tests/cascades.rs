@@ -211,7 +211,16 @@ fn furnace() -> (SceneDescription, f32) {
 fn nested_cascades_blend_with_weights_that_sum_to_one_and_no_nan_at_their_edges() {
     let Some(gpu) = gpu("nested_cascades_blend_with_weights_that_sum_to_one_and_no_nan_at_their_edges") else { return };
     let (scene, indirect) = furnace();
-    let settings = DdgiVolume { rays_per_probe: 64, hysteresis: 0.0, relocation: false, classification: false, ..Default::default() };
+    // Every frame an update: with hysteresis 0 each update adds one bounce, and the furnace's
+    // bounces must all be in by frame 30 (calm update periods would leave a few out).
+    let settings = DdgiVolume {
+        rays_per_probe: 64,
+        hysteresis: 0.0,
+        relocation: false,
+        classification: false,
+        adaptive: ddgi::DdgiAdaptive { max_update_period: 1, ..Default::default() },
+        ..Default::default()
+    };
     let cascades = DdgiCascades {
         count: Some(3),
         probe_counts: UVec3::splat(8),
