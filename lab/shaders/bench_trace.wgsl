@@ -63,17 +63,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_
 }
 
 fn trace_one(i: u32) {
-    let probe = i / bench.rays_per_probe;
-    var ray_index = i % bench.rays_per_probe;
-    if bench.order_offset != 0xffffffffu {
-        ray_index = bench_order[bench.order_offset + ray_index];
-    }
-    let nx = bench.grid_counts.x;
-    let ny = bench.grid_counts.y;
-    let cell = vec3<u32>(probe % nx, (probe / nx) % ny, probe / (nx * ny));
-    let origin = bench.grid_origin + vec3<f32>(cell) * bench.grid_spacing;
-    let dir = (bench.rotation * vec4<f32>(spherical_fibonacci(ray_index, bench.rays_per_probe), 0.0)).xyz;
-    let hit = trace_closest(Ray(origin, 0.0, dir, bench.max_distance));
+    let hit = trace_closest(bench_ray(i));
     bench_hits[i] = hit.t;
     if RT_COUNT_WORK {
         atomicAdd(&bench_work[0], rt_work.x);
@@ -84,7 +74,7 @@ fn trace_one(i: u32) {
     }
 }
 
-// ---- Persistent variant (`bench trace --persistent`): each workgroup walks its share of the rays,
+// ---- Persistent variant (`bench trace --persistent-groups N`): each workgroup walks its share of the rays,
 // and a lane whose ray is done takes the next one at once, inside the traversal loop, instead of
 // idling until the slowest lane of its warp is done (Aila and Laine 2009, "Understanding the
 // efficiency of ray traversal on GPUs": persistent threads with ray replacement). The loop is
@@ -94,7 +84,7 @@ fn trace_one(i: u32) {
 override BENCH_PERSISTENT_GROUPS: u32 = 1024u;
 var<workgroup> bench_next: atomic<u32>;
 
-// The ray of thread slot `i` (as `main` makes it).
+// Ray `i` of the dispatch: probe i / rays_per_probe, its direction in the bench's ray order.
 fn bench_ray(i: u32) -> Ray {
     let probe = i / bench.rays_per_probe;
     var ray_index = i % bench.rays_per_probe;

@@ -334,6 +334,23 @@ pub fn trace_throughput(
     Ok(cells)
 }
 
+/// One dispatch of `variant`'s kernel over one grid × rays cell, always the same rays (a fixed
+/// seed for the rotation), so that `hit_distances` and `traversal_work` see the same ones.
+fn run_cell(
+    gpu: &GpuContext,
+    app: &App,
+    bounds: (DVec3, DVec3),
+    grid: [u32; 3],
+    rays_per_probe: u32,
+    variant: TraceVariant,
+    count_work: bool,
+) -> Result<(TraceKernel, BenchParams), String> {
+    let kernel = TraceKernel::new(gpu, app, count_work, variant)?;
+    let p = params_for(&mut SplitMix64::new(0xD1A6), render_space(app, bounds), grid, rays_per_probe);
+    kernel.run(gpu, &p)?;
+    Ok((kernel, p))
+}
+
 /// The closest-hit distance of every ray of one grid × rays cell (the rays `traversal_work`
 /// counts), traced by `variant`'s kernel.
 pub fn hit_distances(
@@ -344,9 +361,7 @@ pub fn hit_distances(
     rays_per_probe: u32,
     variant: TraceVariant,
 ) -> Result<Vec<f32>, String> {
-    let kernel = TraceKernel::new(gpu, app, false, variant)?;
-    let p = params_for(&mut SplitMix64::new(0xD1A6), render_space(app, bounds), grid, rays_per_probe);
-    kernel.run(gpu, &p)?;
+    let (kernel, p) = run_cell(gpu, app, bounds, grid, rays_per_probe, variant, false)?;
     let mut t: Vec<f32> = bytemuck::pod_collect_to_vec(&engine::render::readback::read_buffer(gpu, &kernel.hits));
     t.truncate(p.ray_count as usize);
     Ok(t)
@@ -386,10 +401,7 @@ pub fn traversal_work(
     rays_per_probe: u32,
     variant: TraceVariant,
 ) -> Result<TraversalWork, String> {
-    let kernel = TraceKernel::new(gpu, app, true, variant)?;
-    let bounds = render_space(app, bounds);
-    let p = params_for(&mut SplitMix64::new(0xD1A6), bounds, grid, rays_per_probe);
-    kernel.run(gpu, &p)?;
+    let (kernel, p) = run_cell(gpu, app, bounds, grid, rays_per_probe, variant, true)?;
     let w = kernel.work(gpu)?.map(f64::from);
     let per_ray = |v: f64| v / f64::from(p.ray_count);
     Ok(TraversalWork {
