@@ -6,21 +6,16 @@ use lab::eval::SceneFacts;
 use lab::eval::time_series::{SceneChange, find_node};
 
 use crate::LEVEL_SCENE;
-use crate::play::{PROBE_SPACING, level};
+use crate::play::level;
 
-/// The facts of the scene named `name`: the demo level's for [`LEVEL_SCENE`], otherwise
-/// [`SceneFacts::named`].
+/// The facts of the scene named `name`: [`SceneFacts::named`] (for the demo level, its grid and
+/// bounds from [`scenes::level`]), and the level's change of the time series for [`LEVEL_SCENE`].
 pub fn scene_facts(name: &str) -> SceneFacts {
+    let facts = SceneFacts::named(name);
     if name != LEVEL_SCENE {
-        return SceneFacts::named(name);
+        return facts;
     }
-    SceneFacts {
-        name: name.into(),
-        // What `play` uses.
-        paper_grid: level::level_probe_counts(PROBE_SPACING).to_array(),
-        gi_bounds: Some(level::level_gi_bounds()),
-        change: Some(open_the_door),
-    }
+    SceneFacts { change: Some(open_the_door), ..facts }
 }
 
 /// The level's change in the time series: the house's door slides open, seen from inside the

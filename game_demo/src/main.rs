@@ -750,7 +750,7 @@ fn parse_vec3(text: &str) -> Result<glam::Vec3, String> {
 }
 
 /// `render` and `eval`'s name for the demo level (`play`'s scene, still: nothing animates).
-pub const LEVEL_SCENE: &str = "level";
+pub const LEVEL_SCENE: &str = scenes::level::NAME;
 
 /// A built-in scene (of [`scenes::ALL`]) or the demo level by name, or a scene file by path.
 fn load(scene: &str) -> Result<SceneDescription, String> {
@@ -758,7 +758,7 @@ fn load(scene: &str) -> Result<SceneDescription, String> {
         return Ok((entry.build)());
     }
     if scene == LEVEL_SCENE {
-        return Ok(play::level::demo_level(play::level::kenney_assets_or_note().as_deref()).scene);
+        return Ok(scenes::level::scene());
     }
     let path = std::path::Path::new(scene);
     if path.extension().is_none() {

@@ -105,9 +105,14 @@ pub struct SceneFacts {
 pub type PrepareChange = fn(&mut SceneDescription) -> Result<SceneChange, String>;
 
 impl SceneFacts {
-    /// The facts of the built-in scene `name` (its published grid and its own GI box), or of a
+    /// The facts of the built-in scene `name` (its published grid and its own GI box), of the demo
+    /// level ([`scenes::level::NAME`]: `play`'s grid and box, its change left to the demo), or of a
     /// scene file (8×8×8 probes over its instances' bounds, the first light moves).
     pub fn named(name: &str) -> SceneFacts {
+        if name == scenes::level::NAME {
+            let (paper_grid, gi_bounds) = (scenes::level::probe_counts().to_array(), Some(scenes::level::level_gi_bounds()));
+            return SceneFacts { name: name.into(), paper_grid, gi_bounds, change: None };
+        }
         SceneFacts {
             name: name.into(),
             paper_grid: ddgi_paper_grid(name),

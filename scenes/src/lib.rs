@@ -11,12 +11,16 @@
 //! | `forest`          | ≈21.6 million instanced triangles over a hilly terrain                 |
 //! | `open_world`      | a house in a yard amid a 1 km² forest: camera-following cascades       |
 //!
+//! The demo level ([`level`], found by [`level::NAME`]) is built here too, outside [`ALL`]: its
+//! Kenney models are files, and its plan and animations belong to the demo.
+//!
 //! [`ALL`] is the one table of them: each [`SceneEntry`] holds a scene's name, builder, probe
 //! volume bounds and openings, so adding a scene is adding one entry. Look one up by name with
 //! [`find`]. Building a scene costs CPU time and memory only, and every build starts afresh (only
 //! the cathedral's window list is built once, on first use, and kept).
 
 pub mod large;
+pub mod level;
 pub mod open;
 pub mod rooms;
 

@@ -546,7 +546,7 @@ mod tests {
 
     #[test]
     fn plugin_drives_the_camera_through_the_ecs() {
-        use crate::play::level::{DemoLevelPlugin, DoorControl};
+        use crate::play::level::{DemoLevelPlugin, DoorControl, LevelAnimations};
         let level = demo_level(None);
         let mut app = App::new();
         app.insert_resource(Time::fixed(1.0 / 60.0));

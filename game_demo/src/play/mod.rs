@@ -26,13 +26,13 @@ use engine::render::RenderOutputs;
 use glam::Vec3Swizzles;
 
 use controller::{PlayerPlugin, PlayerSettings, ScriptedTour};
-use level::{DemoLevel, DemoLevelPlugin, demo_level};
+use level::{DemoLevel, DemoLevelPlugin, LevelAnimations, demo_level};
 
 /// The fixed clock of scripted runs (headless, and the windowed run the tests compare with it).
 pub const STEP_SECONDS: f64 = 1.0 / 60.0;
 
-/// The level's default probe spacing, in metres.
-pub const PROBE_SPACING: f32 = 1.5;
+/// The level's default probe spacing, in metres (the level's, in [`scenes::level`]).
+pub use scenes::level::PROBE_SPACING;
 
 /// What `play` renders and how.
 #[derive(Clone, Debug)]
@@ -63,7 +63,7 @@ impl Default for PlayOptions {
         Self {
             width: 1280,
             height: 720,
-            probe_counts: level::level_probe_counts(PROBE_SPACING),
+            probe_counts: level::probe_counts(),
             cascade_spacing: PROBE_SPACING,
             rays_per_probe: ddgi::DdgiVolume::default().rays_per_probe,
             adaptive: true,
