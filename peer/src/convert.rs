@@ -1,10 +1,11 @@
 //! Our scene descriptions as sgl-3d content: triangles (node transforms baked in) with their
-//! materials as one static model, point, spot and directional lights, and the camera. What has no
-//! counterpart is named in [`Converted::unmatched`].
+//! materials and their base colour, emissive and metallic-roughness images as one static model,
+//! point, spot and directional lights, and the camera. What has no counterpart is named in
+//! [`Converted::unmatched`].
 
-use engine::scene::{NodeContent, SceneDescription};
-use glam::{Affine3A, Mat3, Mat4, Vec3};
-use sgl_3d::asset::{Material, Vertex};
+use engine::scene::{NodeContent, SceneDescription, UvTransform};
+use glam::{Affine3A, Mat3, Mat4, Vec2, Vec3};
+use sgl_3d::asset::{Image, Material, Vertex};
 use sgl_3d::{DirectionalLight, DirectionalShadow, Light, LightShape};
 
 /// Reach of a point or spot light that has none of its own (ours are then unlimited; sgl-3d's
@@ -15,6 +16,8 @@ pub const UNLIMITED_RANGE: f32 = 1.0e4;
 pub struct Converted {
     /// One material per material of the scene, in its order.
     pub materials: Vec<Material>,
+    /// The scene's images, in its order (the materials' texture indices address them).
+    pub images: Vec<Image>,
     /// Triangle meshes in world space: vertices, indices and the index of their material.
     pub meshes: Vec<(Vec<Vertex>, Vec<u32>, usize)>,
     /// Point and spot lights.
@@ -32,15 +35,48 @@ pub struct Converted {
 /// directional shadow's cascades (the scene's size, so that every surface is shadowed).
 pub fn convert(scene: &SceneDescription, shadow_distance: f32) -> Result<Converted, String> {
     let mut unmatched = Vec::new();
+    let images = scene
+        .images
+        .iter()
+        .map(|i| {
+            image::RgbaImage::from_raw(i.width, i.height, i.rgba8.clone())
+                .map(Image::Rgba8)
+                .ok_or_else(|| format!("image '{}': {} bytes for {}×{} texels", i.name, i.rgba8.len(), i.width, i.height))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    // sgl-3d has one set of texture coordinates for all of a material's maps, with no transform:
+    // each material's first map's transform is baked into its meshes' coordinates (`uv_transforms`),
+    // and a map with another transform is left out.
+    let mut uv_transforms = Vec::new();
     let materials = scene
         .materials
         .iter()
         .map(|m| {
-            let textures: Vec<&str> = m.textures().iter().filter(|(_, t)| t.is_some()).map(|(n, _)| *n).collect();
-            if !textures.is_empty() {
-                unmatched.push(format!("material '{}': textures not converted ({})", m.name, textures.join(", ")));
+            let uv = m.textures().iter().find_map(|(_, t)| t.map(|t| t.transform));
+            uv_transforms.push(uv);
+            let mut left_out = Vec::new();
+            let mut index = |name: &'static str, t: Option<engine::scene::TextureRef>| {
+                let t = t?;
+                if Some(t.transform) != uv || name == "normal_texture" {
+                    left_out.push(name);
+                    return None;
+                }
+                Some(t.image.index() as usize)
+            };
+            let (base_texture, emissive_texture, mr_texture) = (
+                index("base_color_texture", m.base_color_texture),
+                index("emissive_texture", m.emissive_texture),
+                index("metallic_roughness_texture", m.metallic_roughness_texture),
+            );
+            index("normal_texture", m.normal_texture);
+            if !left_out.is_empty() {
+                let why = "a normal map needs tangents the conversion does not give; another map's UV transform differs from the first's";
+                unmatched.push(format!("material '{}': maps not converted ({}): {why}", m.name, left_out.join(", ")));
             }
             Material {
+                base_texture,
+                emissive_texture,
+                mr_texture,
                 name: m.name.clone(),
                 base: [m.base_color.x, m.base_color.y, m.base_color.z, 1.0],
                 emissive: (m.emissive * m.emissive_strength).to_array(),
@@ -64,7 +100,8 @@ pub fn convert(scene: &SceneDescription, shadow_distance: f32) -> Result<Convert
                 NodeContent::Meshes(pairs) => {
                     for &(mesh, material) in pairs {
                         let mesh = scene.meshes.get(mesh).ok_or_else(|| format!("node '{}': mesh {mesh} missing", node.name))?;
-                        meshes.push((world_vertices(mesh, &world)?, mesh.indices.clone(), material));
+                        let uv = uv_transforms.get(material).copied().flatten();
+                        meshes.push((world_vertices(mesh, &world, uv)?, mesh.indices.clone(), material));
                     }
                 }
                 NodeContent::Camera(c) => {
@@ -116,11 +153,14 @@ pub fn convert(scene: &SceneDescription, shadow_distance: f32) -> Result<Convert
         unmatched.push("the second directional light is unshadowed in sgl-3d".into());
     }
     let camera = camera.ok_or_else(|| format!("scene '{}' has no camera", scene.name))?;
-    Ok(Converted { materials, meshes, lights, suns, camera, unmatched })
+    Ok(Converted { materials, images, meshes, lights, suns, camera, unmatched })
 }
 
-/// `mesh`'s vertices moved to world space by `world` (normals by its inverse transpose).
-fn world_vertices(mesh: &engine::scene::Mesh, world: &Affine3A) -> Result<Vec<Vertex>, String> {
+/// `mesh`'s vertices moved to world space by `world` (normals by its inverse transpose), their
+/// texture coordinates through `uv` (its material's maps' transform).
+fn world_vertices(mesh: &engine::scene::Mesh, world: &Affine3A, uv: Option<UvTransform>) -> Result<Vec<Vertex>, String> {
+    let rows = uv.map(|t| t.rows());
+    let transform = |p: Vec2| rows.map_or(p, |[a, b]| Vec2::new(a.dot(p.extend(1.0)), b.dot(p.extend(1.0))));
     let mut mesh = mesh.clone();
     if mesh.normals.len() != mesh.positions.len() {
         mesh.compute_normals();
@@ -135,7 +175,7 @@ fn world_vertices(mesh: &engine::scene::Mesh, world: &Affine3A) -> Result<Vec<Ve
             Vertex {
                 position: world.transform_point3(p).to_array(),
                 normal: n.to_array(),
-                uv: mesh.uvs.get(i).map_or([0.0; 2], |uv| uv.to_array()),
+                uv: mesh.uvs.get(i).map_or([0.0; 2], |&uv| transform(uv).to_array()),
                 color: [1.0; 4],
                 lightmap_uv: [0.0; 2],
                 lightmap_bounds: [0.0; 4],
@@ -150,4 +190,54 @@ fn world_vertices(mesh: &engine::scene::Mesh, world: &Affine3A) -> Result<Vec<Ve
 pub fn camera(world: Affine3A, yfov: f32, znear: f32, aspect: f32) -> sgl_3d::Camera {
     let view = Mat4::from(world).inverse();
     sgl_3d::Camera { view, projection: sgl_3d::perspective(yfov, aspect, znear), eye: world.translation.into() }
+}
+
+#[cfg(test)]
+mod tests {
+    use engine::scene::{Camera, Handle, Image as OurImage, Material as OurMaterial, TextureRef, Transform};
+    use glam::Vec2;
+
+    use super::*;
+
+    /// A textured quad: the material's base colour and emissive maps share a transform, its normal
+    /// map has another.
+    fn textured() -> SceneDescription {
+        let mut scene = SceneDescription { name: "textured".into(), ..Default::default() };
+        scene.images.push(OurImage { name: "checker".into(), width: 2, height: 1, rgba8: vec![255, 0, 0, 255, 0, 0, 255, 255] });
+        let uv = UvTransform { offset: Vec2::new(0.25, 0.5), rotation: std::f32::consts::FRAC_PI_2, scale: Vec2::new(2.0, 3.0) };
+        let map = Some(TextureRef { image: Handle::from_index(0), transform: uv });
+        let material = OurMaterial {
+            base_color_texture: map,
+            emissive_texture: map,
+            normal_texture: Some(TextureRef { image: Handle::from_index(0), transform: UvTransform::default() }),
+            ..OurMaterial::diffuse("painted", Vec3::ONE)
+        };
+        let material = scene.add_material(material);
+        scene.add_mesh_node("quad", Transform::IDENTITY, engine::shapes::quad("quad", Vec2::ONE), material);
+        scene.add_node("camera", Transform::from_xyz(0.0, 2.0, 0.0), None, vec![NodeContent::Camera(Camera::default())]);
+        scene
+    }
+
+    #[test]
+    fn base_colour_and_emissive_maps_carry_over_with_their_uv_transform() {
+        let scene = textured();
+        let converted = convert(&scene, 10.0).expect("converts");
+        assert_eq!(converted.images.len(), 1);
+        let Image::Rgba8(image) = &converted.images[0] else { panic!("an 8-bit image") };
+        assert_eq!((image.width(), image.height(), image.as_raw().as_slice()), (2, 1, scene.images[0].rgba8.as_slice()));
+        let m = &converted.materials[0];
+        assert_eq!((m.base_texture, m.emissive_texture, m.normal_texture), (Some(0), Some(0), None));
+        // glTF's KHR_texture_transform: scaled, then turned a quarter counter-clockwise, then moved.
+        let (vertices, _, material) = &converted.meshes[0];
+        assert_eq!(*material, 0);
+        for (vertex, uv) in vertices.iter().zip(&scene.meshes[0].uvs) {
+            let expected = Vec2::new(0.25, 0.5) + Vec2::new(3.0 * uv.y, -2.0 * uv.x);
+            assert!((Vec2::from(vertex.uv) - expected).length() < 1e-5, "{uv} → {:?}, expected {expected}", vertex.uv);
+        }
+        assert!(
+            converted.unmatched.iter().any(|u| u.contains("'painted'") && u.contains("normal_texture")),
+            "the normal map is named: {:?}",
+            converted.unmatched
+        );
+    }
 }
