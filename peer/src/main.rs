@@ -4,6 +4,9 @@
 //! engine's timing spans, sgl-3d's from its own `GpuTiming`), and each one's final image against our
 //! path-traced reference (FLIP, relative MSE, on linear radiance before exposure and tone mapping).
 //!
+//! The timed runs take turns frame by frame (one frame of every row, then the next frame of every
+//! row), so that a change of the GPU's clocks during the run reaches every row alike.
+//!
 //! Prints a Markdown table, writes `--json` and, in `--out`, each image as EXR and a strip PNG
 //! (sgl-3d | ours fixed | ours adaptive | reference). See docs/evaluation.md ("Peer benchmark") for
 //! what could not be matched.
@@ -14,9 +17,9 @@ mod sgl;
 use std::path::{Path, PathBuf};
 
 use clap::Parser;
+use engine::bevy_app::App;
 use engine::gpu::{GpuContext, GpuOptions};
-use engine::headless::{HeadlessSettings, render_scene_with};
-use engine::scene::SceneDescription;
+use engine::headless::{HeadlessSettings, RenderedFrame, render_scene_with};
 use lab::eval::{Config, SceneFacts};
 use lab::metrics::{ErrorMetrics, compare, tonemap_to_srgb8};
 use sgl_3d::settings::DynamicGiQuality;
@@ -24,17 +27,19 @@ use sgl_3d::settings::DynamicGiQuality;
 /// Our DDGI against sgl-3d's dynamic GI: update and frame time, error against a path-traced reference.
 #[derive(Parser, Debug)]
 #[command(
-    after_long_help = "Examples:\n  peer --scene cornell --width 256 --height 256\n  peer --scene cathedral --width 1280 --height 720 --rays 256 --json out/peer/cathedral.json"
+    after_long_help = "Examples:\n  peer --scene cornell --width 256 --height 256\n  peer --scene level --width 1280 --height 720\n  peer --scene cathedral --width 1280 --height 720 --rays 256 --json out/peer/cathedral.json"
 )]
 struct Args {
-    /// A built-in scene: cornell, cathedral, or any of `scenes::ALL` whose content converts.
+    /// A built-in scene: cornell, cathedral, level (the demo level, with the Kenney models when
+    /// assets/kenney_fps is there), or any of `scenes::ALL` whose content converts.
     #[arg(long, default_value = "cornell")]
     scene: String,
     #[arg(long, default_value_t = 256)]
     width: u32,
     #[arg(long, default_value_t = 256)]
     height: u32,
-    /// Frames each renderer runs; the image is the last one (the evaluation's 120 by default).
+    /// Frames each renderer runs, the timed rows taking turns frame by frame; the image is the
+    /// last one (the evaluation's 120 by default).
     #[arg(long, default_value_t = lab::eval::DDGI_FRAMES)]
     frames: u32,
     /// Frames left out of the medians at the start (probes starting, pipelines compiling).
@@ -129,9 +134,19 @@ fn run(args: &Args) -> Result<(), String> {
         256 => DynamicGiQuality::High,
         other => return Err(format!("--rays {other}: sgl-3d traces at most 128 (Low) or 256 (High) rays a probe; choose one of them")),
     };
-    let entry = scenes::find(&args.scene)
-        .ok_or_else(|| format!("--scene '{}': not a built-in scene ({})", args.scene, scenes::names().collect::<Vec<_>>().join(", ")))?;
-    let scene = lab::eval::still((entry.build)());
+    // The level as `game_demo eval --scene level` renders it: the same description, still, with
+    // the sky of every still evaluation (black: `engine::render::Sky`'s default, which neither
+    // sets), so that the reference is the evaluation's (the same cache entry).
+    let scene = if args.scene == scenes::level::NAME {
+        scenes::level::scene()
+    } else {
+        let entry = scenes::find(&args.scene).ok_or_else(|| {
+            let names: Vec<_> = scenes::names().chain([scenes::level::NAME]).collect();
+            format!("--scene '{}': not a built-in scene ({})", args.scene, names.join(", "))
+        })?;
+        (entry.build)()
+    };
+    let scene = lab::eval::still(scene);
     let facts = SceneFacts::named(&args.scene);
     let grid = args.probes.unwrap_or(facts.paper_grid);
     let bounds = facts.gi_bounds.or_else(|| scene.bounds()).ok_or("the scene has no geometry")?;
@@ -178,17 +193,18 @@ fn run(args: &Args) -> Result<(), String> {
     images.push(("ours_direct".into(), ours_direct.hdr));
 
     let tier = gpu.device.limits().max_sampled_textures_per_shader_stage;
-    let probe = sgl::run(
+    let in_effect = sgl::SglRenderer::new(
         &gpu,
         &sgl::SglRun { converted: &converted, width: w, height: h, frames: 1, quality, volume, keep_awake: false, observe: false },
-    )?;
-    let sgl_gi = probe.dynamic_gi_in_effect == quality;
+    )?
+    .dynamic_gi_in_effect();
+    let sgl_gi = in_effect == quality;
     let mut notes = Vec::new();
     if !sgl_gi {
         notes.push(format!(
             "sgl-3d's dynamic GI is {:?} on {}: its Basic binding tier (the device has {tier} sampled textures a shader stage, \
              sgl-3d's Extended tier needs 48) runs none, so its rows are left out",
-            probe.dynamic_gi_in_effect,
+            in_effect,
             gpu.adapter_name()
         ));
     }
@@ -197,28 +213,18 @@ fn run(args: &Args) -> Result<(), String> {
         (true, true) => &[(false, "sgl-3d")],
         (true, false) => &[(false, "sgl-3d"), (true, "sgl-3d, kept awake")],
     };
+    // sgl-3d's rays a probe per update, counted in runs of their own (its observation adds work to
+    // the trace, so the timed runs are not observed), before the timed runs.
+    let mut counted_rays = Vec::new();
     for &(keep_awake, name) in variants {
-        let job =
-            |observe| sgl::SglRun { converted: &converted, width: w, height: h, frames: args.frames, quality, volume, keep_awake, observe };
-        println!("{name}: {} frames…", args.frames);
-        let timed = sgl::run(&gpu, &job(false))?;
-        let counted = sgl::run(&gpu, &job(true))?;
-        let rays =
-            median(counted.reports.iter().filter(|r| r.frame >= u64::from(args.skip) && r.rays > 0).map(|r| f64::from(r.rays)).collect());
-        let (update_ms, frame_ms, update_frames, measured_frames) = sgl::summary(&timed.frames, u64::from(args.skip));
-        let error = compare(&reference, &timed.hdr, w, h, 1.0);
-        rows.push(Row {
-            renderer: name.into(),
-            update_ms,
-            update_frames,
-            measured_frames,
-            frame_ms,
-            rays_per_update: rays,
-            ns_per_ray: update_ms.zip(rays).map(|(ms, r)| ms * 1e6 / r),
-            error,
-        });
-        images.push((name.replace([',', ' '], "_").replace("__", "_"), timed.hdr));
-        sgl_frames.push((name.to_string(), timed.frames));
+        println!("{name}: counting its rays, {} frames…", args.frames);
+        let counted = sgl::run(
+            &gpu,
+            &sgl::SglRun { converted: &converted, width: w, height: h, frames: args.frames, quality, volume, keep_awake, observe: true },
+        )?;
+        counted_rays.push(median(
+            counted.reports.iter().filter(|r| r.frame >= u64::from(args.skip) && r.rays > 0).map(|r| f64::from(r.rays)).collect(),
+        ));
     }
 
     // Ours: the fixed budget and adaptive budgets, on the same grid and bounds, rays and map sizes.
@@ -234,24 +240,88 @@ fn run(args: &Args) -> Result<(), String> {
     };
     let mut ours = vec![
         ("ours, fixed".to_string(), ddgi::DdgiVolume { adaptive: ddgi::DdgiAdaptive::off(), ..base.clone() }),
-        ("ours, adaptive".to_string(), ddgi::DdgiVolume { adaptive: ddgi::DdgiAdaptive { enabled: true, ..Default::default() }, ..base.clone() }),
+        (
+            "ours, adaptive".to_string(),
+            ddgi::DdgiVolume { adaptive: ddgi::DdgiAdaptive { enabled: true, ..Default::default() }, ..base.clone() },
+        ),
     ];
     // Ours at sgl-3d's ray count: adaptive budgets capped at the rays sgl-3d traced per update
     // (its own frame cap and update periods), so that both are compared per update at one count.
-    if let Some(rays) = rows.first().and_then(|r| r.rays_per_update).filter(|r| r.is_finite() && *r >= 1.0) {
+    if let Some(rays) = counted_rays.first().copied().flatten().filter(|r| r.is_finite() && *r >= 1.0) {
         let budget = rays.round() as u32;
         let adaptive = ddgi::DdgiAdaptive { enabled: true, frame_budget: Some(budget), ..Default::default() };
         ours.push((format!("ours, adaptive, {budget} rays a frame (sgl-3d's)"), ddgi::DdgiVolume { adaptive, ..base.clone() }));
     }
+
+    // The timed runs, interleaved: every row renders its frame 0, then every row its frame 1, and
+    // so on, each frame waited for before the next row's.
+    let seed = pathtrace::PathTraceSettings::default().seed;
+    let settings = HeadlessSettings { width: w, height: h, frames: args.frames, ..Default::default() };
+    let mut runners = Vec::new();
+    for &(keep_awake, name) in variants {
+        let job =
+            sgl::SglRun { converted: &converted, width: w, height: h, frames: args.frames, quality, volume, keep_awake, observe: false };
+        runners.push((name.to_string(), Runner::Sgl(Box::new(sgl::SglRenderer::new(&gpu, &job)?))));
+    }
+    let mut configs = Vec::new();
     for (name, volume) in ours {
-        let name = name.as_str();
-        println!("{name}: {} frames…", args.frames);
-        let config = Config::Ddgi { name: name.into(), volume: Box::new(volume), occlusion: Default::default(), taa: false };
-        let row = run_ours(&gpu, &scene, &config, args, &reference, &mut images)?;
-        rows.push(row);
+        let config = Config::Ddgi { name: name.clone(), volume: Box::new(volume), occlusion: Default::default(), taa: false };
+        let mut app =
+            engine::headless::scene_app(&gpu, scene.clone(), &settings, |app| config.configure(app, seed)).map_err(|e| e.to_string())?;
+        engine::app::finish_plugins(&mut app);
+        runners.push((name, Runner::Ours(Box::new(app))));
+        configs.push(config);
+    }
+    let names: Vec<String> = runners.iter().map(|(name, _)| name.clone()).collect();
+    println!("timed runs, interleaved frame by frame: {} frames of {}…", args.frames, names.join(" | "));
+    for _ in 0..args.frames {
+        for (name, runner) in &mut runners {
+            match runner {
+                Runner::Sgl(sgl) => sgl.step(&gpu)?,
+                Runner::Ours(app) => {
+                    app.update();
+                    if let Some(exit) = app.should_exit() {
+                        return Err(format!("{name}: the app exited ({exit:?})"));
+                    }
+                }
+            }
+        }
+    }
+    let mut configs = configs.into_iter();
+    for ((name, runner), rays) in runners.into_iter().zip(counted_rays.into_iter().map(Some).chain(std::iter::repeat(None))) {
+        match runner {
+            Runner::Sgl(sgl) => {
+                let timed = sgl.finish(&gpu)?;
+                let rays = rays.flatten();
+                let (update_ms, frame_ms, update_frames, measured_frames) = sgl::summary(&timed.frames, u64::from(args.skip));
+                let error = compare(&reference, &timed.hdr, w, h, 1.0);
+                rows.push(Row {
+                    renderer: name.clone(),
+                    update_ms,
+                    update_frames,
+                    measured_frames,
+                    frame_ms,
+                    rays_per_update: rays,
+                    ns_per_ray: update_ms.zip(rays).map(|(ms, r)| ms * 1e6 / r),
+                    error,
+                });
+                images.push((name.replace([',', ' '], "_").replace("__", "_"), timed.hdr));
+                sgl_frames.push((name, timed.frames));
+            }
+            Runner::Ours(app) => {
+                let config = configs.next().ok_or("a row of ours without its configuration")?;
+                let frame = engine::headless::read_frame(&gpu, app.world());
+                rows.push(ours_row(&config, frame, args, &reference, &mut images));
+            }
+        }
     }
 
     let failures = check(&rows, &images);
+    notes.push(format!(
+        "The timed rows ran interleaved, frame by frame ({}), each frame waited for before the next row's, so that the \
+         GPU's clocks changing during the run reach every row alike.",
+        names.join("; ")
+    ));
     notes.push(format!(
         "Conversion check, direct light alone (sgl-3d's dynamic GI off) against ours: mean FLIP {:.4}, relative MSE {:.5}, \
          mean radiance sgl-3d / ours {brightness:.4}.",
@@ -320,18 +390,14 @@ fn check(rows: &[Row], images: &[(String, Vec<f32>)]) -> Vec<String> {
     failures
 }
 
-/// Our DDGI: `config` for `args.frames` frames through the engine's headless runner.
-fn run_ours(
-    gpu: &GpuContext,
-    scene: &SceneDescription,
-    config: &Config,
-    args: &Args,
-    reference: &[f32],
-    images: &mut Vec<(String, Vec<f32>)>,
-) -> Result<Row, String> {
-    let settings = HeadlessSettings { width: args.width, height: args.height, frames: args.frames, ..Default::default() };
-    let seed = pathtrace::PathTraceSettings::default().seed;
-    let frame = render_scene_with(gpu, scene.clone(), &settings, |app| config.configure(app, seed)).map_err(|e| e.to_string())?;
+/// A timed run: sgl-3d's renderer, or our app, stepped a frame at a time.
+enum Runner<'a> {
+    Sgl(Box<sgl::SglRenderer<'a>>),
+    Ours(Box<App>),
+}
+
+/// The row of our DDGI's `config` from its last frame and its frames' timings.
+fn ours_row(config: &Config, frame: RenderedFrame, args: &Args, reference: &[f32], images: &mut Vec<(String, Vec<f32>)>) -> Row {
     let kept: Vec<_> = frame.timings.iter().filter(|t| t.frame >= u64::from(args.skip)).collect();
     let updates: Vec<f64> = kept
         .iter()
@@ -357,7 +423,7 @@ fn run_ours(
     let update_ms = median(updates);
     let error = compare(reference, &frame.hdr, args.width, args.height, 1.0);
     images.push((config.name().replace([',', ' '], "_").replace("__", "_"), frame.hdr));
-    Ok(Row {
+    Row {
         renderer: config.name(),
         update_ms,
         update_frames,
@@ -366,7 +432,7 @@ fn run_ours(
         rays_per_update: rays,
         ns_per_ray: update_ms.zip(rays).map(|(ms, r)| ms * 1e6 / r),
         error,
-    })
+    }
 }
 
 fn table(args: &Args, adapter: &str, grid: [u32; 3], rows: &[Row]) -> String {

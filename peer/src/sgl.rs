@@ -49,7 +49,6 @@ pub struct SglResult {
     pub reports: Vec<DynamicGiReport>,
     /// Linear RGBA radiance of the last frame, row-major from the top-left.
     pub hdr: Vec<f32>,
-    pub dynamic_gi_in_effect: DynamicGiQuality,
 }
 
 /// The settings that leave the HDR composite with direct light, emission and the volume's indirect
@@ -87,7 +86,7 @@ fn scene_error(what: &str, e: impl std::fmt::Debug) -> String {
 fn load(gpu: &GpuContext, c: &Converted, volume: DynamicGiVolume) -> Result<(Scene, Vec<LightId>), String> {
     let (device, queue) = (&gpu.device, &gpu.queue);
     let mut scene = Scene::new(device, queue);
-    let materials = scene.add_materials(device, queue, &c.materials, &[]).map_err(|e| scene_error("add_materials", e))?;
+    let materials = scene.add_materials(device, queue, &c.materials, &c.images).map_err(|e| scene_error("add_materials", e))?;
     let meshes = c
         .meshes
         .iter()
@@ -111,85 +110,151 @@ fn load(gpu: &GpuContext, c: &Converted, volume: DynamicGiVolume) -> Result<(Sce
 
 /// Renders `run.frames` frames and reads the last one back.
 pub fn run(gpu: &GpuContext, run: &SglRun) -> Result<SglResult, String> {
-    let (device, queue) = (&gpu.device, &gpu.queue);
-    let c = run.converted;
-    let (mut scene, light_ids) = load(gpu, c, run.volume)?;
-    let settings = settings(run.quality, run.observe);
-    let size = [run.width, run.height];
-    let format = wgpu::TextureFormat::Rgba16Float;
-    let mut renderer = Renderer::new(device, queue, format, size, 1.0, &settings).map_err(|e| scene_error("Renderer::new", e))?;
-    let dynamic_gi_in_effect = renderer.dynamic_gi_in_effect(&settings);
-    let output = device.create_texture(&wgpu::TextureDescriptor {
-        label: Some("peer_sgl_output"),
-        size: wgpu::Extent3d { width: run.width, height: run.height, depth_or_array_layers: 1 },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC,
-        view_formats: &[],
-    });
-    let output_view = output.create_view(&Default::default());
-    let mut timing = if run.observe { None } else { sgl_3d::timing::GpuTiming::new(device, queue) };
-    let (world, yfov, znear) = c.camera;
-    let camera = convert::camera(world, yfov, znear, run.width as f32 / run.height as f32);
-    let mut frames = Vec::new();
-    let mut reports = Vec::new();
-    let collect = |frames: &mut Vec<SglFrame>, done: &mut dyn Iterator<Item = sgl_3d::timing::FrameTime>| {
-        for f in done {
+    let mut renderer = SglRenderer::new(gpu, run)?;
+    for _ in 0..run.frames {
+        renderer.step(gpu)?;
+    }
+    renderer.finish(gpu)
+}
+
+/// sgl-3d on one scene, stepped a frame at a time ([`SglRenderer::step`]), so that its frames can
+/// take turns with other renderers' on the same device.
+pub struct SglRenderer<'a> {
+    converted: &'a Converted,
+    keep_awake: bool,
+    observe: bool,
+    scene: Scene,
+    light_ids: Vec<LightId>,
+    settings: Settings,
+    size: [u32; 2],
+    renderer: Renderer,
+    /// The offscreen texture it renders into (kept alive for `output_view`).
+    _output: wgpu::Texture,
+    output_view: wgpu::TextureView,
+    timing: Option<sgl_3d::timing::GpuTiming>,
+    camera: sgl_3d::Camera,
+    frame: u32,
+    frames: Vec<SglFrame>,
+    reports: Vec<DynamicGiReport>,
+    dynamic_gi_in_effect: DynamicGiQuality,
+}
+
+impl<'a> SglRenderer<'a> {
+    /// Loads `run.converted` into a new sgl-3d scene and renderer on our device (`run.frames` is
+    /// left to the caller: one [`SglRenderer::step`] a frame).
+    pub fn new(gpu: &GpuContext, run: &SglRun<'a>) -> Result<Self, String> {
+        let (device, queue) = (&gpu.device, &gpu.queue);
+        let c = run.converted;
+        let (scene, light_ids) = load(gpu, c, run.volume)?;
+        let settings = settings(run.quality, run.observe);
+        let size = [run.width, run.height];
+        let format = wgpu::TextureFormat::Rgba16Float;
+        let renderer = Renderer::new(device, queue, format, size, 1.0, &settings).map_err(|e| scene_error("Renderer::new", e))?;
+        let dynamic_gi_in_effect = renderer.dynamic_gi_in_effect(&settings);
+        let output = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("peer_sgl_output"),
+            size: wgpu::Extent3d { width: run.width, height: run.height, depth_or_array_layers: 1 },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        });
+        let output_view = output.create_view(&Default::default());
+        let timing = if run.observe { None } else { sgl_3d::timing::GpuTiming::new(device, queue) };
+        let (world, yfov, znear) = c.camera;
+        let camera = convert::camera(world, yfov, znear, run.width as f32 / run.height as f32);
+        Ok(Self {
+            converted: c,
+            keep_awake: run.keep_awake,
+            observe: run.observe,
+            scene,
+            light_ids,
+            settings,
+            size,
+            renderer,
+            _output: output,
+            output_view,
+            timing,
+            camera,
+            frame: 0,
+            frames: Vec::new(),
+            reports: Vec::new(),
+            dynamic_gi_in_effect,
+        })
+    }
+
+    /// The dynamic GI quality sgl-3d runs on this device (`Off` where its binding tier has none).
+    pub fn dynamic_gi_in_effect(&self) -> DynamicGiQuality {
+        self.dynamic_gi_in_effect
+    }
+
+    /// The GPU times of the frames whose timestamps have come back.
+    fn collect(&mut self, gpu: &GpuContext) {
+        let Some(t) = self.timing.as_mut() else { return };
+        for f in t.begin_frame(&gpu.device, &gpu.queue) {
             let update: Vec<f64> = f.passes.iter().filter(|p| UPDATE_GROUPS.contains(&p.name)).map(|p| p.ms).collect();
             let update_ms = (!update.is_empty()).then(|| update.iter().sum());
-            frames.push(SglFrame { frame: f.frame, frame_ms: f.total_ms, update_ms });
+            self.frames.push(SglFrame { frame: f.frame, frame_ms: f.total_ms, update_ms });
         }
-    };
-    for frame in 0..run.frames {
-        if run.keep_awake && frame > 0 {
-            nudge(gpu, &mut scene, c, &light_ids, frame)?;
+    }
+
+    /// Renders the next frame and waits for the device to finish it.
+    pub fn step(&mut self, gpu: &GpuContext) -> Result<(), String> {
+        let (device, queue) = (&gpu.device, &gpu.queue);
+        let (c, frame) = (self.converted, self.frame);
+        if self.keep_awake && frame > 0 {
+            nudge(gpu, &mut self.scene, c, &self.light_ids, frame)?;
         }
-        renderer.resize(device, size, 1.0, &settings);
-        if let Some(t) = timing.as_mut() {
-            collect(&mut frames, &mut t.begin_frame(device, queue));
-        }
-        let mut input = FrameInput::new(camera);
+        self.renderer.resize(device, self.size, 1.0, &self.settings);
+        self.collect(gpu);
+        let mut input = FrameInput::new(self.camera);
         input.camera_cut = frame == 0;
         input.elapsed_seconds = f64::from(frame) / 60.0;
         input.backdrop = Backdrop::Color([0.0; 3]);
         for (slot, sun) in input.directional_lights.iter_mut().zip(&c.suns) {
             let mut sun = *sun;
-            if run.keep_awake && frame % 2 == 1 && c.lights.is_empty() {
+            if self.keep_awake && frame % 2 == 1 && c.lights.is_empty() {
                 sun.illuminance *= 1.0 + 1e-6;
             }
             *slot = Some(sun);
         }
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("peer_sgl_frame") });
-        renderer.render(device, queue, &mut encoder, &mut scene, &input, &settings, &output_view, timing.as_ref());
+        self.renderer.render(device, queue, &mut encoder, &mut self.scene, &input, &self.settings, &self.output_view, self.timing.as_ref());
         queue.submit([encoder.finish()]);
-        if let Some(t) = timing.as_mut() {
+        if let Some(t) = self.timing.as_mut() {
             t.submitted(queue);
         }
-        renderer.finish_frame(&mut scene);
+        self.renderer.finish_frame(&mut self.scene);
         // One frame in flight at a time, as our headless runner has: every frame's query set comes
         // back (GpuTiming leaves a frame untimed while all four are in flight), and the GPU times
         // are those of the frame alone.
         gpu.wait_idle();
-        if run.observe {
-            reports.extend(renderer.take_dynamic_gi_reports(device));
+        if self.observe {
+            self.reports.extend(self.renderer.take_dynamic_gi_reports(device));
         }
+        self.frame += 1;
+        Ok(())
     }
-    // The last frames' timings come back once their work has completed.
-    if let Some(t) = timing.as_mut() {
-        for _ in 0..4 {
+
+    /// Collects the last frames' timings and reads the last frame's HDR composite back.
+    pub fn finish(mut self, gpu: &GpuContext) -> Result<SglResult, String> {
+        // The last frames' timings come back once their work has completed.
+        if self.timing.is_some() {
+            for _ in 0..4 {
+                gpu.wait_idle();
+                self.collect(gpu);
+            }
+        }
+        if self.observe {
             gpu.wait_idle();
-            collect(&mut frames, &mut t.begin_frame(device, queue));
+            self.reports.extend(self.renderer.take_dynamic_gi_reports(&gpu.device));
         }
+        let composite = self.renderer.diagnostic_target(DiagnosticTarget::Composite).ok_or("sgl-3d: no HDR composite")?;
+        let hdr = read_rgba16f(gpu, composite.texture())?;
+        Ok(SglResult { frames: self.frames, reports: self.reports, hdr })
     }
-    if run.observe {
-        gpu.wait_idle();
-        reports.extend(renderer.take_dynamic_gi_reports(device));
-    }
-    let composite = renderer.diagnostic_target(DiagnosticTarget::Composite).ok_or("sgl-3d: no HDR composite")?;
-    let hdr = read_rgba16f(gpu, composite.texture())?;
-    Ok(SglResult { frames, reports, hdr, dynamic_gi_in_effect })
 }
 
 /// Changes the first point or spot light by one part in a million on odd frames (back on even
