@@ -78,9 +78,15 @@ for step in "$@"; do
     # its view, under the pale sky; one volume of 32x8x32 (fixed and adaptive) and 8 cascades of
     # 16x4x16 (SERIES_CASCADES: other cascade options).
     walkseries-*) IFS=- read -r _ from speed frames <<< "$step"; run "$step" $B eval --scene open_world --time-series --walk --walk-from "$from" --walk-speed "$speed" --frames "$frames" --settle-frames 120 --width 256 --height 256 --reference-spp 256 --probes 32,8,32 --cascade-spacing 1.5 ${SERIES_CASCADES:---cascades 8 --cascade-probes 16,4,16 --cascade-blend 1} --sky 0.35,0.45,0.6 --out "$R/$step" --cache /tmp/cache$TAG ;;
+    # peer_SCENE: the peer benchmark against sgl-3d (docs/evaluation.md, "Peer benchmark"), its
+    # timed rows interleaved frame by frame; the binary P (default .peer/peer, built from peer/ with
+    # `cargo build --release --ignore-rust-version --manifest-path peer/Cargo.toml`); cornell at
+    # 256x256, other scenes (cathedral, level) at 1280x720, 128 rays a probe. PEER_ARGS: more options.
+    peer_*) scene=${step#peer_}; size="--width 1280 --height 720"; [ "$scene" = cornell ] && size="--width 256 --height 256"; run "$step" ${P:-.peer/peer} --scene "$scene" $size --rays 128 --out "$R/$step" --json "$R/$step.json" --cache /tmp/cache$TAG ${PEER_ARGS:-} ;;
     esac
 done
 # Reports, tables and plots only (the per-configuration strips would pass the 16 MiB a file that
 # comes back).
-# STRIPS=1: the views' strips too (direct | method | reference | FLIP map, 256 px high).
-(cd "$OUT" && { find "r$TAG" -name '*.md' -o -name '*.txt' -o -name '*.csv' -o -name '*.json' -o -name 'error_vs_time.png' -o -name 'time_series.png' -o -name 'image.png'; [ -n "${STRIPS:-}" ] && find "r$TAG" -path '*view-*' -name 'ddgi*.png'; [ -n "${SHOTS:-}" ] && find "r$TAG" -path '*shots-*' -name 'frame_*.png'; } | tar czf "results$TAG.tgz" -T -) && rm -rf "$R"
+# STRIPS=1: the views' strips too (direct | method | reference | FLIP map, 256 px high), and the
+# peer steps' strips (its rows side by side, the reference last).
+(cd "$OUT" && { find "r$TAG" -name '*.md' -o -name '*.txt' -o -name '*.csv' -o -name '*.json' -o -name 'error_vs_time.png' -o -name 'time_series.png' -o -name 'image.png'; [ -n "${STRIPS:-}" ] && find "r$TAG" -path '*view-*' -name 'ddgi*.png'; [ -n "${SHOTS:-}" ] && find "r$TAG" -path '*shots-*' -name 'frame_*.png'; [ -n "${STRIPS:-}" ] && find "r$TAG" -path '*peer_*' -name '*.png'; } | tar czf "results$TAG.tgz" -T -) && rm -rf "$R"
