@@ -93,6 +93,9 @@ struct Row {
     /// `update_ms / rays_per_update`, in nanoseconds.
     ns_per_ray: Option<f64>,
     error: ErrorMetrics,
+    /// Ours only: the median GPU ms of each pass of the DDGI update, over the frames that ran it
+    /// (where a small update's time goes: its fixed cost against its rays).
+    update_passes: Vec<(String, f64)>,
 }
 
 #[derive(serde::Serialize)]
@@ -304,6 +307,7 @@ fn run(args: &Args) -> Result<(), String> {
                     rays_per_update: rays,
                     ns_per_ray: update_ms.zip(rays).map(|(ms, r)| ms * 1e6 / r),
                     error,
+                    update_passes: Vec::new(),
                 });
                 images.push((name.replace([',', ' '], "_").replace("__", "_"), timed.hdr));
                 sgl_frames.push((name, timed.frames));
@@ -419,6 +423,13 @@ fn ours_row(config: &Config, frame: RenderedFrame, args: &Args, reference: &[f32
         })
         .collect();
     let rays = median(kept.iter().filter_map(|t| ddgi::rays_traced(t)).filter(|&r| r > 0.0).collect());
+    let update_passes = lab::bench::DDGI_UPDATE_PASSES
+        .iter()
+        .filter_map(|&label| {
+            let ms = kept.iter().flat_map(|t| &t.passes).filter(|p| p.ran && p.label == label).filter_map(|p| p.gpu_ms).collect();
+            median(ms).map(|ms| (label.to_string(), ms))
+        })
+        .collect();
     let update_frames = updates.len();
     let update_ms = median(updates);
     let error = compare(reference, &frame.hdr, args.width, args.height, 1.0);
@@ -432,6 +443,7 @@ fn ours_row(config: &Config, frame: RenderedFrame, args: &Args, reference: &[f32
         rays_per_update: rays,
         ns_per_ray: update_ms.zip(rays).map(|(ms, r)| ms * 1e6 / r),
         error,
+        update_passes,
     }
 }
 
@@ -467,6 +479,10 @@ fn table(args: &Args, adapter: &str, grid: [u32; 3], rows: &[Row]) -> String {
             r.error.mean_flip,
             r.error.relative_mse
         );
+    }
+    for r in rows.iter().filter(|r| !r.update_passes.is_empty()) {
+        let passes: Vec<String> = r.update_passes.iter().map(|(label, ms)| format!("{label} {ms:.3}")).collect();
+        md += &format!("\n{}: median GPU ms of each update pass: {}.\n", r.renderer, passes.join(", "));
     }
     md
 }
