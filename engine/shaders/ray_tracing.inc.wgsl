@@ -49,6 +49,65 @@ var<private> rt_steps: u32;
 // Groups waiting in the walk of both levels (8-wide trees are shallow; the TLAS's depth is checked
 // against its share on the CPU, engine::rt::TLAS_STACK_SIZE).
 const RT_STACK_SIZE: u32 = 48u;
+// Also counted with RT_COUNT_WORK: x, the stack entries moved from workgroup memory to the
+// function-memory stack (RT_SHARED_STACK_ENTRIES); y, the deepest the ray's stack got.
+var<private> rt_stack_work: vec2<u32>;
+
+// Where the stack lives. 0 (the engine's): all of it in function memory (`stack` in rt_trace,
+// which NVIDIA places in local memory, through L1 and L2). K > 0: each lane keeps the top K
+// entries of its stack in workgroup memory (rt_shared_stack, a ring of K slots a lane, interleaved
+// by lane so that a warp's accesses fall in distinct banks) and moves the oldest one to the
+// function-memory stack when a push finds its K slots full (Aila and Laine 2009; Ylitie, Karras and
+// Laine 2017). A pipeline that sets K must also set RT_SHARED_STACK_LANES to its workgroup's
+// threads and rt_stack_lane to each thread's local_invocation_index before tracing. The stack
+// holds RT_STACK_SIZE entries either way, so both find the same hits.
+override RT_SHARED_STACK_ENTRIES: u32 = 0u;
+override RT_SHARED_STACK_LANES: u32 = 64u;
+// One slot when the stack is not shared (an array cannot be empty).
+override RT_SHARED_STACK_SLOTS: u32 = max(RT_SHARED_STACK_ENTRIES * RT_SHARED_STACK_LANES, 1u);
+var<workgroup> rt_shared_stack: array<vec2<u32>, RT_SHARED_STACK_SLOTS>;
+var<private> rt_stack_lane: u32;
+
+// The workgroup-memory slot of stack entry `i` of this lane (RT_SHARED_STACK_ENTRIES > 0).
+fn rt_shared_stack_slot(i: u32) -> u32 {
+    // (max: the function is compiled, though never called, when the stack is not shared.)
+    return (i % max(RT_SHARED_STACK_ENTRIES, 1u)) * RT_SHARED_STACK_LANES + rt_stack_lane;
+}
+
+// Pushes `e` as entry `sp` (sp < RT_STACK_SIZE; the caller then counts it). Entries below
+// `*spilled` live in `stack`, the others in workgroup memory (RT_SHARED_STACK_ENTRIES > 0).
+fn rt_stack_push(stack: ptr<function, array<vec2<u32>, RT_STACK_SIZE>>, spilled: ptr<function, u32>, sp: u32, e: vec2<u32>) {
+    if RT_COUNT_WORK {
+        rt_stack_work.y = max(rt_stack_work.y, sp + 1u);
+    }
+    if RT_SHARED_STACK_ENTRIES == 0u {
+        (*stack)[sp] = e;
+        return;
+    }
+    if sp - *spilled == RT_SHARED_STACK_ENTRIES {
+        // The lane's slots are full: the oldest of them (in the slot the new entry takes) moves to
+        // function memory.
+        (*stack)[*spilled] = rt_shared_stack[rt_shared_stack_slot(*spilled)];
+        *spilled += 1u;
+        if RT_COUNT_WORK {
+            rt_stack_work.x += 1u;
+        }
+    }
+    rt_shared_stack[rt_shared_stack_slot(sp)] = e;
+}
+
+// Pops entry `sp` (the caller has counted it off): from workgroup memory, or from `stack` once
+// the entries there are all that is left.
+fn rt_stack_pop(stack: ptr<function, array<vec2<u32>, RT_STACK_SIZE>>, spilled: ptr<function, u32>, sp: u32) -> vec2<u32> {
+    if RT_SHARED_STACK_ENTRIES == 0u {
+        return (*stack)[sp];
+    }
+    if sp < *spilled {
+        *spilled = sp;
+        return (*stack)[sp];
+    }
+    return rt_shared_stack[rt_shared_stack_slot(sp)];
+}
 
 struct Ray {
     origin: vec3<f32>,
@@ -213,6 +272,8 @@ fn rt_trace(ray: Ray, any_hit: bool) -> RayHit {
     var triangle_offset = 0u;
     var stack: array<vec2<u32>, RT_STACK_SIZE>;
     var sp = 0u;
+    // Entries below it live in `stack`, the others in workgroup memory (RT_SHARED_STACK_ENTRIES).
+    var spilled = 0u;
     var tlas_sp = 0u;
     // Inner children still to visit (base, hit bits 24..31 in octant order | imask bits 0..7), and
     // primitives still to test (base, bits): triangles in a BLAS, entries in the TLAS. The walk
@@ -228,7 +289,7 @@ fn rt_trace(ray: Ray, any_hit: bool) -> RayHit {
             let child_bit = firstLeadingBit(hits);
             group.y &= ~(1u << child_bit);
             if (group.y & 0xff000000u) != 0u && sp < RT_STACK_SIZE {
-                stack[sp] = group;
+                rt_stack_push(&stack, &spilled, sp, group);
                 sp += 1u;
             }
             let slot = (child_bit - 24u) ^ (oct_inv4 & 0xffu);
@@ -295,11 +356,11 @@ fn rt_trace(ray: Ray, any_hit: bool) -> RayHit {
             }
             // What is left of the TLAS walk waits on the stack; entries before nodes.
             if (group.y & 0xff000000u) != 0u && sp < RT_STACK_SIZE {
-                stack[sp] = group;
+                rt_stack_push(&stack, &spilled, sp, group);
                 sp += 1u;
             }
             if prims.y != 0u && sp < RT_STACK_SIZE {
-                stack[sp] = prims;
+                rt_stack_push(&stack, &spilled, sp, prims);
                 sp += 1u;
             }
             tlas_sp = sp;
@@ -330,7 +391,7 @@ fn rt_trace(ray: Ray, any_hit: bool) -> RayHit {
                 break;
             }
             sp -= 1u;
-            let e = stack[sp];
+            let e = rt_stack_pop(&stack, &spilled, sp);
             // Node groups have inner hit bits; TLAS entry groups do not.
             if (e.y & 0xff000000u) != 0u {
                 group = e;

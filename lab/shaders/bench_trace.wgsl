@@ -20,8 +20,10 @@ struct BenchParams {
 @group(1) @binding(1) var<storage, read_write> bench_hits: array<f32>;
 // Traversal work summed over all rays, when the pipeline counts it (RT_COUNT_WORK).
 // Then (RT_COUNT_WORK): the traversal steps summed over all rays, and 32 × each warp's most steps
-// summed over the warps (lanes 32k … 32k + 31 of a workgroup), whose ratio is the SIMT efficiency.
-@group(1) @binding(2) var<storage, read_write> bench_work: array<atomic<u32>, 6>;
+// summed over the warps (lanes 32k … 32k + 31 of a workgroup), whose ratio is the SIMT efficiency;
+// the stack entries moved from workgroup to function memory summed over all rays
+// (RT_SHARED_STACK_ENTRIES), and the deepest any ray's stack got.
+@group(1) @binding(2) var<storage, read_write> bench_work: array<atomic<u32>, 8>;
 // Coherent orders (lab::bench::coherent_ray_order) of each ray count, one after another.
 @group(1) @binding(3) var<storage, read> bench_order: array<u32>;
 
@@ -45,6 +47,7 @@ var<workgroup> bench_steps: array<u32, 1024>;
 
 @compute @workgroup_size(BENCH_GROUP)
 fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_index) lane: u32) {
+    rt_stack_lane = lane;
     let i = id.x + id.y * 65535u * BENCH_GROUP;
     if i < bench.ray_count {
         trace_one(i);
@@ -71,6 +74,8 @@ fn trace_one(i: u32) {
         atomicAdd(&bench_work[2], rt_work.z);
         atomicAdd(&bench_work[3], rt_work.w);
         atomicAdd(&bench_work[4], rt_steps);
+        atomicAdd(&bench_work[6], rt_stack_work.x);
+        atomicMax(&bench_work[7], rt_stack_work.y);
     }
 }
 
@@ -101,6 +106,7 @@ fn bench_ray(i: u32) -> Ray {
 
 @compute @workgroup_size(BENCH_GROUP)
 fn persistent(@builtin(workgroup_id) group_id: vec3<u32>, @builtin(local_invocation_index) lane: u32) {
+    rt_stack_lane = lane;
     if lane == 0u {
         atomicStore(&bench_next, 0u);
     }
@@ -126,6 +132,7 @@ fn persistent(@builtin(workgroup_id) group_id: vec3<u32>, @builtin(local_invocat
     var triangle_offset = 0u;
     var stack: array<vec2<u32>, RT_STACK_SIZE>;
     var sp = 0u;
+    var spilled = 0u;
     var tlas_sp = 0u;
     var group = vec2<u32>(0u, 0x80000000u);
     var prims = vec2<u32>(0u, 0u);
@@ -135,7 +142,7 @@ fn persistent(@builtin(workgroup_id) group_id: vec3<u32>, @builtin(local_invocat
             let child_bit = firstLeadingBit(hits);
             group.y &= ~(1u << child_bit);
             if (group.y & 0xff000000u) != 0u && sp < RT_STACK_SIZE {
-                stack[sp] = group;
+                rt_stack_push(&stack, &spilled, sp, group);
                 sp += 1u;
             }
             let slot_bits = (child_bit - 24u) ^ (oct_inv4 & 0xffu);
@@ -180,11 +187,11 @@ fn persistent(@builtin(workgroup_id) group_id: vec3<u32>, @builtin(local_invocat
             prims.y &= ~(1u << bit);
             let entry = rt_tlas_entry(prims.x + (bit ^ (oct_inv4 & 7u)));
             if (group.y & 0xff000000u) != 0u && sp < RT_STACK_SIZE {
-                stack[sp] = group;
+                rt_stack_push(&stack, &spilled, sp, group);
                 sp += 1u;
             }
             if prims.y != 0u && sp < RT_STACK_SIZE {
-                stack[sp] = prims;
+                rt_stack_push(&stack, &spilled, sp, prims);
                 sp += 1u;
             }
             tlas_sp = sp;
@@ -229,7 +236,7 @@ fn persistent(@builtin(workgroup_id) group_id: vec3<u32>, @builtin(local_invocat
                 continue;
             }
             sp -= 1u;
-            let e = stack[sp];
+            let e = rt_stack_pop(&stack, &spilled, sp);
             if (e.y & 0xff000000u) != 0u {
                 group = e;
             } else {
