@@ -748,3 +748,48 @@ fn the_persistent_bench_kernel_finds_the_same_hits() {
         assert_eq!(got, expected, "{ray_order:?}");
     }
 }
+
+/// A traversal stack whose top entries live in workgroup memory (`bench trace --shared-stack K`)
+/// finds the hits of the engine's stack in function memory, ray for ray, in both bench kernels; and
+/// walks the same nodes. Stacks grow past K = 1 in the door room (8-wide trees are shallow) and past
+/// 3 in the crowd (a TLAS several levels deep, overlapping instances), so entries move to function
+/// memory and back, through a ring of 1, 2 and 3 slots (its wrap-around included); at K = 8 nothing
+/// moves, which the test checks too.
+#[test]
+fn the_shared_stack_finds_the_hits_of_the_function_memory_stack() {
+    let Some(gpu) = testkit::gpu("the_shared_stack_finds_the_hits_of_the_function_memory_stack") else { return };
+    let (grid, rays) = ([5, 4, 3], 64);
+    for (name, scene) in [("door_room", (scenes::find("door_room").expect("built-in").build)()), ("crowd", crowd_scene())] {
+        let bounds = lab::bench::world_bounds(&scene).expect("bounds");
+        let app = lab::bench::prepared_app(&gpu, scene);
+        let one = lab::bench::TraceVariant { ray_order: lab::bench::RayOrder::Coherent, ..Default::default() };
+        let expected = lab::bench::hit_distances(&gpu, &app, bounds, grid, rays, one).expect("function-memory stack");
+        let hits = expected.iter().filter(|t| **t < 1e29).count();
+        assert!(hits > expected.len() / 4, "{name}: {hits} of {} rays hit: the rays should meet the scene", expected.len());
+        let work = lab::bench::traversal_work(&gpu, &app, bounds, grid, rays, one).expect("work");
+        assert_eq!(work.stack_spills, 0.0, "{name}: nothing moves without a shared stack");
+        eprintln!("{name}: deepest stack {} entries", work.deepest_stack);
+        for k in [1, 2, 3, 8] {
+            // 128 threads a workgroup: lanes of several warps share the workgroup array.
+            let shared = lab::bench::TraceVariant { shared_stack_entries: k, workgroup_size: 128, ..one };
+            // The first ray whose hit differs, if any (the lists are thousands long).
+            let differ = |got: &[f32]| got.len() != expected.len() || got.iter().zip(&expected).any(|(a, b)| a != b);
+            let first = |got: &[f32]| got.iter().zip(&expected).enumerate().find(|(_, (a, b))| a != b).map(|(i, (a, b))| (i, *a, *b));
+            let got = lab::bench::hit_distances(&gpu, &app, bounds, grid, rays, shared).expect("shared stack");
+            assert!(!differ(&got), "{name}, thread a ray, shared stack of {k}: (ray, got, expected) {:?}", first(&got));
+            // Fewer workgroups than rays / 128, and a share that does not divide the rays evenly.
+            let persistent = lab::bench::TraceVariant { persistent_groups: Some(7), ..shared };
+            let got = lab::bench::hit_distances(&gpu, &app, bounds, grid, rays, persistent).expect("persistent, shared stack");
+            assert!(!differ(&got), "{name}, persistent, shared stack of {k}: (ray, got, expected) {:?}", first(&got));
+            let w = lab::bench::traversal_work(&gpu, &app, bounds, grid, rays, shared).expect("work");
+            eprintln!("{name}, shared stack of {k}: {:.3} entries moved to function memory per ray", w.stack_spills);
+            assert_eq!(w.counts(), work.counts(), "{name}, shared stack of {k}: the same walk");
+            assert_eq!(w.deepest_stack, work.deepest_stack, "{name}, shared stack of {k}");
+            // An entry moves exactly when a push finds the lane's K slots full: first when a stack
+            // grows past K.
+            assert_eq!(w.stack_spills > 0.0, work.deepest_stack > k, "{name}, shared stack of {k}: {} moves a ray", w.stack_spills);
+        }
+        let deep = if name == "crowd" { 3 } else { 1 };
+        assert!(work.deepest_stack > deep, "{name}: deepest stack {}: it should pass a shared part of {deep}", work.deepest_stack);
+    }
+}

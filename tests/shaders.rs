@@ -98,3 +98,27 @@ fn bindings_are_reflected_by_name_per_entry_point() {
     let gbuffer = shader::parse("gbuffer.wgsl").expect("parse").used_bindings(&["vs_main", "fs_main"]);
     assert!(gbuffer.groups[&0].contains_key("vertices") && gbuffer.groups[&0].contains_key("materials"));
 }
+
+/// Every compute entry point of the engine's, DDGI's and the path tracer's shaders validates as wgpu builds it with the
+/// shader's own override values (naga's pipeline-constant pass): an override-sized array, or an
+/// expression that folds to a division by zero, fails here rather than on the GPU.
+#[test]
+fn every_compute_entry_point_validates_with_its_default_overrides() {
+    ddgi::register_shaders().expect("register ddgi");
+    shader::register(pathtrace::SHADERS).expect("register pathtrace");
+    let names = ENGINE_SHADERS
+        .iter()
+        .chain(ddgi::SHADERS)
+        .chain(pathtrace::SHADERS)
+        .map(|(name, _)| *name)
+        .filter(|name| !name.ends_with(".inc.wgsl"));
+    let mut checked = 0;
+    for name in names {
+        let parsed = shader::parse(name).unwrap_or_else(|e| panic!("{e}"));
+        for ep in parsed.module.entry_points.iter().filter(|ep| ep.stage == naga::ShaderStage::Compute) {
+            parsed.validate_compute_variant(&ep.name, &[]).unwrap_or_else(|e| panic!("{e}"));
+            checked += 1;
+        }
+    }
+    assert!(checked > 10, "{checked} compute entry points");
+}

@@ -57,6 +57,13 @@ for step in "$@"; do
     tracewg_*) IFS=- read -r scene size <<< "${step#tracewg_}"; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild --workgroup-size "$size" ${TRACE_ARGS:-} ;;
     # tracepers_SCENE-GROUPS: the persistent kernel with GROUPS workgroups (TRACE_ARGS as above).
     tracepers_*) IFS=- read -r scene groups <<< "${step#tracepers_}"; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild --persistent-groups "$groups" ${TRACE_ARGS:-} ;;
+    # tracestack_SCENE-K: the thread-a-ray kernel with its stack in function memory (the engine's) and
+    # with the top K entries of each thread's stack in workgroup memory, timed in the same run
+    # (TRACE_ARGS as above).
+    tracestack_*) IFS=- read -r scene k <<< "${step#tracestack_}"; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild --shared-stack "$k" ${TRACE_ARGS:-} ;;
+    # tracestackpers_SCENE-K: the same comparison for the best persistent kernel found (4,224
+    # workgroups of 128, coherent order).
+    tracestackpers_*) IFS=- read -r scene k <<< "${step#tracestackpers_}"; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild --persistent-groups 4224 --ray-order coherent --workgroup-size 128 --shared-stack "$k" ;;
     # tracerb_SCENE-BUDGET: the TLAS partially re-braided at BUDGET primitives an instance (TRACE_ARGS as above).
     tracerb_*) IFS=- read -r scene budget <<< "${step#tracerb_}"; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild --rebraid "$budget" ${TRACE_ARGS:-} ;;
     tracecpu_*) scene=${step#tracecpu_}; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild --cpu-only ;;

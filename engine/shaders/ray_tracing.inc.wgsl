@@ -49,6 +49,74 @@ var<private> rt_steps: u32;
 // Groups waiting in the walk of both levels (8-wide trees are shallow; the TLAS's depth is checked
 // against its share on the CPU, engine::rt::TLAS_STACK_SIZE).
 const RT_STACK_SIZE: u32 = 48u;
+// Also counted with RT_COUNT_WORK: x, the stack entries moved from workgroup memory to the
+// function-memory stack (RT_SHARED_STACK_ENTRIES); y, the deepest the ray's stack got.
+var<private> rt_stack_work: vec2<u32>;
+
+// Where the stack lives. 0 (the engine's): all of it in function memory (`stack` in rt_trace,
+// which NVIDIA places in local memory, through L1 and L2). K > 0: each lane keeps the top K
+// entries of its stack in workgroup memory (rt_shared_stack, a ring of K slots a lane, interleaved
+// by lane so that a warp's accesses fall in distinct banks) and moves the oldest one to the
+// function-memory stack when a push finds its K slots full (Aila and Laine 2009; Ylitie, Karras and
+// Laine 2017). A pipeline that sets K must also set RT_SHARED_STACK_LANES to its workgroup's
+// threads and rt_stack_lane to each thread's local_invocation_index before tracing. The stack
+// holds RT_STACK_SIZE entries either way, so both find the same hits.
+override RT_SHARED_STACK_ENTRIES: u32 = 0u;
+override RT_SHARED_STACK_LANES: u32 = 64u;
+// One slot when the stack is not shared (an array cannot be empty).
+override RT_SHARED_STACK_SLOTS: u32 = max(RT_SHARED_STACK_ENTRIES * RT_SHARED_STACK_LANES, 1u);
+var<workgroup> rt_shared_stack: array<vec2<u32>, RT_SHARED_STACK_SLOTS>;
+var<private> rt_stack_lane: u32;
+
+// The workgroup-memory slot of stack entry `i` of this lane (RT_SHARED_STACK_ENTRIES > 0).
+fn rt_shared_stack_slot(i: u32) -> u32 {
+    // (max: the function is compiled, though never called, when the stack is not shared.)
+    return (i % max(RT_SHARED_STACK_ENTRIES, 1u)) * RT_SHARED_STACK_LANES + rt_stack_lane;
+}
+
+// Pushes `e` on the walk's stack, unless it is full (RT_STACK_SIZE entries; the entry is then
+// dropped, as the TLAS's depth check on the CPU warns). Entries below `spilled` live in `stack`
+// (function memory), the others in workgroup memory (RT_SHARED_STACK_ENTRIES > 0).
+fn rt_walk_push(w: ptr<function, RtWalk>, stack: ptr<function, array<vec2<u32>, RT_STACK_SIZE>>, e: vec2<u32>) {
+    let sp = (*w).sp;
+    if sp >= RT_STACK_SIZE {
+        return;
+    }
+    (*w).sp = sp + 1u;
+    if RT_COUNT_WORK {
+        rt_stack_work.y = max(rt_stack_work.y, sp + 1u);
+    }
+    if RT_SHARED_STACK_ENTRIES == 0u {
+        (*stack)[sp] = e;
+        return;
+    }
+    let spilled = (*w).spilled;
+    if sp - spilled == RT_SHARED_STACK_ENTRIES {
+        // The lane's slots are full: the oldest of them (in the slot the new entry takes) moves to
+        // function memory.
+        (*stack)[spilled] = rt_shared_stack[rt_shared_stack_slot(spilled)];
+        (*w).spilled = spilled + 1u;
+        if RT_COUNT_WORK {
+            rt_stack_work.x += 1u;
+        }
+    }
+    rt_shared_stack[rt_shared_stack_slot(sp)] = e;
+}
+
+// Pops the top entry of the walk's stack (which must not be empty): from workgroup memory, or from
+// `stack` once the entries there are all that is left.
+fn rt_walk_pop(w: ptr<function, RtWalk>, stack: ptr<function, array<vec2<u32>, RT_STACK_SIZE>>) -> vec2<u32> {
+    let sp = (*w).sp - 1u;
+    (*w).sp = sp;
+    if RT_SHARED_STACK_ENTRIES == 0u {
+        return (*stack)[sp];
+    }
+    if sp < (*w).spilled {
+        (*w).spilled = sp;
+        return (*stack)[sp];
+    }
+    return rt_shared_stack[rt_shared_stack_slot(sp)];
+}
 
 struct Ray {
     origin: vec3<f32>,
@@ -190,160 +258,208 @@ fn rt_tlas_entry(index: u32) -> TlasEntry {
     return TlasEntry(v.x, v.y, v.z, v.w);
 }
 
-// Closest hit (or any hit) of a ray: one loop over both levels, so that the lanes of a warp test
-// nodes together whether they are in the TLAS or in an instance's BLAS. Each step tests one CWBVH
-// node (TLAS or BLAS, same code), then either the triangles it hit (in a BLAS) or one of the TLAS
+// A ray's walk over both levels: one loop, so that the lanes of a warp test nodes together whether
+// they are in the TLAS or in an instance's BLAS. Each step (rt_walk_step) tests one CWBVH node
+// (TLAS or BLAS, same code), then either the triangles it hit (in a BLAS) or one of the TLAS
 // entries it hit: entering an instance pushes what is left of the TLAS walk, takes the ray into
 // instance space and starts the BLAS walk at the entry's start node; the walk returns to the TLAS
-// when the stack is back at the level it entered at.
-fn rt_trace(ray: Ray, any_hit: bool) -> RayHit {
-    var best = rt_no_hit(ray.tmax);
-    var best_triangle = 0u;
-    let world_dir = rt_safe_direction(ray.direction);
-    let world_oct = rt_octant_inv4(world_dir);
+// when the stack is back at the level it entered at. rt_trace runs a walk to its end; a persistent
+// kernel (lab's bench_trace.wgsl) starts the next ray's walk where one ends, inside its loop.
+struct RtWalk {
+    ray: Ray,
+    // The closest hit so far (its primitive is filled in by rt_walk_hit), and its triangle's index
+    // in blas_triangles.
+    best: RayHit,
+    best_triangle: u32,
+    world_dir: vec3<f32>,
+    world_oct: u32,
     // The ray in the space of the level being walked: world for the TLAS, instance space in a BLAS
     // (`dir` nudged off zero for slab tests, `tri_dir` as given for triangle tests).
-    var origin = ray.origin;
-    var dir = world_dir;
-    var tri_dir = ray.direction;
-    var oct_inv4 = world_oct;
-    var in_blas = false;
-    var instance = 0u;
-    var node_offset = 0u;
-    var triangle_offset = 0u;
-    var stack: array<vec2<u32>, RT_STACK_SIZE>;
-    var sp = 0u;
-    var tlas_sp = 0u;
+    origin: vec3<f32>,
+    dir: vec3<f32>,
+    tri_dir: vec3<f32>,
+    oct_inv4: u32,
+    in_blas: bool,
+    instance: u32,
+    node_offset: u32,
+    triangle_offset: u32,
+    // Stack entries in use; those below `spilled` live in the caller's function-memory stack, the
+    // others in workgroup memory (RT_SHARED_STACK_ENTRIES); the depth at which the BLAS walk began.
+    sp: u32,
+    spilled: u32,
+    tlas_sp: u32,
     // Inner children still to visit (base, hit bits 24..31 in octant order | imask bits 0..7), and
-    // primitives still to test (base, bits): triangles in a BLAS, entries in the TLAS. The walk
-    // starts with the TLAS root as the only inner child of a virtual parent.
-    var group = vec2<u32>(0u, 0x80000000u);
-    var prims = vec2<u32>(0u, 0u);
-    loop {
-        if RT_COUNT_WORK {
-            rt_steps += 1u;
+    // primitives still to test (base, bits): triangles in a BLAS, entries in the TLAS.
+    group: vec2<u32>,
+    prims: vec2<u32>,
+}
+
+// The walk of `ray`, at its start: the TLAS root as the only inner child of a virtual parent.
+fn rt_walk_start(ray: Ray) -> RtWalk {
+    let world_dir = rt_safe_direction(ray.direction);
+    let world_oct = rt_octant_inv4(world_dir);
+    return RtWalk(
+        ray,
+        rt_no_hit(ray.tmax),
+        0u,
+        world_dir,
+        world_oct,
+        ray.origin,
+        world_dir,
+        ray.direction,
+        world_oct,
+        false,
+        0u,
+        0u,
+        0u,
+        0u,
+        0u,
+        0u,
+        vec2<u32>(0u, 0x80000000u),
+        vec2<u32>(0u, 0u),
+    );
+}
+
+// One step of the walk; true when it is over (every node it must visit visited, or with `any_hit`
+// a hit found). `stack` is the function-memory stack.
+fn rt_walk_step(w: ptr<function, RtWalk>, stack: ptr<function, array<vec2<u32>, RT_STACK_SIZE>>, any_hit: bool) -> bool {
+    if RT_COUNT_WORK {
+        rt_steps += 1u;
+    }
+    if ((*w).group.y & 0xff000000u) != 0u && (*w).prims.y == 0u {
+        let hits = (*w).group.y;
+        let child_bit = firstLeadingBit(hits);
+        (*w).group.y &= ~(1u << child_bit);
+        if ((*w).group.y & 0xff000000u) != 0u {
+            rt_walk_push(w, stack, (*w).group);
         }
-        if (group.y & 0xff000000u) != 0u && prims.y == 0u {
-            let hits = group.y;
-            let child_bit = firstLeadingBit(hits);
-            group.y &= ~(1u << child_bit);
-            if (group.y & 0xff000000u) != 0u && sp < RT_STACK_SIZE {
-                stack[sp] = group;
-                sp += 1u;
-            }
-            let slot = (child_bit - 24u) ^ (oct_inv4 & 0xffu);
-            let node = group.x + countOneBits(hits & ~(0xffffffffu << slot));
-            var n0: vec4<u32>;
-            var n1: vec4<u32>;
-            var n2: vec4<u32>;
-            var n3: vec4<u32>;
-            var n4: vec4<u32>;
-            if in_blas {
-                let b = (node_offset + node) * 5u;
-                n0 = blas_nodes[b];
-                n1 = blas_nodes[b + 1u];
-                n2 = blas_nodes[b + 2u];
-                n3 = blas_nodes[b + 3u];
-                n4 = blas_nodes[b + 4u];
-                if RT_COUNT_WORK {
-                    rt_work.z += 1u;
-                }
-            } else {
-                let b = node * 5u;
-                n0 = tlas_nodes[b];
-                n1 = tlas_nodes[b + 1u];
-                n2 = tlas_nodes[b + 2u];
-                n3 = tlas_nodes[b + 3u];
-                n4 = tlas_nodes[b + 4u];
-                if RT_COUNT_WORK {
-                    rt_work.x += 1u;
-                }
-            }
-            let hit_mask = rt_cwbvh_node_hits(n0, n1, n2, n3, n4, origin, dir, oct_inv4, ray.tmin, best.t);
-            group = vec2<u32>(n1.x, (hit_mask & 0xff000000u) | (n0.w >> 24u));
-            prims = vec2<u32>(n1.y, select(rt_xor_permute8(hit_mask & 0xffu, oct_inv4 & 7u), hit_mask & 0x00ffffffu, in_blas));
-        }
-        if in_blas {
-            while prims.y != 0u {
-                let local = firstLeadingBit(prims.y);
-                prims.y &= ~(1u << local);
-                let index = triangle_offset + prims.x + local;
-                if RT_COUNT_WORK {
-                    rt_work.w += 1u;
-                    rt_steps += 1u;
-                }
-                let h = rt_intersect_triangle(index, origin, tri_dir, ray.tmin, best.t);
-                if h.hit {
-                    best.t = h.t;
-                    best.instance = instance;
-                    best.barycentrics = h.barycentrics;
-                    best.front_face = h.front_face;
-                    best_triangle = index;
-                    if any_hit {
-                        best.primitive = bitcast<u32>(blas_triangles[best_triangle * 3u].w);
-                        return best;
-                    }
-                }
-            }
-        } else if prims.y != 0u {
-            // TLAS entry bits are permuted by the octant (rt_xor_permute8).
-            let bit = firstLeadingBit(prims.y);
-            prims.y &= ~(1u << bit);
-            let entry = rt_tlas_entry(prims.x + (bit ^ (oct_inv4 & 7u)));
+        let slot = (child_bit - 24u) ^ ((*w).oct_inv4 & 0xffu);
+        let node = (*w).group.x + countOneBits(hits & ~(0xffffffffu << slot));
+        var n0: vec4<u32>;
+        var n1: vec4<u32>;
+        var n2: vec4<u32>;
+        var n3: vec4<u32>;
+        var n4: vec4<u32>;
+        if (*w).in_blas {
+            let b = ((*w).node_offset + node) * 5u;
+            n0 = blas_nodes[b];
+            n1 = blas_nodes[b + 1u];
+            n2 = blas_nodes[b + 2u];
+            n3 = blas_nodes[b + 3u];
+            n4 = blas_nodes[b + 4u];
             if RT_COUNT_WORK {
-                rt_work.y += 1u;
+                rt_work.z += 1u;
             }
-            // What is left of the TLAS walk waits on the stack; entries before nodes.
-            if (group.y & 0xff000000u) != 0u && sp < RT_STACK_SIZE {
-                stack[sp] = group;
-                sp += 1u;
+        } else {
+            let b = node * 5u;
+            n0 = tlas_nodes[b];
+            n1 = tlas_nodes[b + 1u];
+            n2 = tlas_nodes[b + 2u];
+            n3 = tlas_nodes[b + 3u];
+            n4 = tlas_nodes[b + 4u];
+            if RT_COUNT_WORK {
+                rt_work.x += 1u;
             }
-            if prims.y != 0u && sp < RT_STACK_SIZE {
-                stack[sp] = prims;
-                sp += 1u;
-            }
-            tlas_sp = sp;
-            in_blas = true;
-            instance = entry.instance;
-            node_offset = entry.node_offset;
-            triangle_offset = entry.triangle_offset;
-            let local_from_world = instances[entry.instance].local_from_world;
-            origin = (local_from_world * vec4<f32>(ray.origin, 1.0)).xyz;
-            tri_dir = (local_from_world * vec4<f32>(ray.direction, 0.0)).xyz;
-            dir = rt_safe_direction(tri_dir);
-            oct_inv4 = rt_octant_inv4(dir);
-            // The entry's start node (the BLAS root unless re-braided), as the only inner child of
-            // a virtual parent (its one hit bit, no imask bits below it: the child index is the
-            // base); the TLAS entries left wait on the stack.
-            group = vec2<u32>(entry.start_node, 0x80000000u);
-            prims = vec2<u32>(0u, 0u);
-            continue;
         }
-        if (group.y & 0xff000000u) == 0u && prims.y == 0u {
-            if in_blas && sp == tlas_sp {
-                in_blas = false;
-                origin = ray.origin;
-                dir = world_dir;
-                oct_inv4 = world_oct;
+        let oct_inv4 = (*w).oct_inv4;
+        let hit_mask = rt_cwbvh_node_hits(n0, n1, n2, n3, n4, (*w).origin, (*w).dir, oct_inv4, (*w).ray.tmin, (*w).best.t);
+        (*w).group = vec2<u32>(n1.x, (hit_mask & 0xff000000u) | (n0.w >> 24u));
+        (*w).prims = vec2<u32>(n1.y, select(rt_xor_permute8(hit_mask & 0xffu, oct_inv4 & 7u), hit_mask & 0x00ffffffu, (*w).in_blas));
+    }
+    if (*w).in_blas {
+        while (*w).prims.y != 0u {
+            let local = firstLeadingBit((*w).prims.y);
+            (*w).prims.y &= ~(1u << local);
+            let index = (*w).triangle_offset + (*w).prims.x + local;
+            if RT_COUNT_WORK {
+                rt_work.w += 1u;
+                rt_steps += 1u;
             }
-            if sp == 0u {
-                break;
+            let h = rt_intersect_triangle(index, (*w).origin, (*w).tri_dir, (*w).ray.tmin, (*w).best.t);
+            if h.hit {
+                (*w).best.t = h.t;
+                (*w).best.instance = (*w).instance;
+                (*w).best.barycentrics = h.barycentrics;
+                (*w).best.front_face = h.front_face;
+                (*w).best_triangle = index;
+                if any_hit {
+                    return true;
+                }
             }
-            sp -= 1u;
-            let e = stack[sp];
-            // Node groups have inner hit bits; TLAS entry groups do not.
-            if (e.y & 0xff000000u) != 0u {
-                group = e;
-            } else {
-                group = vec2<u32>(0u, 0u);
-                prims = e;
-            }
+        }
+    } else if (*w).prims.y != 0u {
+        // TLAS entry bits are permuted by the octant (rt_xor_permute8).
+        let bit = firstLeadingBit((*w).prims.y);
+        (*w).prims.y &= ~(1u << bit);
+        let entry = rt_tlas_entry((*w).prims.x + (bit ^ ((*w).oct_inv4 & 7u)));
+        if RT_COUNT_WORK {
+            rt_work.y += 1u;
+        }
+        // What is left of the TLAS walk waits on the stack; entries before nodes.
+        if ((*w).group.y & 0xff000000u) != 0u {
+            rt_walk_push(w, stack, (*w).group);
+        }
+        if (*w).prims.y != 0u {
+            rt_walk_push(w, stack, (*w).prims);
+        }
+        (*w).tlas_sp = (*w).sp;
+        (*w).in_blas = true;
+        (*w).instance = entry.instance;
+        (*w).node_offset = entry.node_offset;
+        (*w).triangle_offset = entry.triangle_offset;
+        let local_from_world = instances[entry.instance].local_from_world;
+        (*w).origin = (local_from_world * vec4<f32>((*w).ray.origin, 1.0)).xyz;
+        (*w).tri_dir = (local_from_world * vec4<f32>((*w).ray.direction, 0.0)).xyz;
+        (*w).dir = rt_safe_direction((*w).tri_dir);
+        (*w).oct_inv4 = rt_octant_inv4((*w).dir);
+        // The entry's start node (the BLAS root unless re-braided), as the only inner child of
+        // a virtual parent (its one hit bit, no imask bits below it: the child index is the
+        // base); the TLAS entries left wait on the stack.
+        (*w).group = vec2<u32>(entry.start_node, 0x80000000u);
+        (*w).prims = vec2<u32>(0u, 0u);
+        return false;
+    }
+    if ((*w).group.y & 0xff000000u) == 0u && (*w).prims.y == 0u {
+        if (*w).in_blas && (*w).sp == (*w).tlas_sp {
+            (*w).in_blas = false;
+            (*w).origin = (*w).ray.origin;
+            (*w).dir = (*w).world_dir;
+            (*w).oct_inv4 = (*w).world_oct;
+        }
+        if (*w).sp == 0u {
+            return true;
+        }
+        let e = rt_walk_pop(w, stack);
+        // Node groups have inner hit bits; TLAS entry groups do not.
+        if (e.y & 0xff000000u) != 0u {
+            (*w).group = e;
+        } else {
+            (*w).group = vec2<u32>(0u, 0u);
+            (*w).prims = e;
         }
     }
+    return false;
+}
+
+// The hit a finished walk found, its primitive (the mesh's triangle index) filled in.
+fn rt_walk_hit(w: ptr<function, RtWalk>) -> RayHit {
+    var best = (*w).best;
     if best.instance != RT_NO_HIT {
-        best.primitive = bitcast<u32>(blas_triangles[best_triangle * 3u].w);
+        best.primitive = bitcast<u32>(blas_triangles[(*w).best_triangle * 3u].w);
     }
     return best;
+}
+
+// Closest hit (or any hit) of a ray: its walk (rt_walk_step) run to the end.
+fn rt_trace(ray: Ray, any_hit: bool) -> RayHit {
+    var walk = rt_walk_start(ray);
+    var stack: array<vec2<u32>, RT_STACK_SIZE>;
+    loop {
+        if rt_walk_step(&walk, &stack, any_hit) {
+            break;
+        }
+    }
+    return rt_walk_hit(&walk);
 }
 
 fn trace_closest(ray: Ray) -> RayHit {

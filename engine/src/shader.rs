@@ -294,6 +294,28 @@ impl ParsedShader {
         BindingMap { groups, writes }
     }
 
+    /// Validates the module as the pipeline of compute entry point `entry` with `constants` for its
+    /// `override` constants sees it: naga's pipeline-constant pass (the one wgpu runs when it
+    /// builds the pipeline) resolves the overrides, sizes override-sized arrays and validates the
+    /// result. So every variant a host builds can be checked without a GPU.
+    pub fn validate_compute_variant(&self, entry: &str, constants: &[(&str, f64)]) -> Result<(), ShaderError> {
+        let mut values = naga::back::PipelineConstants::default();
+        for &(name, value) in constants {
+            values.insert(name.to_string(), value);
+        }
+        naga::back::pipeline_constants::process_overrides(&self.module, &self.info, Some((naga::ShaderStage::Compute, entry)), &values)
+            .map(|_| ())
+            .map_err(|e| {
+                let mut report = format!("entry point '{entry}' with {constants:?}: {e}");
+                let mut cause = std::error::Error::source(&e);
+                while let Some(c) = cause {
+                    report.push_str(&format!(": {c}"));
+                    cause = c.source();
+                }
+                ShaderError::Validation { file: self.name.clone(), report }
+            })
+    }
+
     /// Creates the wgpu module from the preprocessed source.
     pub fn create_module(&self, device: &wgpu::Device) -> wgpu::ShaderModule {
         device.create_shader_module(wgpu::ShaderModuleDescriptor {

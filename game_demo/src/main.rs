@@ -430,7 +430,7 @@ enum BenchCommand {
     /// Closest-hit throughput of probe-like rays (grids 16×8×16 … 32×32×32, 32 … 256 rays per probe;
     /// GPU timestamps of the trace pass alone) and the CPU cost of TLAS updates when instances move.
     #[command(
-        after_long_help = "Examples:\n  game_demo bench trace --scene cathedral --iterations 15 --no-flat-rebuild\n  game_demo bench trace --scene forest --cpu-only   # the TLAS refit for moving instances only\n  game_demo bench trace --scene forest --rebraid 4   # a re-braided TLAS (up to 4 primitives an instance)\n  game_demo bench trace --scene forest --work-only --no-flat-rebuild   # traversal work per ray, no timing"
+        after_long_help = "Examples:\n  game_demo bench trace --scene cathedral --iterations 15 --no-flat-rebuild\n  game_demo bench trace --scene forest --cpu-only   # the TLAS refit for moving instances only\n  game_demo bench trace --scene forest --rebraid 4   # a re-braided TLAS (up to 4 primitives an instance)\n  game_demo bench trace --scene forest --work-only --no-flat-rebuild   # traversal work per ray, no timing\n  game_demo bench trace --scene cathedral --no-flat-rebuild --shared-stack 8   # the stack's top 8 entries in workgroup memory against function memory"
     )]
     Trace {
         /// A built-in scene or a scene file.
@@ -461,6 +461,11 @@ enum BenchCommand {
         /// thread takes the next ray as soon as its own is done) instead of a thread a ray.
         #[arg(long)]
         persistent_groups: Option<u32>,
+        /// Also time the same kernel with the top K entries of each thread's traversal stack in
+        /// workgroup memory (older entries moved to function memory), in the same run: both tables,
+        /// their ratio, and the stack entries moved per ray.
+        #[arg(long, value_name = "K")]
+        shared_stack: Option<u32>,
         /// Only the traversal work per ray (no timings): the counts do not depend on the GPU, so
         /// lavapipe gives the same as any other.
         #[arg(long, conflicts_with = "cpu_only")]
@@ -1082,7 +1087,7 @@ fn bench_walk(
 }
 
 fn bench(command: BenchCommand) -> Result<(), String> {
-    let (name, iterations, no_flat_rebuild, cpu_only, work_only, rebraid, variant, json) = match command {
+    let (name, iterations, no_flat_rebuild, cpu_only, work_only, rebraid, variant, shared_stack, json) = match command {
         BenchCommand::Trace {
             scene,
             iterations,
@@ -1092,6 +1097,7 @@ fn bench(command: BenchCommand) -> Result<(), String> {
             ray_order,
             workgroup_size,
             persistent_groups,
+            shared_stack,
             work_only,
             json,
         } => {
@@ -1106,7 +1112,8 @@ fn bench(command: BenchCommand) -> Result<(), String> {
                 cpu_only,
                 work_only,
                 rebraid,
-                bench::TraceVariant { ray_order, workgroup_size, persistent_groups },
+                bench::TraceVariant { ray_order, workgroup_size, persistent_groups, shared_stack_entries: 0 },
+                shared_stack,
                 json,
             )
         }
@@ -1203,48 +1210,89 @@ fn bench(command: BenchCommand) -> Result<(), String> {
         "prepare_ms": prepare_ms, "rebraid_budget": build.budget, "tlas_primitives": build.primitives,
         "tlas_instances": build.instances, "tlas_build_ms": build.time.as_secs_f64() * 1e3,
     });
+    // The variants timed and counted: the one asked for, then the same with a shared stack.
+    let mut variants = vec![variant];
+    if let Some(k) = shared_stack {
+        variants.push(bench::TraceVariant { shared_stack_entries: k, ..variant });
+    }
+    let stack_name = |v: &bench::TraceVariant| match v.shared_stack_entries {
+        0 => "stack in function memory".to_string(),
+        k => format!("top {k} stack entries in workgroup memory"),
+    };
     if !cpu_only && !work_only {
-        let cells = bench::trace_throughput(&gpu, &app, bounds, iterations.max(1), variant)?;
-        report["throughput"] = cells
-            .iter()
-            .map(|c| serde_json::json!({"probes": c.grid, "rays_per_probe": c.rays_per_probe, "rays": c.rays, "median_ms": c.median_ms, "mrays_per_second": c.mrays_per_second()}))
-            .collect();
-        println!("\n## Closest-hit probe rays, MRays/s (median of {iterations} dispatches, trace pass GPU time)\n");
-        println!("| rays/probe | {} |", bench::GRIDS.map(|g| format!("{}×{}×{}", g[0], g[1], g[2])).join(" | "));
-        println!("|---|{}", "---:|".repeat(bench::GRIDS.len()));
-        for rays in bench::RAYS {
-            let row: Vec<String> = bench::GRIDS
+        let tables = bench::trace_throughput_compared(&gpu, &app, bounds, iterations.max(1), &variants)?;
+        let json_cells = |cells: &[bench::TraceCell]| -> serde_json::Value {
+            cells
                 .iter()
-                .map(|g| {
-                    cells
-                        .iter()
-                        .find(|c| c.grid == *g && c.rays_per_probe == rays)
-                        .map_or("-".into(), |c| format!("{:.0} ({:.3} ms)", c.mrays_per_second(), c.median_ms))
-                })
-                .collect();
-            println!("| {rays} | {} |", row.join(" | "));
+                .map(|c| serde_json::json!({"probes": c.grid, "rays_per_probe": c.rays_per_probe, "rays": c.rays, "median_ms": c.median_ms, "mrays_per_second": c.mrays_per_second()}))
+                .collect()
+        };
+        report["throughput"] = json_cells(&tables[0]);
+        if let Some(shared) = tables.get(1) {
+            report["shared_stack_entries"] = serde_json::json!(variants[1].shared_stack_entries);
+            report["throughput_shared_stack"] = json_cells(shared);
+        }
+        let print_table = |cells: &[bench::TraceCell], cell: &dyn Fn(&bench::TraceCell) -> String| {
+            println!("| rays/probe | {} |", bench::GRIDS.map(|g| format!("{}×{}×{}", g[0], g[1], g[2])).join(" | "));
+            println!("|---|{}", "---:|".repeat(bench::GRIDS.len()));
+            for rays in bench::RAYS {
+                let row: Vec<String> = bench::GRIDS
+                    .iter()
+                    .map(|g| cells.iter().find(|c| c.grid == *g && c.rays_per_probe == rays).map_or("-".into(), cell))
+                    .collect();
+                println!("| {rays} | {} |", row.join(" | "));
+            }
+        };
+        for (v, cells) in variants.iter().zip(&tables) {
+            let which = if variants.len() > 1 { format!(", {}", stack_name(v)) } else { String::new() };
+            println!("\n## Closest-hit probe rays, MRays/s (median of {iterations} dispatches, trace pass GPU time{which})\n");
+            print_table(cells, &|c| format!("{:.0} ({:.3} ms)", c.mrays_per_second(), c.median_ms));
+        }
+        if let [default, shared] = tables.as_slice() {
+            println!("\n## {} against {}, same run: throughput ratio\n", stack_name(&variants[1]), stack_name(&variants[0]));
+            print_table(shared, &|c| {
+                default
+                    .iter()
+                    .find(|d| d.grid == c.grid && d.rays_per_probe == c.rays_per_probe)
+                    .map_or("-".into(), |d| format!("{:.3}", d.median_ms / c.median_ms))
+            });
         }
     }
     if !cpu_only {
         let (grid, rays) = ([32, 8, 32], 128);
-        let w = bench::traversal_work(&gpu, &app, bounds, grid, rays, variant)?;
-        report["traversal_work_per_ray"] = serde_json::json!({
-            "probes": grid, "rays_per_probe": rays, "tlas_nodes": w.tlas_nodes, "instances_entered": w.instances,
-            "blas_nodes": w.blas_nodes, "triangles": w.triangles, "steps": w.steps, "simt_efficiency": w.simt_efficiency,
-        });
-        println!(
-            "\nTraversal work per ray at {}×{}×{} × {rays} rays: {:.1} TLAS nodes, {:.2} instances entered, {:.1} BLAS nodes, {:.1} triangles tested; \
-             {:.1} loop steps, SIMT efficiency {:.0}% (lanes' steps over 32 × their warp's most)",
-            grid[0],
-            grid[1],
-            grid[2],
-            w.tlas_nodes,
-            w.instances,
-            w.blas_nodes,
-            w.triangles,
-            w.steps,
-            100.0 * w.simt_efficiency
-        );
+        let mut first: Option<bench::TraversalWork> = None;
+        for v in &variants {
+            let w = bench::traversal_work(&gpu, &app, bounds, grid, rays, *v)?;
+            let key = if v.shared_stack_entries > 0 { "traversal_work_per_ray_shared_stack" } else { "traversal_work_per_ray" };
+            report[key] = serde_json::json!({
+                "probes": grid, "rays_per_probe": rays, "tlas_nodes": w.tlas_nodes, "instances_entered": w.instances,
+                "blas_nodes": w.blas_nodes, "triangles": w.triangles, "steps": w.steps, "simt_efficiency": w.simt_efficiency,
+                "stack_spills": w.stack_spills, "deepest_stack": w.deepest_stack,
+            });
+            match first {
+                None => println!(
+                    "\nTraversal work per ray at {}×{}×{} × {rays} rays: {:.1} TLAS nodes, {:.2} instances entered, {:.1} BLAS nodes, {:.1} triangles tested; \
+                     {:.1} loop steps, SIMT efficiency {:.0}% (lanes' steps over 32 × their warp's most); deepest stack {} entries",
+                    grid[0],
+                    grid[1],
+                    grid[2],
+                    w.tlas_nodes,
+                    w.instances,
+                    w.blas_nodes,
+                    w.triangles,
+                    w.steps,
+                    100.0 * w.simt_efficiency,
+                    w.deepest_stack
+                ),
+                Some(f) => println!(
+                    "{}: {:.3} stack entries moved to function memory per ray; {}",
+                    stack_name(v),
+                    w.stack_spills,
+                    if w.counts() == f.counts() && w.steps == f.steps { "the same walk" } else { "A DIFFERENT WALK (a bug)" }
+                ),
+            }
+            first.get_or_insert(w);
+        }
     }
     if work_only {
         return write_json(json.as_deref(), report);

@@ -20,8 +20,10 @@ struct BenchParams {
 @group(1) @binding(1) var<storage, read_write> bench_hits: array<f32>;
 // Traversal work summed over all rays, when the pipeline counts it (RT_COUNT_WORK).
 // Then (RT_COUNT_WORK): the traversal steps summed over all rays, and 32 × each warp's most steps
-// summed over the warps (lanes 32k … 32k + 31 of a workgroup), whose ratio is the SIMT efficiency.
-@group(1) @binding(2) var<storage, read_write> bench_work: array<atomic<u32>, 6>;
+// summed over the warps (lanes 32k … 32k + 31 of a workgroup), whose ratio is the SIMT efficiency;
+// the stack entries moved from workgroup to function memory summed over all rays
+// (RT_SHARED_STACK_ENTRIES), and the deepest any ray's stack got.
+@group(1) @binding(2) var<storage, read_write> bench_work: array<atomic<u32>, 8>;
 // Coherent orders (lab::bench::coherent_ray_order) of each ray count, one after another.
 @group(1) @binding(3) var<storage, read> bench_order: array<u32>;
 
@@ -45,6 +47,7 @@ var<workgroup> bench_steps: array<u32, 1024>;
 
 @compute @workgroup_size(BENCH_GROUP)
 fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_index) lane: u32) {
+    rt_stack_lane = lane;
     let i = id.x + id.y * 65535u * BENCH_GROUP;
     if i < bench.ray_count {
         trace_one(i);
@@ -71,14 +74,16 @@ fn trace_one(i: u32) {
         atomicAdd(&bench_work[2], rt_work.z);
         atomicAdd(&bench_work[3], rt_work.w);
         atomicAdd(&bench_work[4], rt_steps);
+        atomicAdd(&bench_work[6], rt_stack_work.x);
+        atomicMax(&bench_work[7], rt_stack_work.y);
     }
 }
 
 // ---- Persistent variant (`bench trace --persistent-groups N`): each workgroup walks its share of the rays,
 // and a lane whose ray is done takes the next one at once, inside the traversal loop, instead of
 // idling until the slowest lane of its warp is done (Aila and Laine 2009, "Understanding the
-// efficiency of ray traversal on GPUs": persistent threads with ray replacement). The loop is
-// rt_trace's (closest hit), with the ray fetched where rt_trace returns.
+// efficiency of ray traversal on GPUs": persistent threads with ray replacement). The loop steps
+// rt_trace's walk (rt_walk_step, closest hit) and starts the next ray's walk where one ends.
 
 // Workgroups the persistent variant runs (lab::bench::TraceKernel sets it).
 override BENCH_PERSISTENT_GROUPS: u32 = 1024u;
@@ -101,6 +106,7 @@ fn bench_ray(i: u32) -> Ray {
 
 @compute @workgroup_size(BENCH_GROUP)
 fn persistent(@builtin(workgroup_id) group_id: vec3<u32>, @builtin(local_invocation_index) lane: u32) {
+    rt_stack_lane = lane;
     if lane == 0u {
         atomicStore(&bench_next, 0u);
     }
@@ -113,129 +119,17 @@ fn persistent(@builtin(workgroup_id) group_id: vec3<u32>, @builtin(local_invocat
     if slot >= end {
         return;
     }
-    var ray = bench_ray(slot);
-    var best_t = ray.tmax;
-    var world_dir = rt_safe_direction(ray.direction);
-    var world_oct = rt_octant_inv4(world_dir);
-    var origin = ray.origin;
-    var dir = world_dir;
-    var tri_dir = ray.direction;
-    var oct_inv4 = world_oct;
-    var in_blas = false;
-    var node_offset = 0u;
-    var triangle_offset = 0u;
+    var walk = rt_walk_start(bench_ray(slot));
     var stack: array<vec2<u32>, RT_STACK_SIZE>;
-    var sp = 0u;
-    var tlas_sp = 0u;
-    var group = vec2<u32>(0u, 0x80000000u);
-    var prims = vec2<u32>(0u, 0u);
     loop {
-        if (group.y & 0xff000000u) != 0u && prims.y == 0u {
-            let hits = group.y;
-            let child_bit = firstLeadingBit(hits);
-            group.y &= ~(1u << child_bit);
-            if (group.y & 0xff000000u) != 0u && sp < RT_STACK_SIZE {
-                stack[sp] = group;
-                sp += 1u;
+        if rt_walk_step(&walk, &stack, false) {
+            // This ray is done: keep its hit and take the next one.
+            bench_hits[slot] = walk.best.t;
+            slot = first + atomicAdd(&bench_next, 1u);
+            if slot >= end {
+                break;
             }
-            let slot_bits = (child_bit - 24u) ^ (oct_inv4 & 0xffu);
-            let node = group.x + countOneBits(hits & ~(0xffffffffu << slot_bits));
-            var b = node * 5u;
-            if in_blas {
-                b = (node_offset + node) * 5u;
-            }
-            var n0: vec4<u32>;
-            var n1: vec4<u32>;
-            var n2: vec4<u32>;
-            var n3: vec4<u32>;
-            var n4: vec4<u32>;
-            if in_blas {
-                n0 = blas_nodes[b];
-                n1 = blas_nodes[b + 1u];
-                n2 = blas_nodes[b + 2u];
-                n3 = blas_nodes[b + 3u];
-                n4 = blas_nodes[b + 4u];
-            } else {
-                n0 = tlas_nodes[b];
-                n1 = tlas_nodes[b + 1u];
-                n2 = tlas_nodes[b + 2u];
-                n3 = tlas_nodes[b + 3u];
-                n4 = tlas_nodes[b + 4u];
-            }
-            let hit_mask = rt_cwbvh_node_hits(n0, n1, n2, n3, n4, origin, dir, oct_inv4, ray.tmin, best_t);
-            group = vec2<u32>(n1.x, (hit_mask & 0xff000000u) | (n0.w >> 24u));
-            prims = vec2<u32>(n1.y, select(rt_xor_permute8(hit_mask & 0xffu, oct_inv4 & 7u), hit_mask & 0x00ffffffu, in_blas));
-        }
-        if in_blas {
-            while prims.y != 0u {
-                let local = firstLeadingBit(prims.y);
-                prims.y &= ~(1u << local);
-                let h = rt_intersect_triangle(triangle_offset + prims.x + local, origin, tri_dir, ray.tmin, best_t);
-                if h.hit {
-                    best_t = h.t;
-                }
-            }
-        } else if prims.y != 0u {
-            let bit = firstLeadingBit(prims.y);
-            prims.y &= ~(1u << bit);
-            let entry = rt_tlas_entry(prims.x + (bit ^ (oct_inv4 & 7u)));
-            if (group.y & 0xff000000u) != 0u && sp < RT_STACK_SIZE {
-                stack[sp] = group;
-                sp += 1u;
-            }
-            if prims.y != 0u && sp < RT_STACK_SIZE {
-                stack[sp] = prims;
-                sp += 1u;
-            }
-            tlas_sp = sp;
-            in_blas = true;
-            node_offset = entry.node_offset;
-            triangle_offset = entry.triangle_offset;
-            let local_from_world = instances[entry.instance].local_from_world;
-            origin = (local_from_world * vec4<f32>(ray.origin, 1.0)).xyz;
-            tri_dir = (local_from_world * vec4<f32>(ray.direction, 0.0)).xyz;
-            dir = rt_safe_direction(tri_dir);
-            oct_inv4 = rt_octant_inv4(dir);
-            group = vec2<u32>(entry.start_node, 0x80000000u);
-            prims = vec2<u32>(0u, 0u);
-            continue;
-        }
-        if (group.y & 0xff000000u) == 0u && prims.y == 0u {
-            if in_blas && sp == tlas_sp {
-                in_blas = false;
-                origin = ray.origin;
-                dir = world_dir;
-                oct_inv4 = world_oct;
-            }
-            if sp == 0u {
-                // This ray is done: keep its hit and take the next one.
-                bench_hits[slot] = best_t;
-                slot = first + atomicAdd(&bench_next, 1u);
-                if slot >= end {
-                    break;
-                }
-                ray = bench_ray(slot);
-                best_t = ray.tmax;
-                world_dir = rt_safe_direction(ray.direction);
-                world_oct = rt_octant_inv4(world_dir);
-                origin = ray.origin;
-                dir = world_dir;
-                tri_dir = ray.direction;
-                oct_inv4 = world_oct;
-                in_blas = false;
-                tlas_sp = 0u;
-                group = vec2<u32>(0u, 0x80000000u);
-                prims = vec2<u32>(0u, 0u);
-                continue;
-            }
-            sp -= 1u;
-            let e = stack[sp];
-            if (e.y & 0xff000000u) != 0u {
-                group = e;
-            } else {
-                group = vec2<u32>(0u, 0u);
-                prims = e;
-            }
+            walk = rt_walk_start(bench_ray(slot));
         }
     }
 }

@@ -59,13 +59,28 @@ pub struct TraceVariant {
     /// `Some(n)`: the persistent kernel, n workgroups each walking its share of the rays, a lane
     /// taking the next ray as soon as its own is done; `None`: a thread a ray.
     pub persistent_groups: Option<u32>,
+    /// Where the traversal stack lives: 0, all of it in function memory (the engine's); K > 0, the
+    /// top K entries of each thread's stack in workgroup memory, older ones moved to function
+    /// memory (`RT_SHARED_STACK_ENTRIES` in `ray_tracing.inc.wgsl`).
+    pub shared_stack_entries: u32,
 }
 
 impl Default for TraceVariant {
     fn default() -> Self {
-        Self { ray_order: RayOrder::Fibonacci, workgroup_size: 64, persistent_groups: None }
+        Self { ray_order: RayOrder::Fibonacci, workgroup_size: 64, persistent_groups: None, shared_stack_entries: 0 }
     }
 }
+
+/// Entries of the traversal stack (`RT_STACK_SIZE` in `ray_tracing.inc.wgsl`): the most a shared
+/// stack can hold.
+pub const RT_STACK_SIZE: u32 = 48;
+
+/// Bytes of workgroup memory the bench kernel uses besides the shared stack: `bench_steps` (1,024
+/// words) and `bench_next` (one).
+const BENCH_WORKGROUP_BYTES: u32 = 1024 * 4 + 4;
+
+/// Words of `bench_work` (see `bench_trace.wgsl`).
+const BENCH_WORK_WORDS: usize = 8;
 
 /// Direction i of n spherical Fibonacci points (the bench shader's formula).
 fn spherical_fibonacci(i: u32, n: u32) -> Vec3 {
@@ -109,6 +124,7 @@ fn random_rotation(rng: &mut SplitMix64) -> Quat {
 }
 
 /// One cell of the throughput table.
+#[derive(Clone, Debug)]
 pub struct TraceCell {
     pub grid: [u32; 3],
     pub rays_per_probe: u32,
@@ -134,6 +150,24 @@ pub fn prepared_app(gpu: &GpuContext, scene: SceneDescription) -> App {
 /// The bench's WGSL (`lab/shaders/`): a kernel that traces probe-like rays and nothing else.
 pub const SHADERS: &[engine::shader::ShaderModule] = &[("bench_trace.wgsl", include_str!("../shaders/bench_trace.wgsl"))];
 
+/// The bench kernel's entry point and `override` values for `variant` (the RT_COUNT_WORK variant
+/// when `count_work`: work is counted by the thread-a-ray kernel only).
+fn kernel_pipeline(variant: TraceVariant, count_work: bool) -> (&'static str, Vec<(&'static str, f64)>) {
+    let mut constants = vec![("BENCH_GROUP", f64::from(variant.workgroup_size))];
+    if count_work {
+        constants.push(("RT_COUNT_WORK", 1.0));
+    }
+    let persistent_groups = variant.persistent_groups.filter(|_| !count_work);
+    if let Some(n) = persistent_groups {
+        constants.push(("BENCH_PERSISTENT_GROUPS", f64::from(n)));
+    }
+    if variant.shared_stack_entries > 0 {
+        constants.push(("RT_SHARED_STACK_ENTRIES", f64::from(variant.shared_stack_entries)));
+        constants.push(("RT_SHARED_STACK_LANES", f64::from(variant.workgroup_size)));
+    }
+    (if persistent_groups.is_some() { "persistent" } else { "main" }, constants)
+}
+
 /// The bench kernel with its buffers; `count_work` builds the diagnostic variant that counts
 /// traversal steps (RT_COUNT_WORK).
 struct TraceKernel {
@@ -153,7 +187,7 @@ struct TraceKernel {
 
 impl TraceKernel {
     fn new(gpu: &GpuContext, app: &App, count_work: bool, variant: TraceVariant) -> Result<Self, String> {
-        let TraceVariant { ray_order, workgroup_size, persistent_groups } = variant;
+        let TraceVariant { ray_order, workgroup_size, persistent_groups, shared_stack_entries } = variant;
         // Work is counted by the thread-a-ray kernel only.
         let persistent_groups = persistent_groups.filter(|_| !count_work);
         if persistent_groups.is_some_and(|n| n == 0 || n > 65535) {
@@ -165,15 +199,19 @@ impl TraceKernel {
         if workgroup_size == 0 || workgroup_size > limit {
             return Err(format!("workgroup size {workgroup_size}: {} allows 1 to {limit}", gpu.adapter_name()));
         }
-        let mut constants = vec![("BENCH_GROUP", f64::from(workgroup_size))];
-        if count_work {
-            constants.push(("RT_COUNT_WORK", 1.0));
+        if shared_stack_entries > RT_STACK_SIZE {
+            return Err(format!("shared stack of {shared_stack_entries} entries: 0 to {RT_STACK_SIZE} (the whole stack)"));
         }
-        if let Some(n) = persistent_groups {
-            constants.push(("BENCH_PERSISTENT_GROUPS", f64::from(n)));
+        let bytes = shared_stack_entries * workgroup_size * 8 + BENCH_WORKGROUP_BYTES;
+        let available = gpu.device.limits().max_compute_workgroup_storage_size;
+        if bytes > available {
+            return Err(format!(
+                "shared stack of {shared_stack_entries} entries × {workgroup_size} threads: {bytes} bytes of workgroup memory, {} allows {available}",
+                gpu.adapter_name()
+            ));
         }
+        let (entry, constants) = kernel_pipeline(variant, count_work);
         let constants = constants.as_slice();
-        let entry = if persistent_groups.is_some() { "persistent" } else { "main" };
         let program = engine::shader::register(SHADERS)
             .and_then(|()| compute_program_with_constants(&gpu.device, "bench_trace.wgsl", entry, "trace", constants))
             .map_err(|e| e.to_string())?;
@@ -186,7 +224,7 @@ impl TraceKernel {
         use wgpu::BufferUsages as U;
         let hits = buffer("bench_hits", u64::from(max_rays) * 4, U::STORAGE | U::COPY_SRC);
         let params = buffer("bench_params", size_of::<BenchParams>() as u64, U::UNIFORM | U::COPY_DST);
-        let work = buffer("bench_work", 24, U::STORAGE | U::COPY_SRC | U::COPY_DST);
+        let work = buffer("bench_work", (BENCH_WORK_WORDS * 4) as u64, U::STORAGE | U::COPY_SRC | U::COPY_DST);
         let (mut orders, mut order_offsets) = (Vec::new(), Vec::new());
         for n in RAYS {
             order_offsets.push((n, orders.len() as u32));
@@ -234,7 +272,7 @@ impl TraceKernel {
             RayOrder::Coherent => self.order_offsets.iter().find(|(n, _)| *n == p.rays_per_probe).map_or(u32::MAX, |&(_, offset)| offset),
         };
         gpu.queue.write_buffer(&self.params, 0, bytemuck::bytes_of(&p));
-        gpu.queue.write_buffer(&self.work, 0, &[0; 24]);
+        gpu.queue.write_buffer(&self.work, 0, &[0; BENCH_WORK_WORDS * 4]);
         let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("bench_trace") });
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -263,9 +301,9 @@ impl TraceKernel {
     }
 
     /// Work counted by the last dispatch (diagnostic variant only).
-    fn work(&self, gpu: &GpuContext) -> Result<[u32; 6], String> {
+    fn work(&self, gpu: &GpuContext) -> Result<[u32; BENCH_WORK_WORDS], String> {
         let w: Vec<u32> = bytemuck::pod_collect_to_vec(&engine::render::readback::read_buffer(gpu, &self.work));
-        w.try_into().map_err(|w: Vec<u32>| format!("bench_work: {} words read back, 6 expected", w.len()))
+        w.try_into().map_err(|w: Vec<u32>| format!("bench_work: {} words read back, {BENCH_WORK_WORDS} expected", w.len()))
     }
 }
 
@@ -307,31 +345,49 @@ pub fn trace_throughput(
     iterations: u32,
     variant: TraceVariant,
 ) -> Result<Vec<TraceCell>, String> {
+    Ok(trace_throughput_compared(gpu, app, bounds, iterations, &[variant])?.remove(0))
+}
+
+/// [`trace_throughput`] of several variants in one run: each dispatch's rays are traced by every
+/// variant in turn, so that clocks, caches and the rays are the same for all. One table a variant,
+/// in the order given.
+pub fn trace_throughput_compared(
+    gpu: &GpuContext,
+    app: &App,
+    bounds: (DVec3, DVec3),
+    iterations: u32,
+    variants: &[TraceVariant],
+) -> Result<Vec<Vec<TraceCell>>, String> {
     if !gpu.timestamps {
         return Err(format!("{} has no timestamp queries: GPU times cannot be measured", gpu.adapter_name()));
     }
-    let kernel = TraceKernel::new(gpu, app, false, variant)?;
+    let kernels = variants.iter().map(|&v| TraceKernel::new(gpu, app, false, v)).collect::<Result<Vec<_>, _>>()?;
     let bounds = render_space(app, bounds);
     let mut rng = SplitMix64::new(0x5EED_1234_ABCD);
-    let mut cells = Vec::new();
+    let mut tables = vec![Vec::new(); kernels.len()];
     let bar = crate::progress::bar((GRIDS.len() * RAYS.len()) as u64, "bench trace", "cells");
     for grid in GRIDS {
         for rays_per_probe in RAYS {
             bar.inc(1);
-            let mut times = Vec::new();
+            let mut times = vec![Vec::new(); kernels.len()];
             for iteration in 0..iterations + 3 {
-                let ms = kernel.run(gpu, &params_for(&mut rng, bounds, grid, rays_per_probe))?;
-                // The first dispatches warm caches and clocks.
-                if iteration >= 3 {
-                    times.push(ms);
+                let p = params_for(&mut rng, bounds, grid, rays_per_probe);
+                for (kernel, times) in kernels.iter().zip(&mut times) {
+                    let ms = kernel.run(gpu, &p)?;
+                    // The first dispatches warm caches and clocks.
+                    if iteration >= 3 {
+                        times.push(ms);
+                    }
                 }
             }
-            let median_ms = median(times);
-            cells.push(TraceCell { grid, rays_per_probe, rays: u64::from(grid[0] * grid[1] * grid[2] * rays_per_probe), median_ms });
+            let rays = u64::from(grid[0] * grid[1] * grid[2] * rays_per_probe);
+            for (table, times) in tables.iter_mut().zip(times) {
+                table.push(TraceCell { grid, rays_per_probe, rays, median_ms: median(times) });
+            }
         }
     }
     bar.finish_and_clear();
-    Ok(cells)
+    Ok(tables)
 }
 
 /// One dispatch of `variant`'s kernel over one grid × rays cell, always the same rays (a fixed
@@ -383,6 +439,11 @@ pub struct TraversalWork {
     /// The steps of all lanes over 32 × each warp's most (warps of 32 consecutive threads of a
     /// workgroup): the share of a warp's lanes busy while it walks, if lanes stepped in lockstep.
     pub simt_efficiency: f64,
+    /// Stack entries moved from workgroup memory to function memory, per ray (a shared stack
+    /// only: [`TraceVariant::shared_stack_entries`]).
+    pub stack_spills: f64,
+    /// The deepest any ray's traversal stack got, in entries.
+    pub deepest_stack: u32,
 }
 
 impl TraversalWork {
@@ -402,7 +463,8 @@ pub fn traversal_work(
     variant: TraceVariant,
 ) -> Result<TraversalWork, String> {
     let (kernel, p) = run_cell(gpu, app, bounds, grid, rays_per_probe, variant, true)?;
-    let w = kernel.work(gpu)?.map(f64::from);
+    let words = kernel.work(gpu)?;
+    let w = words.map(f64::from);
     let per_ray = |v: f64| v / f64::from(p.ray_count);
     Ok(TraversalWork {
         tlas_nodes: per_ray(w[0]),
@@ -411,6 +473,8 @@ pub fn traversal_work(
         triangles: per_ray(w[3]),
         steps: per_ray(w[4]),
         simt_efficiency: if w[5] > 0.0 { w[4] / w[5] } else { 1.0 },
+        stack_spills: per_ray(w[6]),
+        deepest_stack: words[7],
     })
 }
 
@@ -775,6 +839,32 @@ mod tests {
             assert!(n < 256 || worst(&order) > 0.5, "{n} rays: coherent warps spread to cosine {}", worst(&order));
             assert!(worst(&order) > worst(&fibonacci) + 0.15, "{n} rays");
         }
+    }
+
+    /// naga resolves and validates every variant of the bench kernel that `bench trace` can build:
+    /// both kernels, counting work or not, each stack, several workgroup sizes.
+    #[test]
+    fn every_bench_kernel_variant_validates() {
+        engine::shader::register(SHADERS).expect("register");
+        let parsed = engine::shader::parse("bench_trace.wgsl").unwrap_or_else(|e| panic!("{e}"));
+        let mut entries = std::collections::BTreeSet::new();
+        for persistent_groups in [None, Some(4224)] {
+            for workgroup_size in [32, 64, 128, 256] {
+                for shared_stack_entries in [0, 1, 8, 16, RT_STACK_SIZE] {
+                    for count_work in [false, true] {
+                        let variant = TraceVariant { workgroup_size, persistent_groups, shared_stack_entries, ..Default::default() };
+                        let (entry, constants) = kernel_pipeline(variant, count_work);
+                        entries.insert(entry);
+                        parsed.validate_compute_variant(entry, &constants).unwrap_or_else(|e| panic!("{e}"));
+                    }
+                }
+            }
+        }
+        assert_eq!(entries.len(), 2, "both kernels: {entries:?}");
+        // The check refuses what wgpu would: a value for an override the shader does not have.
+        let misspelt = [("BENCH_GROUP", 64.0), ("RT_SHARED_STACK", 8.0)];
+        assert!(parsed.validate_compute_variant("main", &misspelt).is_err(), "a misspelt override must be refused");
+        assert_eq!(parsed.u32_constant("RT_STACK_SIZE"), Some(RT_STACK_SIZE));
     }
 
     #[test]
