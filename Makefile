@@ -9,7 +9,7 @@ SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 # lavapipe's window-system code complains when this is unset, even headless.
 export XDG_RUNTIME_DIR ?= /tmp/xdg-runtime-$(shell id -u)
 
-.PHONY: run render test lint toolchain vulkan-driver xvfb bless fuzz soak peer
+.PHONY: run render test lint toolchain vulkan-driver xvfb bless fuzz soak peer peer-table
 
 run: toolchain vulkan-driver
 	@mkdir -p $(XDG_RUNTIME_DIR) && chmod 700 $(XDG_RUNTIME_DIR)
@@ -52,6 +52,18 @@ PEER_ARGS ?= --scene cornell --width 64 --height 64 --frames 30 --skip 5 --refer
 peer: toolchain vulkan-driver
 	@mkdir -p $(XDG_RUNTIME_DIR) && chmod 700 $(XDG_RUNTIME_DIR)
 	$(CARGO) run --release --ignore-rust-version --manifest-path peer/Cargo.toml -- $(PEER_ARGS) --out out/peer --json out/peer/peer.json
+
+# The peer table of BENCHMARKS.md in one command: cornell at 256×256, the cathedral and the demo
+# level at 1280×720, 128 rays a probe, each scene's rows interleaved frame by frame; the three
+# tables end up together in out/peer/table.md. Needs a GPU whose driver gives sgl-3d its binding tier.
+PEER_SCENES ?= cornell:256:256 cathedral:1280:720 level:1280:720
+peer-table: toolchain vulkan-driver
+	@mkdir -p $(XDG_RUNTIME_DIR) && chmod 700 $(XDG_RUNTIME_DIR)
+	@set -e; for s in $(PEER_SCENES); do \
+		scene=$${s%%:*}; size=$${s#*:}; w=$${size%%:*}; h=$${size#*:}; \
+		$(CARGO) run --release --ignore-rust-version --manifest-path peer/Cargo.toml -- --scene $$scene --width $$w --height $$h --rays 128 --out out/peer --json out/peer/$$scene.json; \
+	done; for s in $(PEER_SCENES); do cat out/peer/$${s%%:*}.md; echo; done > out/peer/table.md
+	@echo "wrote out/peer/table.md"
 
 # Fuzzes both scene importers for FUZZ_SECONDS each (cargo-fuzz, nightly; seeds in fuzz/corpus/).
 # Crashes land in fuzz/artifacts/<target>/; turn each into a fixture and a test. Without a
