@@ -514,6 +514,9 @@ pub struct TlasUpdateCost {
     pub tlas: Duration,
     /// The TLAS refit or rebuild and its upload with the refit kept on the frame's thread.
     pub tlas_one_thread: Duration,
+    /// Of the one-thread refit frames, the medians of each step: the binary TLAS's refit, the wide
+    /// nodes' re-encoding and the staging of their upload ([`engine::rt::BvhFrameStats`]).
+    pub one_thread_steps: [Duration; 3],
     /// Whether any of the frames rebuilt the TLAS.
     pub rebuilt: bool,
 }
@@ -530,6 +533,7 @@ pub fn tlas_update_cost(app: &mut App, count: usize, frames: usize) -> Option<Tl
     }
     let mut rng = SplitMix64::new(0xC0FF_EE00 + count as u64);
     let (mut times, mut one_thread) = (Vec::new(), Vec::new());
+    let mut steps: [Vec<Duration>; 3] = Default::default();
     let mut rebuilt = false;
     // One untimed frame first: an instance that re-braiding opened is rebuilt at its root the first
     // time it moves (once; from then on it is refitted as one leaf).
@@ -557,13 +561,21 @@ pub fn tlas_update_cost(app: &mut App, count: usize, frames: usize) -> Option<Tl
             times.push((scene.instance_changes().cpu_time + rt.stats.cpu_time, rt.stats.cpu_time));
         } else {
             one_thread.push(rt.stats.cpu_time);
+            let st = &rt.stats;
+            for (step, time) in steps.iter_mut().zip([st.tlas_refit_time, st.tlas_encode_time, st.tlas_upload_time]) {
+                step.push(time);
+            }
         }
     }
     app.world_mut().resource_mut::<RayTracingScene>().parallel_refit_from = engine::rt::default_parallel_refit_from();
     times.sort();
     one_thread.sort();
     let (total, tlas) = times[times.len() / 2];
-    Some(TlasUpdateCost { total, tlas, tlas_one_thread: one_thread[one_thread.len() / 2], rebuilt })
+    let one_thread_steps = steps.map(|mut v| {
+        v.sort();
+        v[v.len() / 2]
+    });
+    Some(TlasUpdateCost { total, tlas, tlas_one_thread: one_thread[one_thread.len() / 2], one_thread_steps, rebuilt })
 }
 
 /// CPU time to build one flat CWBVH over every triangle of the scene in world space.

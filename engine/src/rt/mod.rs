@@ -321,6 +321,12 @@ pub struct BvhFrameStats {
     /// CPU time of the frame's BVH work (BLAS requests and uploads, TLAS build or refit); zero on a
     /// frame that did none.
     pub cpu_time: Duration,
+    /// Of a refit's time: moving the leaves and refitting the binary TLAS's nodes above them.
+    pub tlas_refit_time: Duration,
+    /// Of a refit's time: re-encoding the wide nodes over changed children.
+    pub tlas_encode_time: Duration,
+    /// Of a refit's time: staging the changed wide nodes for upload.
+    pub tlas_upload_time: Duration,
 }
 
 /// The scene's BVHs on the CPU and the GPU.
@@ -868,6 +874,7 @@ impl RayTracingScene {
         self.marked.clear();
         self.marked.resize(bvh.nodes.len(), false);
         let parallel = moved.len() >= self.parallel_refit_from && self.refit_plan.is_some();
+        let started = Instant::now();
         let refit = if parallel { self.refit_subtrees_in_parallel(&mut bvh, moved) } else { self.refit_on_this_thread(&mut bvh, moved) };
         let Some(RefitOutput { dirty, area }) = refit else {
             self.tlas = Some(bvh);
@@ -879,6 +886,7 @@ impl RayTracingScene {
             self.tlas = Some(bvh);
             return false;
         }
+        let refitted = Instant::now();
         // The wide nodes over changed Bvh2 nodes, each once, in order (a mark per wide node, no sort).
         self.wide_marked.clear();
         self.wide_marked.resize(self.gpu_tlas.len(), false);
@@ -899,7 +907,11 @@ impl RayTracingScene {
             self.gpu_tlas.iter_mut().enumerate().for_each(encode);
         }
         self.tlas = Some(bvh);
+        let encoded = Instant::now();
         self.upload_wide_nodes(gpu, uploads);
+        self.stats.tlas_refit_time = refitted - started;
+        self.stats.tlas_encode_time = encoded - refitted;
+        self.stats.tlas_upload_time = encoded.elapsed();
         self.stats.tlas_refitted_leaves += moved.len();
         self.stats.tlas_refit_parallel = parallel;
         true
