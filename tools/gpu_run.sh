@@ -64,6 +64,11 @@ for step in "$@"; do
     # tracestackpers_SCENE-K: the same comparison for the best persistent kernel found (4,224
     # workgroups of 128, coherent order).
     tracestackpers_*) IFS=- read -r scene k <<< "${step#tracestackpers_}"; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild --persistent-groups 4224 --ray-order coherent --workgroup-size 128 --shared-stack "$k" ;;
+    # benchpers_SCENE: DDGI's full probe update at 32x32x32 probes x 256 rays, thread a ray
+    # (ddgi_trace traces and shades) against the persistent trace (ddgi_trace finds the closest
+    # hits with persistent threads, ddgi_shade shades them), timed in the same run; the ratio table
+    # last. BENCH_ARGS: other bench ddgi options (e.g. "--probes 32,8,32 --rays 128").
+    benchpers_*) scene=${step#benchpers_}; run "$step" $B bench ddgi --scene "$scene" --iterations 15 --persistent-trace ${BENCH_ARGS:---probes 32,32,32 --rays 256} --json "$R/$step.json" ;;
     # tracerb_SCENE-BUDGET: the TLAS partially re-braided at BUDGET primitives an instance (TRACE_ARGS as above).
     tracerb_*) IFS=- read -r scene budget <<< "${step#tracerb_}"; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild --rebraid "$budget" ${TRACE_ARGS:-} ;;
     tracecpu_*) scene=${step#tracecpu_}; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild --cpu-only ;;

@@ -478,7 +478,7 @@ enum BenchCommand {
     /// updates, borders, relocation and classification; every probe active) for grids 16×8×16 … 32×32×32
     /// and 32 … 256 rays per probe, the per-pass times, and the final gather at the camera's size.
     #[command(
-        after_long_help = "Examples:\n  game_demo bench ddgi --scene cathedral\n  game_demo bench ddgi --scene level --probes 16,8,16 --probes 32,8,32 --rays 128\n  game_demo bench ddgi --scene cornell --probes 8,4,8 --rays 64 --json out/bench_ddgi.json --trace out/bench_ddgi_trace.json"
+        after_long_help = "Examples:\n  game_demo bench ddgi --scene cathedral\n  game_demo bench ddgi --scene level --probes 16,8,16 --probes 32,8,32 --rays 128\n  game_demo bench ddgi --scene cornell --probes 8,4,8 --rays 64 --json out/bench_ddgi.json --trace out/bench_ddgi_trace.json\n  game_demo bench ddgi --scene cathedral --probes 32,32,32 --rays 256 --persistent-trace"
     )]
     Ddgi {
         /// A built-in scene or a scene file.
@@ -499,6 +499,11 @@ enum BenchCommand {
         /// Rays per probe to measure instead of 32, 64, 128, 256 (repeatable).
         #[arg(long)]
         rays: Vec<u32>,
+        /// Also time every cell with the persistent trace (`DdgiVolume::persistent_trace`: closest
+        /// hits by persistent threads, then the pass `ddgi_shade`), right after the thread-a-ray
+        /// trace in the same run, and print the ratio of their update times.
+        #[arg(long)]
+        persistent_trace: bool,
         /// Also write the results as JSON to this file (the same figures as the Markdown).
         #[arg(long)]
         json: Option<PathBuf>,
@@ -921,6 +926,7 @@ fn bench_ddgi(
     size: engine::render::RenderSize,
     grids: &[glam::UVec3],
     rays: &[u32],
+    persistent_trace: bool,
 ) -> Result<serde_json::Value, String> {
     let grids: Vec<[u32; 3]> = if grids.is_empty() { bench::GRIDS.to_vec() } else { grids.iter().map(|g| g.to_array()).collect() };
     let ray_counts: Vec<u32> = if rays.is_empty() { bench::RAYS.to_vec() } else { rays.to_vec() };
@@ -928,39 +934,63 @@ fn bench_ddgi(
     let triangles = scene.instanced_triangle_count();
     let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
     println!("# bench ddgi: {name} ({triangles} triangles) on {}, camera {}×{}", gpu.adapter_name(), size.width, size.height);
-    let cells = bench::ddgi_throughput(&gpu, scene, size, iterations.max(1), &grids, &ray_counts)?;
+    let ways: &[bool] = if persistent_trace { &[false, true] } else { &[false] };
+    let cells = bench::ddgi_throughput(&gpu, scene, size, iterations.max(1), &grids, &ray_counts, ways)?;
     let grid_name = |g: &[u32; 3]| format!("{}×{}×{}", g[0], g[1], g[2]);
-    let cell = |g: &[u32; 3], rays: u32| cells.iter().find(|c| c.grid == *g && c.rays_per_probe == rays);
-    println!("\n## Full probe update, MRays/s (median of {iterations} frames; every probe active)\n");
-    println!("| rays/probe | {} |", grids.iter().map(grid_name).collect::<Vec<_>>().join(" | "));
-    println!("|---|{}", "---:|".repeat(grids.len()));
-    for &rays in &ray_counts {
-        let row: Vec<String> = grids
-            .iter()
-            .map(|g| cell(g, rays).map_or("-".into(), |c| format!("{:.0} ({:.3} ms)", c.mrays_per_second(), c.update_ms)))
-            .collect();
-        println!("| {rays} | {} |", row.join(" | "));
-    }
+    let cell =
+        |g: &[u32; 3], rays: u32, way: bool| cells.iter().find(|c| c.grid == *g && c.rays_per_probe == rays && c.persistent_trace == way);
+    let way_name = |way: bool| if way { "persistent trace, then ddgi_shade" } else { "thread a ray, trace and shading in ddgi_trace" };
     let grid = if grids.contains(&[32, 8, 32]) { [32, 8, 32] } else { grids[0] };
-    println!("\n## GPU ms per pass at {} probes (median)\n", grid_name(&grid));
-    let mut labels: Vec<String> = bench::DDGI_UPDATE_PASSES.iter().map(|s| s.to_string()).collect();
-    labels.extend(["ddgi_gather".to_string(), "ddgi_composite".to_string(), "gbuffer".to_string(), "direct_lighting".to_string()]);
-    println!("| pass | {} |", ray_counts.iter().map(|r| format!("{r} rays")).collect::<Vec<_>>().join(" | "));
-    println!("|---|{}", "---:|".repeat(ray_counts.len()));
-    for label in &labels {
+    for &way in ways {
+        println!("\n## Full probe update, MRays/s ({}; median of {iterations} frames; every probe active)\n", way_name(way));
+        println!("| rays/probe | {} |", grids.iter().map(grid_name).collect::<Vec<_>>().join(" | "));
+        println!("|---|{}", "---:|".repeat(grids.len()));
+        for &rays in &ray_counts {
+            let row: Vec<String> = grids
+                .iter()
+                .map(|g| cell(g, rays, way).map_or("-".into(), |c| format!("{:.0} ({:.3} ms)", c.mrays_per_second(), c.update_ms)))
+                .collect();
+            println!("| {rays} | {} |", row.join(" | "));
+        }
+        println!("\n## GPU ms per pass at {} probes ({}; median)\n", grid_name(&grid), way_name(way));
+        let mut labels: Vec<String> = bench::DDGI_UPDATE_PASSES.iter().map(|s| s.to_string()).collect();
+        labels.extend(["ddgi_gather".to_string(), "ddgi_composite".to_string(), "gbuffer".to_string(), "direct_lighting".to_string()]);
+        println!("| pass | {} |", ray_counts.iter().map(|r| format!("{r} rays")).collect::<Vec<_>>().join(" | "));
+        println!("|---|{}", "---:|".repeat(ray_counts.len()));
+        for label in &labels {
+            let row: Vec<String> = ray_counts
+                .iter()
+                .map(|&r| cell(&grid, r, way).and_then(|c| c.pass_ms(label)).map_or("-".into(), |ms| format!("{ms:.3}")))
+                .collect();
+            println!("| {label} | {} |", row.join(" | "));
+        }
+        // The trace and the shading of its rays, whichever passes they ran in.
+        let non_trace = |c: &bench::DdgiCell| c.update_ms - c.pass_ms("ddgi_trace").unwrap_or(0.0) - c.pass_ms("ddgi_shade").unwrap_or(0.0);
         let row: Vec<String> =
-            ray_counts.iter().map(|&r| cell(&grid, r).and_then(|c| c.pass_ms(label)).map_or("-".into(), |ms| format!("{ms:.3}"))).collect();
-        println!("| {label} | {} |", row.join(" | "));
+            ray_counts.iter().map(|&r| cell(&grid, r, way).map_or("-".into(), |c| format!("{:.3}", non_trace(c)))).collect();
+        println!("| all update passes but ddgi_trace and ddgi_shade | {} |", row.join(" | "));
     }
-    let non_trace = |c: &bench::DdgiCell| c.update_ms - c.pass_ms("ddgi_trace").unwrap_or(0.0);
-    let row: Vec<String> = ray_counts.iter().map(|&r| cell(&grid, r).map_or("-".into(), |c| format!("{:.3}", non_trace(c)))).collect();
-    println!("| all update passes but the trace | {} |", row.join(" | "));
+    if persistent_trace {
+        println!("\n## Persistent trace against a thread a ray: the full probe update's time, thread a ray / persistent (same run)\n");
+        println!("| rays/probe | {} |", grids.iter().map(grid_name).collect::<Vec<_>>().join(" | "));
+        println!("|---|{}", "---:|".repeat(grids.len()));
+        for &rays in &ray_counts {
+            let row: Vec<String> = grids
+                .iter()
+                .map(|g| match (cell(g, rays, false), cell(g, rays, true)) {
+                    (Some(a), Some(b)) => format!("{:.2}×", a.update_ms / b.update_ms),
+                    _ => "-".into(),
+                })
+                .collect();
+            println!("| {rays} | {} |", row.join(" | "));
+        }
+    }
     let cells: Vec<serde_json::Value> = cells
         .iter()
         .map(|c| {
             let passes: serde_json::Map<String, serde_json::Value> = c.passes.iter().map(|(l, ms)| (l.clone(), (*ms).into())).collect();
             serde_json::json!({
-                "probes": c.grid, "rays_per_probe": c.rays_per_probe, "rays": c.rays, "update_ms": c.update_ms,
+                "probes": c.grid, "rays_per_probe": c.rays_per_probe, "persistent_trace": c.persistent_trace, "rays": c.rays, "update_ms": c.update_ms,
                 "mrays_per_second": c.mrays_per_second(), "pass_ms": passes,
             })
         })
@@ -1182,8 +1212,8 @@ fn bench(command: BenchCommand) -> Result<(), String> {
                 bench_walk(&scene, grid, rays, !no_adaptive, (frames, warmup, speed), (width, height), offset, sky, measure, &out)?;
             return write_json(json.as_deref(), report);
         }
-        BenchCommand::Ddgi { scene, iterations, width, height, probes, rays, json } => {
-            let report = bench_ddgi(&scene, iterations, engine::render::RenderSize { width, height }, &probes, &rays)?;
+        BenchCommand::Ddgi { scene, iterations, width, height, probes, rays, persistent_trace, json } => {
+            let report = bench_ddgi(&scene, iterations, engine::render::RenderSize { width, height }, &probes, &rays, persistent_trace)?;
             return write_json(json.as_deref(), report);
         }
     };

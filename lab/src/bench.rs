@@ -598,14 +598,17 @@ pub fn flat_rebuild_cost(app: &mut App) -> (Duration, usize) {
     (started.elapsed(), tris.len())
 }
 
-/// The passes of DDGI's probe update (everything but the camera's gather and composite).
-pub const DDGI_UPDATE_PASSES: [&str; 3] = ["ddgi_budget", "ddgi_trace", "ddgi_probe_update"];
+/// The passes of DDGI's probe update (everything but the camera's gather and composite);
+/// `ddgi_shade` runs only with the persistent trace ([`ddgi::DdgiVolume::persistent_trace`]).
+pub const DDGI_UPDATE_PASSES: [&str; 4] = ddgi::PROBE_UPDATE_PASSES;
 
 /// One cell of the DDGI throughput table: median GPU milliseconds of each pass over the timed
 /// frames, and of the whole probe update per frame.
 pub struct DdgiCell {
     pub grid: [u32; 3],
     pub rays_per_probe: u32,
+    /// Traced with the persistent trace ([`ddgi::DdgiVolume::persistent_trace`]).
+    pub persistent_trace: bool,
     pub rays: u64,
     pub passes: Vec<(String, f64)>,
     pub update_ms: f64,
@@ -627,9 +630,10 @@ fn median(mut v: Vec<f64>) -> f64 {
     crate::median(&mut v).unwrap_or(f64::NAN)
 }
 
-/// Runs DDGI on `scene` at every grid × rays cell of the published table (one app, the volume's
-/// settings changed between cells, so the BVHs are built once): 3 warm-up frames, then
-/// `iterations` timed frames per cell. Every probe stays active (classification off), so each
+/// Runs DDGI on `scene` at every grid × rays cell of the published table, traced each way of
+/// `persistent_traces` ([`ddgi::DdgiVolume::persistent_trace`]; one after the other in each cell),
+/// in one app (the volume's settings changed between cells, so the BVHs are built once): 3 warm-up
+/// frames, then `iterations` timed frames per cell and way. Every probe stays active (classification off), so each
 /// cell traces exactly probes × rays rays per frame. The camera renders `size` pixels, so the
 /// gather's time is the one of that resolution.
 pub fn ddgi_throughput(
@@ -639,30 +643,34 @@ pub fn ddgi_throughput(
     iterations: u32,
     grids: &[[u32; 3]],
     ray_counts: &[u32],
+    persistent_traces: &[bool],
 ) -> Result<Vec<DdgiCell>, String> {
     if !gpu.timestamps {
         return Err(format!("{} has no timestamp queries: GPU times cannot be measured", gpu.adapter_name()));
     }
-    let volume = |grid: [u32; 3], rays: u32| ddgi::DdgiVolume {
+    let volume = |grid: [u32; 3], rays: u32, persistent_trace: bool| ddgi::DdgiVolume {
         probe_counts: Some(grid.into()),
         rays_per_probe: rays,
         classification: false,
+        persistent_trace,
         ..Default::default()
     };
     let mut app = engine::headless::headless_app(gpu, size, 1.0 / 60.0);
     crate::progress::show_blas_builds(&mut app);
-    ddgi::use_ddgi(&mut app, volume(grids[0], ray_counts[0]), ddgi::DdgiOutput::Full);
+    let first_way = persistent_traces.first().copied().unwrap_or(false);
+    ddgi::use_ddgi(&mut app, volume(grids[0], ray_counts[0], first_way), ddgi::DdgiOutput::Full);
     scene.spawn(app.world_mut());
     let mut cells = Vec::new();
-    let bar = crate::progress::bar((grids.len() * ray_counts.len()) as u64, "bench ddgi", "cells");
+    let ways = if persistent_traces.is_empty() { &[false][..] } else { persistent_traces };
+    let bar = crate::progress::bar((grids.len() * ray_counts.len() * ways.len()) as u64, "bench ddgi", "cells");
     for &grid in grids {
-        for &rays_per_probe in ray_counts {
+        for (&rays_per_probe, &persistent_trace) in ray_counts.iter().flat_map(|r| ways.iter().map(move |w| (r, w))) {
             bar.inc(1);
             {
                 let world = app.world_mut();
                 let mut volumes = world.query::<&mut ddgi::DdgiVolume>();
                 for mut v in volumes.iter_mut(world) {
-                    *v = volume(grid, rays_per_probe);
+                    *v = volume(grid, rays_per_probe, persistent_trace);
                 }
             }
             run_headless(&mut app, 3 + iterations);
@@ -694,7 +702,7 @@ pub fn ddgi_throughput(
                     .collect(),
             );
             let rays = u64::from(grid[0] * grid[1] * grid[2] * rays_per_probe);
-            cells.push(DdgiCell { grid, rays_per_probe, rays, passes, update_ms });
+            cells.push(DdgiCell { grid, rays_per_probe, persistent_trace, rays, passes, update_ms });
         }
     }
     bar.finish_and_clear();

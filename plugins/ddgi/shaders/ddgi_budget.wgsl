@@ -247,6 +247,8 @@ fn plan_ray_blocks(@builtin(local_invocation_index) local: u32) {
         let groups = (offset + DDGI_RAY_GROUP - 1u) / DDGI_RAY_GROUP;
         ddgi_counters.dispatch = vec3<u32>(min(groups, 65535u), max((groups + 65534u) / 65535u, 1u), 1u);
         ddgi_counters.total_rays = offset;
+        let persistent = (offset + DDGI_PERSISTENT_TRACE_GROUP - 1u) / DDGI_PERSISTENT_TRACE_GROUP;
+        ddgi_counters.persistent_dispatch = vec3<u32>(min(persistent, DDGI_PERSISTENT_TRACE_GROUPS), 1u, 1u);
         ddgi_counters.probe_dispatch = vec3<u32>(min(probes, 65535u), max((probes + 65534u) / 65535u, 1u), 1u);
         ddgi_counters.updated_probes = probes;
         ddgi_counters.max_luma = m;

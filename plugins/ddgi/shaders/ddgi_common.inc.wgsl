@@ -119,7 +119,9 @@ struct DdgiProbeData {
 
 // What the budget pass leaves for the rest of the frame: the indirect dispatch of the ray passes
 // and the number of rays, the indirect dispatch of the per-probe passes (one workgroup per probe
-// updated this frame, listed in ddgi_updated) and their number, and the brightest probe's luma.
+// updated this frame, listed in ddgi_updated) and their number, the brightest probe's luma, and the
+// indirect dispatch of the persistent trace (trace_rays_persistent: a workgroup per
+// DDGI_PERSISTENT_TRACE_GROUP rays, at most DDGI_PERSISTENT_TRACE_GROUPS).
 struct DdgiCounters {
     dispatch: vec3<u32>,
     total_rays: u32,
@@ -130,6 +132,8 @@ struct DdgiCounters {
     budget_scale: f32,
     _pad0: u32,
     _pad1: u32,
+    persistent_dispatch: vec3<u32>,
+    _pad2: u32,
 }
 
 // One block of 256 probes in the budget's prefix sum: its rays (after and before the frame
@@ -156,6 +160,21 @@ struct DdgiRay {
 @group(1) @binding(3) var ddgi_distance: texture_2d<f32>;
 @group(1) @binding(4) var ddgi_sampler: sampler;
 @group(1) @binding(5) var<storage, read_write> ddgi_rays: array<DdgiRay>;
+
+// One probe ray's closest hit as the persistent trace found it (`trace_rays_persistent`), for the
+// shading pass (`ddgi_shade`): RayHit's fields, front_face as 0 or 1 (a bool cannot live in a
+// buffer).
+struct DdgiHit {
+    t: f32,
+    instance: u32,
+    primitive: u32,
+    front_face: u32,
+    barycentrics: vec2<f32>,
+}
+
+// The frame's hits, one a packed ray, written and read only when the volume traces with the
+// persistent kernel (DdgiVolume::persistent_trace).
+@group(1) @binding(17) var<storage, read_write> ddgi_hits: array<DdgiHit>;
 // Shaded rays: (radiance, stored distance: t, -DDGI_BACKFACE_SCALE·t or DDGI_MISS).
 @group(1) @binding(7) var<storage, read_write> ddgi_radiance: array<vec4<f32>>;
 // One irradiance texel at full precision: the irradiance; the exponential moving average of each

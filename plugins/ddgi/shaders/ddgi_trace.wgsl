@@ -1,15 +1,9 @@
-// DDGI pass `ddgi_trace`: generation, trace and shading of the probe rays in one pass, one thread per
-// ray packed by `ddgi_budget`, dispatched indirectly with its count (two-dimensional beyond 65,535
-// workgroups).
-#include "ddgi_sampling.inc.wgsl"
-
-fn ddgi_ray_index(id: vec3<u32>) -> u32 {
-    return id.x + id.y * 65535u * DDGI_RAY_GROUP;
-}
-
-fn ddgi_ray_total() -> u32 {
-    return ddgi_counters_in.total_rays;
-}
+// DDGI pass `ddgi_trace`: generation and trace of the probe rays packed by `ddgi_budget`, in one of
+// two ways. `trace_rays` (the default): one thread per ray, dispatched indirectly with the ray
+// count (two-dimensional beyond 65,535 workgroups), which also shades its ray. With
+// DdgiVolume::persistent_trace, `trace_rays_persistent`: persistent threads that find each ray's
+// closest hit only (into ddgi_hits), then the pass `ddgi_shade` (ddgi_shade.wgsl) shades them.
+#include "ddgi_shading.inc.wgsl"
 
 // The probe whose packed rays hold ray i: the last probe whose offset is at most i (probes with no
 // rays share the offset of the next one, so the search lands on the probe that has rays).
@@ -36,11 +30,10 @@ fn ddgi_generate_ray(i: u32) -> DdgiRay {
     return DdgiRay(safe_normalize(direction, vec3<f32>(0.0, 0.0, 1.0)), probe);
 }
 
-// Trace and shading: generates ray i (kept in ddgi_rays for the probe update), traces its closest
-// hit, back faces included (they mark probes inside geometry), and shades the hit: its emission,
-// direct light (a shadow ray per light, through the BRDF) and indirect light from the previous
-// frame's probes. One pass, not two: a separate shading pass cost its own launch and a round trip of every
-// hit through memory, which at the published grids took longer than the shading itself.
+// Trace and shading in one thread: generates ray i (kept in ddgi_rays for the probe update), traces
+// its closest hit and shades it (ddgi_shade_ray). One pass, not two: a separate shading pass costs
+// its own launch and a round trip of every hit through memory, which at the published grids took
+// longer than the shading itself when the trace was a thread a ray too.
 @compute @workgroup_size(DDGI_RAY_GROUP)
 fn trace_rays(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = ddgi_ray_index(id);
@@ -49,54 +42,53 @@ fn trace_rays(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let ray_info = ddgi_generate_ray(i);
     ddgi_rays[i] = ray_info;
-    let origin = ddgi_probe_position(ray_info.probe);
-    let ray = Ray(origin, 0.0, ray_info.direction, ddgi_volume.max_ray_distance);
-    let hit = trace_closest(ray);
-    if hit.instance == RT_NO_HIT {
-        // Misses see the sky (the scene's along the ray, or the volume's own), never its sun disk:
-        // the directional light already lights what the probes see.
-        var sky = sky_radiance(ray_info.direction);
-        if ddgi_has(DDGI_SKY_OVERRIDE) {
-            sky = ddgi_volume.sky_radiance;
-        }
-        ddgi_radiance[i] = vec4<f32>(min(sanitize_radiance(sky), vec3<f32>(DDGI_MAX_IRRADIANCE)), DDGI_MISS);
+    ddgi_shade_ray(i, ray_info, trace_closest(ddgi_ray(ray_info)));
+}
+
+// The next ray of a persistent workgroup's share.
+var<workgroup> ddgi_next_ray: atomic<u32>;
+
+// The persistent trace (DdgiVolume::persistent_trace; Aila and Laine 2009, "Understanding the
+// efficiency of ray traversal on GPUs": persistent threads with ray replacement). The budget pass
+// dispatches a workgroup per DDGI_PERSISTENT_TRACE_GROUP rays, at most DDGI_PERSISTENT_TRACE_GROUPS
+// (ddgi_counters.persistent_dispatch); each walks a contiguous share of the frame's rays (a probe's
+// rays are neighbours), and a lane whose ray is done takes the workgroup's next one at once, inside
+// the traversal loop (rt_walk_step, the loop rt_trace runs), instead of idling until the slowest
+// lane of its warp is done. Each ray's ray (ddgi_rays) and closest hit (ddgi_hits) go to memory;
+// `shade_rays` shades them.
+@compute @workgroup_size(DDGI_PERSISTENT_TRACE_GROUP)
+fn trace_rays_persistent(
+    @builtin(workgroup_id) group_id: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(local_invocation_index) lane: u32,
+) {
+    if lane == 0u {
+        atomicStore(&ddgi_next_ray, 0u);
+    }
+    workgroupBarrier();
+    let total = ddgi_ray_total();
+    let share = (total + groups.x - 1u) / groups.x;
+    let first = group_id.x * share;
+    let end = min(first + share, total);
+    var i = first + atomicAdd(&ddgi_next_ray, 1u);
+    if i >= end {
         return;
     }
-    if !hit.front_face {
-        // Back faces are black.
-        ddgi_radiance[i] = vec4<f32>(0.0, 0.0, 0.0, -hit.t * DDGI_BACKFACE_SCALE);
-        return;
-    }
-    let surface = hit_surface(ray, hit);
-    let t = hit.t;
-    let position = origin + ray_info.direction * t;
-    let normal = surface.normal;
-    // `position` comes from origin + direction · t, which is only as exact as the larger of the two
-    // magnitudes: at large scales (10^4 units) that error dwarfs the float-step offset of a hit near
-    // a coordinate plane, and the shadow ray would start under the surface (the floor goes dark).
-    // Lift it by a few ulps of that magnitude first.
-    let magnitude = max(t, max(abs(origin.x), max(abs(origin.y), abs(origin.z))));
-    let shadow_origin = offset_ray_origin(position + normal * (1e-5 * magnitude), normal);
-    let brdf = hit_brdf_surface(surface);
-    let to_probe = -ray_info.direction;
-    var irradiance = vec3<f32>(0.0);
-    var direct = vec3<f32>(0.0);
-    for (var l = 0u; l < view.light_count; l++) {
-        let s = sample_light(lights[l], position, normal);
-        if any(s.irradiance > vec3<f32>(0.0)) && !trace_any(Ray(shadow_origin, 0.0, s.to_light, s.distance * (1.0 - 1e-4))) {
-            irradiance += s.irradiance;
-            direct += brdf_eval(brdf, normal, to_probe, s.to_light) * s.irradiance;
+    var ray_info = ddgi_generate_ray(i);
+    var walk = rt_walk_start(ddgi_ray(ray_info));
+    var stack: array<vec2<u32>, RT_STACK_SIZE>;
+    loop {
+        if rt_walk_step(&walk, &stack, false) {
+            // This ray is done: keep it and its hit, and take the next one.
+            let hit = rt_walk_hit(&walk);
+            ddgi_rays[i] = ray_info;
+            ddgi_hits[i] = DdgiHit(hit.t, hit.instance, hit.primitive, u32(hit.front_face), hit.barycentrics);
+            i = first + atomicAdd(&ddgi_next_ray, 1u);
+            if i >= end {
+                break;
+            }
+            ray_info = ddgi_generate_ray(i);
+            walk = rt_walk_start(ddgi_ray(ray_info));
         }
     }
-    let probes = ddgi_sample_irradiance(position, normal, to_probe);
-    var radiance = surface.emissive + surface.albedo * INV_PI * (irradiance + probes);
-    if brdf_has_specular(brdf) {
-        // Direct light through the whole BRDF; the probes' light (irradiance, which cannot resolve
-        // a glossy reflection) reflected as by a diffuse surface of the lobes' albedo, so that
-        // metals seen by the probes are not black.
-        let specular = brdf_specular_albedo(brdf, max(dot(normal, to_probe), 1e-4));
-        let albedo = brdf_diffuse_color(brdf) * (vec3<f32>(1.0) - specular) + specular;
-        radiance = surface.emissive + direct + albedo * INV_PI * probes;
-    }
-    ddgi_radiance[i] = vec4<f32>(min(sanitize_radiance(radiance), vec3<f32>(DDGI_MAX_IRRADIANCE)), t);
 }

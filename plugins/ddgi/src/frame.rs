@@ -1,7 +1,9 @@
 //! The DDGI passes as functions any frame script calls, and the `"ddgi"` frame script built from them.
 //!
 //! ```text
-//! all volumes: ddgi_budget ─▶ ddgi_trace ─▶ ddgi_probe_update       (DdgiFrame::add_volume_updates)
+//! all volumes: ddgi_budget ─▶ ddgi_trace ─▶ [ddgi_shade] ─▶ ddgi_probe_update
+//!                                                                  (DdgiFrame::add_volume_updates;
+//!                                        ddgi_shade: volumes with DdgiVolume::persistent_trace)
 //! per camera:  ddgi_gather (each volume) ─▶ [ddgi_contact_occlusion] ─▶ ddgi_composite
 //!                                                                  (add_gather, add_composite)
 //! debug:       ddgi_probe_spheres                                  (add_probe_spheres)
@@ -21,12 +23,20 @@ use engine::wgpu;
 
 use crate::debug_view::{DdgiOutput, DdgiProbeColor, DdgiProbeView, add_probe_spheres};
 use crate::gpu::{DdgiCounters, DdgiGatherParams};
-use crate::pipelines::{ComputeProgram, DdgiPipelines, Specialization};
+use crate::pipelines::{ComputeProgram, DdgiPipelines, RayKernel, Specialization};
 use crate::resources::{DdgiGpuVolumes, VolumeGpu};
+
+/// The labels of the probe update's passes (everything DDGI does before the camera's gather), in
+/// their order; `ddgi_shade` runs only when a volume traces with persistent threads
+/// ([`crate::DdgiVolume::persistent_trace`]). With several volumes, each pass holds every volume's
+/// dispatches under its one label.
+pub const PROBE_UPDATE_PASSES: [&str; 4] = ["ddgi_budget", "ddgi_trace", "ddgi_shade", "ddgi_probe_update"];
 
 /// Where in [`DdgiCounters`] the indirect dispatches of the ray passes and of the per-probe passes are.
 const RAY_DISPATCH_OFFSET: u64 = std::mem::offset_of!(DdgiCounters, dispatch) as u64;
 const PROBE_DISPATCH_OFFSET: u64 = std::mem::offset_of!(DdgiCounters, probe_dispatch) as u64;
+/// Where in [`DdgiCounters`] the indirect dispatch of the persistent trace is.
+const PERSISTENT_DISPATCH_OFFSET: u64 = std::mem::offset_of!(DdgiCounters, persistent_dispatch) as u64;
 
 /// One volume's resources in a frame's graph: every buffer and texture of its [`VolumeGpu`],
 /// imported, so that passes declare and bind them by handle.
@@ -51,6 +61,8 @@ pub struct VolumeHandles {
     pub rays: Handle<GraphBuffer>,
     /// Each ray's radiance and stored hit distance (WGSL `ddgi_radiance`).
     pub radiance: Handle<GraphBuffer>,
+    /// The persistent trace's closest hits (WGSL `ddgi_hits`; [`crate::DdgiVolume::persistent_trace`]).
+    pub hits: Handle<GraphBuffer>,
     /// The full-precision irradiance maps (WGSL `ddgi_irradiance_history`).
     pub irradiance_history: Handle<GraphBuffer>,
     /// The full-precision distance moments (WGSL `ddgi_distance_history`).
@@ -85,6 +97,7 @@ impl VolumeHandles {
             buffer("ddgi_rays", &volume.rays),
             buffer("ddgi_radiance", &volume.radiance),
         );
+        let hits = buffer("ddgi_hits", &volume.hits);
         let irradiance_history = buffer("ddgi_irradiance_history", &volume.irradiance_history);
         let distance_history = buffer("ddgi_distance_history", &volume.distance_history);
         let wake = buffer("ddgi_wake", &volume.wake);
@@ -101,6 +114,7 @@ impl VolumeHandles {
             lit,
             rays,
             radiance,
+            hits,
             irradiance_history,
             distance_history,
             irradiance,
@@ -123,6 +137,7 @@ impl VolumeHandles {
             "ddgi_sampler" => ("ddgi_sampler", Slot::Sampler),
             "ddgi_rays" => ("ddgi_rays", Slot::Buffer(&mut self.rays)),
             "ddgi_radiance" => ("ddgi_radiance", Slot::Buffer(&mut self.radiance)),
+            "ddgi_hits" => ("ddgi_hits", Slot::Buffer(&mut self.hits)),
             "ddgi_irradiance_history" => ("ddgi_irradiance_history", Slot::Buffer(&mut self.irradiance_history)),
             "ddgi_distance_history" => ("ddgi_distance_history", Slot::Buffer(&mut self.distance_history)),
             "ddgi_counters" => ("ddgi_counters", Slot::Buffer(&mut self.counters)),
@@ -518,8 +533,9 @@ fn record_dispatches(dispatches: Vec<Dispatch>) -> impl FnOnce(&mut engine::grap
 }
 
 /// Adds the probe update of the volumes in `updating` (indices into `volumes` and `handles`):
-/// one `ddgi_budget`, one `ddgi_trace` and one `ddgi_probe_update` pass, each holding every
-/// updating volume's dispatches of that stage, step by step.
+/// one `ddgi_budget`, one `ddgi_trace`, (when a volume traces with persistent threads) one
+/// `ddgi_shade` and one `ddgi_probe_update` pass, each holding every updating volume's dispatches
+/// of that stage, step by step.
 fn add_volume_update_passes(
     graph: &mut RenderGraph,
     frame: &CameraFrame,
@@ -529,7 +545,16 @@ fn add_volume_update_passes(
     handles: &mut [VolumeHandles],
     updating: &[usize],
 ) -> Result<(), ShaderError> {
-    let trace = pipelines.trace_program(&frame.gpu, specialization)?;
+    let trace = pipelines.ray_program(&frame.gpu, specialization, RayKernel::Trace)?;
+    let persistent = updating.iter().any(|&k| volumes[k].settings.persistent_trace);
+    let (persistent_trace, shade) = if persistent {
+        (
+            Some(pipelines.ray_program(&frame.gpu, specialization, RayKernel::PersistentTrace)?),
+            Some(pipelines.ray_program(&frame.gpu, specialization, RayKernel::Shade)?),
+        )
+    } else {
+        (None, None)
+    };
     let skipped = volumes.len() - updating.len();
     let note_skipped = |pass: &mut PassBuilder<'_>| {
         if skipped > 0 {
@@ -571,15 +596,37 @@ fn add_volume_update_passes(
     }
     {
         // Shading reads the previous frame's atlases, which the probe update then overwrites. The
-        // trace runs as many threads as the budget pass packed rays (an indirect dispatch).
+        // trace runs as many threads as the budget pass packed rays (an indirect dispatch); the
+        // persistent trace as many workgroups as the budget pass asked (persistent_dispatch).
         let mut pass = graph.add_pass("ddgi_trace");
         note_skipped(&mut pass);
         pass.note(&specialization.note());
+        if persistent {
+            let n = updating.iter().filter(|&&k| volumes[k].settings.persistent_trace).count();
+            pass.note(&format!("persistent threads, closest hits only (ddgi_shade shades them): {n} of {} volumes", updating.len()));
+        }
         let mut dispatches = Vec::new();
         for &k in updating {
-            let (group0, group1) = (pass.read_named(&trace.bindings, 0), handles[k].declare(&mut pass, &trace.bindings, 1));
+            let (program, offset) = match &persistent_trace {
+                Some(p) if volumes[k].settings.persistent_trace => (p, PERSISTENT_DISPATCH_OFFSET),
+                _ => (&trace, RAY_DISPATCH_OFFSET),
+            };
+            let (group0, group1) = (pass.read_named(&program.bindings, 0), handles[k].declare(&mut pass, &program.bindings, 1));
             let args = pass.read(&handles[k].counters);
-            dispatches.push(Dispatch { program: trace.clone(), group0, group1, size: DispatchSize::Indirect(args, RAY_DISPATCH_OFFSET) });
+            dispatches.push(Dispatch { program: program.clone(), group0, group1, size: DispatchSize::Indirect(args, offset) });
+        }
+        pass.render(record_dispatches(dispatches));
+    }
+    if let Some(shade) = shade {
+        // The shading of the persistent trace's hits, a thread a ray (the trace's indirect dispatch).
+        let mut pass = graph.add_pass("ddgi_shade");
+        note_skipped(&mut pass);
+        pass.note(&specialization.note());
+        let mut dispatches = Vec::new();
+        for &k in updating.iter().filter(|&&k| volumes[k].settings.persistent_trace) {
+            let (group0, group1) = (pass.read_named(&shade.bindings, 0), handles[k].declare(&mut pass, &shade.bindings, 1));
+            let args = pass.read(&handles[k].counters);
+            dispatches.push(Dispatch { program: shade.clone(), group0, group1, size: DispatchSize::Indirect(args, RAY_DISPATCH_OFFSET) });
         }
         pass.render(record_dispatches(dispatches));
     }

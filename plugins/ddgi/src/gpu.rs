@@ -140,6 +140,12 @@ pub struct DdgiCounters {
     pub _pad0: u32,
     /// Padding to the WGSL layout.
     pub _pad1: u32,
+    /// Workgroups of the indirect dispatch of the persistent trace
+    /// ([`crate::DdgiVolume::persistent_trace`]): one per [`PERSISTENT_TRACE_GROUP`] rays, at most
+    /// [`PERSISTENT_TRACE_GROUPS`].
+    pub persistent_dispatch: [u32; 3],
+    /// Padding to the WGSL layout.
+    pub _pad2: u32,
 }
 
 /// One block of 256 probes in the budget pass's prefix sums (written and read on the GPU only).
@@ -163,6 +169,23 @@ pub struct DdgiRay {
     pub direction: [f32; 3],
     /// The index of the probe that traces it.
     pub probe: u32,
+}
+
+/// One probe ray's closest hit as the persistent trace found it (WGSL `DdgiHit`, `ddgi_hits`), for
+/// the shading pass `ddgi_shade` ([`crate::DdgiVolume::persistent_trace`]).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
+pub struct DdgiHit {
+    /// Hit distance (the ray's maximum when it missed).
+    pub t: f32,
+    /// Instance slot, or `u32::MAX` for a miss.
+    pub instance: u32,
+    /// Triangle index within the instance's mesh.
+    pub primitive: u32,
+    /// 1 when the ray met the side the triangle's winding faces, else 0.
+    pub front_face: u32,
+    /// Weights of the triangle's vertices 1 and 2.
+    pub barycentrics: [f32; 2],
 }
 
 /// Parameters of the camera's gather and composite (WGSL `DdgiGatherParams`).
@@ -267,6 +290,14 @@ pub const EMPTY_RAYS: u32 = 512;
 pub const BUDGET_BLOCK: u32 = 256;
 /// Rays per workgroup of the trace (one thread each).
 pub const RAY_GROUP: u32 = 64;
+/// Threads per workgroup of the persistent trace ([`crate::DdgiVolume::persistent_trace`]): the
+/// best of `game_demo bench trace --persistent-groups` on the H200 (128 against 64 and 256).
+pub const PERSISTENT_TRACE_GROUP: u32 = 128;
+/// Most workgroups of the persistent trace: enough to fill the GPU, which wgpu cannot tell us (it
+/// exposes no count of multiprocessors). 4,224 = 32 × the H200's 132 SMs, the best of `bench trace`
+/// there (1.47× thread a ray at 32³ probes × 256 rays); fewer rays than 128 a workgroup get
+/// `ceil(rays / 128)` workgroups (the budget pass sizes the dispatch from the frame's ray count).
+pub const PERSISTENT_TRACE_GROUPS: u32 = 4224;
 /// Most boxes around moved instances whose probes a frame wakes locally; more movers than this in
 /// a volume wake it all (a re-check of every switched-off probe, as for added or removed instances).
 pub const MAX_WAKE_BOXES: u32 = 256;
@@ -310,6 +341,8 @@ const SHARED_CONSTANTS: &[(&str, WgslValue)] = &[
     ("DDGI_EMPTY_RAYS", WgslValue::U32(EMPTY_RAYS)),
     ("DDGI_BUDGET_BLOCK", WgslValue::U32(BUDGET_BLOCK)),
     ("DDGI_RAY_GROUP", WgslValue::U32(RAY_GROUP)),
+    ("DDGI_PERSISTENT_TRACE_GROUP", WgslValue::U32(PERSISTENT_TRACE_GROUP)),
+    ("DDGI_PERSISTENT_TRACE_GROUPS", WgslValue::U32(PERSISTENT_TRACE_GROUPS)),
     ("DDGI_MAX_WAKE_BOXES", WgslValue::U32(MAX_WAKE_BOXES)),
     ("DDGI_MISS", WgslValue::F32(MISS)),
     ("DDGI_BACKFACE_SCALE", WgslValue::F32(BACKFACE_SCALE)),
@@ -453,8 +486,9 @@ pub fn gpu_structs() -> Vec<engine::shader::HostStruct> {
         layout!(DdgiTexel in "ddgi_common.inc.wgsl" { irradiance, settle_rg, change, settle_b }),
         layout!(DdgiRay in "ddgi_common.inc.wgsl" { direction, probe }),
         layout!(DdgiCounters in "ddgi_common.inc.wgsl" {
-            dispatch, total_rays, probe_dispatch, updated_probes, max_luma, budget_scale, _pad0, _pad1,
+            dispatch, total_rays, probe_dispatch, updated_probes, max_luma, budget_scale, _pad0, _pad1, persistent_dispatch, _pad2,
         }),
+        layout!(DdgiHit in "ddgi_common.inc.wgsl" { t, instance, primitive, front_face, barycentrics }),
         layout!(DdgiBlock in "ddgi_common.inc.wgsl" { rays, unscaled_rays, max_luma, offset, probes, probe_offset }),
         layout!(DdgiGatherParams in "ddgi_camera.inc.wgsl" { first_volume, debug_view, sky_rays, sky_distance, ao_rays, ao_radius, ao_scale, _pad1 }),
         layout!(DdgiProbeViewParams in "ddgi_probe_spheres.wgsl" { mode, selected, radius, max_rays, max_error, _pad0, _pad1, _pad2 }),

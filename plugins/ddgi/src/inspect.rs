@@ -143,6 +143,7 @@ impl VolumeGpu {
             ("ddgi_wake", self.wake.size()),
             ("ddgi_rays", self.rays.size()),
             ("ddgi_radiance", self.radiance.size()),
+            ("ddgi_hits", self.hits.size()),
             ("ddgi_irradiance_history", self.irradiance_history.size()),
             ("ddgi_distance_history", self.distance_history.size()),
             ("ddgi_irradiance", texture(&self.irradiance)),

@@ -109,7 +109,7 @@ use engine::render::{FrameScript, frame_script_is};
 
 pub use cascades::{DdgiCascade, DdgiCascades, DdgiFirstCameraCascades};
 pub use debug_view::{DdgiContactOcclusion, DdgiDebugPass, DdgiDebugPasses, DdgiOutput, DdgiProbeColor, DdgiProbeView, DdgiSkyLight};
-pub use frame::{DdgiFrame, VolumeHandles, render_ddgi_frame};
+pub use frame::{DdgiFrame, PROBE_UPDATE_PASSES, VolumeHandles, render_ddgi_frame};
 pub use inspect::{DdgiProbeStateCounts, DdgiUpdateControl};
 pub use pipelines::DdgiPipelines;
 pub use resources::{DdgiGpuVolumes, VolumeGpu};
@@ -138,7 +138,9 @@ pub const SHADERS: &[engine::shader::ShaderModule] = &[
     ("ddgi_sampling.inc.wgsl", include_str!("../shaders/ddgi_sampling.inc.wgsl")),
     ("ddgi_camera.inc.wgsl", include_str!("../shaders/ddgi_camera.inc.wgsl")),
     ("ddgi_budget.wgsl", include_str!("../shaders/ddgi_budget.wgsl")),
+    ("ddgi_shading.inc.wgsl", include_str!("../shaders/ddgi_shading.inc.wgsl")),
     ("ddgi_trace.wgsl", include_str!("../shaders/ddgi_trace.wgsl")),
+    ("ddgi_shade.wgsl", include_str!("../shaders/ddgi_shade.wgsl")),
     ("ddgi_probe_update.wgsl", include_str!("../shaders/ddgi_probe_update.wgsl")),
     ("ddgi_gather.wgsl", include_str!("../shaders/ddgi_gather.wgsl")),
     ("ddgi_visibility.inc.wgsl", include_str!("../shaders/ddgi_visibility.inc.wgsl")),

@@ -35,6 +35,27 @@ impl Specialization {
     }
 }
 
+/// The ray passes' kernels, each compiled per [`Specialization`]: `(shader file, entry point)`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub(crate) enum RayKernel {
+    /// `ddgi_trace`, a thread a ray: trace and shading.
+    Trace,
+    /// `ddgi_trace` with persistent threads: closest hits only ([`crate::DdgiVolume::persistent_trace`]).
+    PersistentTrace,
+    /// `ddgi_shade`: the shading of the persistent trace's hits.
+    Shade,
+}
+
+impl RayKernel {
+    fn entry(self) -> (&'static str, &'static str) {
+        match self {
+            Self::Trace => ("ddgi_trace.wgsl", "trace_rays"),
+            Self::PersistentTrace => ("ddgi_trace.wgsl", "trace_rays_persistent"),
+            Self::Shade => ("ddgi_shade.wgsl", "shade_rays"),
+        }
+    }
+}
+
 /// Pipelines of the DDGI passes.
 #[derive(Resource)]
 pub struct DdgiPipelines {
@@ -43,7 +64,7 @@ pub struct DdgiPipelines {
     pub(crate) scale: ComputeProgram,
     pub(crate) plan_blocks: ComputeProgram,
     pub(crate) place: ComputeProgram,
-    specialized: HashMap<Specialization, ComputeProgram>,
+    specialized: HashMap<(Specialization, RayKernel), ComputeProgram>,
     pub(crate) update_irradiance: ComputeProgram,
     pub(crate) update: ComputeProgram,
     pub(crate) gather: ComputeProgram,
@@ -108,15 +129,16 @@ impl DdgiPipelines {
         Ok(program)
     }
 
-    /// The trace-and-shading pipeline compiled for `s` (built on first use).
-    pub(crate) fn trace_program(&mut self, gpu: &GpuContext, s: Specialization) -> Result<ComputeProgram, ShaderError> {
-        if let Some(p) = self.specialized.get(&s) {
+    /// The pipeline of a ray pass's `kernel` compiled for `s` (built on first use).
+    pub(crate) fn ray_program(&mut self, gpu: &GpuContext, s: Specialization, kernel: RayKernel) -> Result<ComputeProgram, ShaderError> {
+        if let Some(p) = self.specialized.get(&(s, kernel)) {
             return Ok(p.clone());
         }
         let constants =
             [("SCENE_HAS_SPOT_LIGHTS", f64::from(u8::from(s.spot_lights))), ("SCENE_HAS_EMISSIVE", f64::from(u8::from(s.emissive)))];
-        let program = Arc::new(compute_program_with_constants(&gpu.device, "ddgi_trace.wgsl", "trace_rays", "trace_rays", &constants)?);
-        self.specialized.insert(s, program.clone());
+        let (file, entry) = kernel.entry();
+        let program = Arc::new(compute_program_with_constants(&gpu.device, file, entry, entry, &constants)?);
+        self.specialized.insert((s, kernel), program.clone());
         Ok(program)
     }
 }

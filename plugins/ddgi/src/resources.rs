@@ -49,6 +49,9 @@ pub struct VolumeGpu {
     /// Each ray's shading: radiance (rgb) and stored distance (w: `t`, `−BACKFACE_SCALE · t` for
     /// a back face, `MISS` for a miss).
     pub(crate) radiance: wgpu::Buffer,
+    /// The persistent trace's closest hits, a [`crate::gpu::DdgiHit`] each
+    /// ([`DdgiVolume::persistent_trace`]; 16 bytes, unused, when it is off).
+    pub(crate) hits: wgpu::Buffer,
     /// The maps at full precision (see `ddgi_common.inc.wgsl`): irradiance and its smoothed change (two
     /// vec4 per texel) and distance moments (vec2 per texel), in probe order.
     pub irradiance_history: wgpu::Buffer,
@@ -133,6 +136,7 @@ impl VolumeGpu {
             wake: buffer("ddgi_wake", u64::from(crate::gpu::MAX_WAKE_BOXES) * 32, B::STORAGE | B::COPY_DST),
             rays: buffer("ddgi_rays", sizes.rays, B::STORAGE | B::COPY_SRC),
             radiance: buffer("ddgi_radiance", sizes.rays, B::STORAGE | B::COPY_SRC),
+            hits: buffer("ddgi_hits", sizes.hits, B::STORAGE),
             irradiance_history: buffer("ddgi_irradiance_history", sizes.irradiance_history, B::STORAGE | B::COPY_SRC),
             distance_history: buffer("ddgi_distance_history", sizes.distance_history, B::STORAGE | B::COPY_SRC),
             irradiance,
@@ -410,9 +414,11 @@ fn same_resources(a: &DdgiVolume, b: &DdgiVolume) -> bool {
     a.bounds == b.bounds && same_grid(a, b)
 }
 
-/// The same grid but for its place: same counts, rays, map sizes and seed.
+/// The same grid but for its place: same counts, rays, map sizes and seed, and the same trace
+/// (the persistent one has its hit buffer).
 fn same_grid(a: &DdgiVolume, b: &DdgiVolume) -> bool {
-    a.probe_counts == b.probe_counts
+    a.persistent_trace == b.persistent_trace
+        && a.probe_counts == b.probe_counts
         && a.rays_per_probe == b.rays_per_probe
         && a.irradiance_texels == b.irradiance_texels
         && a.distance_texels == b.distance_texels

@@ -264,6 +264,7 @@ fn state_counts_and_gpu_memory_add_up() {
         ("ddgi_probes", sizes.probes),
         ("ddgi_rays", sizes.rays),
         ("ddgi_radiance", sizes.rays),
+        ("ddgi_hits", sizes.hits.max(16)),
         ("ddgi_irradiance_history", sizes.irradiance_history),
         ("ddgi_distance_history", sizes.distance_history),
         ("ddgi_blocks", sizes.blocks.max(16)),

@@ -1045,3 +1045,51 @@ fn a_glossy_box_in_a_white_furnace_vanishes_into_the_sky() {
         assert!(worst < 0.05, "metallic {metallic}, roughness {roughness}: a pixel off by {worst}");
     }
 }
+
+/// The persistent trace (`DdgiVolume::persistent_trace`: closest hits by persistent threads into
+/// `ddgi_hits`, then the pass `ddgi_shade`) gives the same atlases, bit for bit, as the trace that
+/// shades in the thread that traced: same rays, same hits, same shading. Adaptive budgets vary the
+/// ray count from frame to frame, so the persistent workgroups' shares (from the GPU-side count)
+/// vary too.
+#[test]
+fn the_persistent_trace_gives_the_same_atlases_as_a_thread_a_ray() {
+    let Some(gpu) = gpu("the_persistent_trace_gives_the_same_atlases_as_a_thread_a_ray") else { return };
+    const FRAMES: u32 = 12;
+    for (name, probes) in [("cornell", UVec3::new(6, 6, 6)), ("door_room", UVec3::new(8, 4, 8))] {
+        let run = |persistent_trace: bool| {
+            let volume = DdgiVolume {
+                bounds: scenes::find(name).expect("built-in scene").gi_box(),
+                probe_counts: Some(probes),
+                rays_per_probe: 64,
+                adaptive: ddgi::DdgiAdaptive::on(),
+                persistent_trace,
+                ..Default::default()
+            };
+            let (_, app) = run_ddgi(&gpu, (scenes::find(name).expect("built-in scene").build)(), volume, 16, FRAMES);
+            let v = first_volume(&app);
+            let shaded = app
+                .world()
+                .resource::<engine::render::FrameTimings>()
+                .frames
+                .iter()
+                .any(|f| f.passes.iter().any(|p| p.ran && p.label == "ddgi_shade"));
+            // Rays a frame, by frame (read back asynchronously: the runs may get different frames back).
+            let rays: std::collections::BTreeMap<u64, f64> =
+                app.world().resource::<engine::render::FrameTimings>().counter("ddgi_rays").into_iter().collect();
+            (read_irradiance(&gpu, v), read_distance(&gpu, v), rays, shaded)
+        };
+        let (irradiance, distance, rays, shaded) = run(false);
+        let (persistent_irradiance, persistent_distance, persistent_rays, persistent_shaded) = run(true);
+        assert!(!shaded && persistent_shaded, "{name}: ddgi_shade runs only with the persistent trace");
+        let both: Vec<(u64, f64, f64)> =
+            rays.iter().filter_map(|(frame, &r)| persistent_rays.get(frame).map(|&p| (*frame, r, p))).collect();
+        assert!(both.len() >= 5, "{name}: frames with a ray count back from both runs: {both:?}");
+        assert!(both.iter().all(|&(_, r, p)| r == p), "{name}: rays a frame (frame, thread a ray, persistent): {both:?}");
+        assert!(both.iter().any(|&(_, r, _)| r != both[0].1), "{name}: the adaptive budgets vary the ray count: {both:?}");
+        assert!(irradiance.texels.iter().any(|t| t.max_element() > 0.0), "{name}: the probes saw light");
+        let first_difference = |a: &[Vec3], b: &[Vec3]| a.iter().zip(b).position(|(x, y)| x != y);
+        assert_eq!(first_difference(&irradiance.texels, &persistent_irradiance.texels), None, "{name}: irradiance texel");
+        let distance_difference = distance.texels.iter().zip(&persistent_distance.texels).position(|(x, y)| x != y);
+        assert_eq!(distance_difference, None, "{name}: distance texel");
+    }
+}

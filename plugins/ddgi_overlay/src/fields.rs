@@ -192,6 +192,7 @@ pub const VOLUME_FIELDS: &[Field<DdgiVolume>] = &[
     Field { name: "warm_up", edit: |ui, v| toggle(ui, &mut v.warm_up) },
     Field { name: "update_period", edit: |ui, v| u32_range(ui, &mut v.update_period, 1, 1024) },
     Field { name: "update_phase", edit: |ui, v| u32_range(ui, &mut v.update_phase, 0, 1023) },
+    Field { name: "persistent_trace", edit: |ui, v| toggle(ui, &mut v.persistent_trace) },
 ];
 
 /// The editors of every [`DdgiAdaptive`] field, in the struct's order.

@@ -20,7 +20,7 @@ const HISTORY: usize = 240;
 /// the GPU).
 const ATLAS_REFRESH_SECONDS: f64 = 0.5;
 /// The passes of the probe update (everything DDGI does before the camera's gather).
-const PROBE_UPDATE_PASSES: [&str; 3] = ["ddgi_budget", "ddgi_trace", "ddgi_probe_update"];
+use ddgi::PROBE_UPDATE_PASSES;
 
 /// The frame rate and GPU time history of the performance window.
 #[derive(Default)]
