@@ -181,10 +181,11 @@ impl Default for DdgiProbeView {
     }
 }
 
-/// Vertices of one probe sphere: two triangles per ring × segment of `ddgi_probe_spheres.wgsl`.
+/// Vertices of one probe sphere: two triangles per ring × segment of `ddgi_debug_draw.inc.wgsl`
+/// (the sphere of the probe debug view and of any debug view that includes that module).
 pub fn probe_sphere_vertices() -> Result<u32, ShaderError> {
-    let parsed = engine::shader::parse("ddgi_probe_spheres.wgsl")?;
-    let missing = |name: &str| ShaderError::Missing(format!("ddgi_probe_spheres.wgsl: const {name}"));
+    let parsed = engine::shader::parse("ddgi_debug_draw.inc.wgsl")?;
+    let missing = |name: &str| ShaderError::Missing(format!("ddgi_debug_draw.inc.wgsl: const {name}"));
     let rings = parsed.u32_constant("SPHERE_RINGS").ok_or_else(|| missing("SPHERE_RINGS"))?;
     let segments = parsed.u32_constant("SPHERE_SEGMENTS").ok_or_else(|| missing("SPHERE_SEGMENTS"))?;
     Ok(6 * rings * segments)

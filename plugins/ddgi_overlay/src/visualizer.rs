@@ -82,13 +82,13 @@ pub fn gpu_structs() -> Vec<engine::shader::HostStruct> {
     })]
 }
 
-/// Vertices of one distance sphere (`6 · SPHERE_RINGS · SPHERE_SEGMENTS` of the shader) and of one
-/// line (`LINE_VERTICES`), read from the shader.
+/// Vertices of one distance sphere (ddgi's probe sphere, [`ddgi::debug_view::probe_sphere_vertices`])
+/// and of one line (`LINE_VERTICES`), read from the shaders.
 pub fn vertex_counts() -> Result<(u32, u32), ShaderError> {
     let parsed = engine::shader::parse("ddgi_visualizer.wgsl")?;
-    let constant =
-        |name: &str| parsed.u32_constant(name).ok_or_else(|| ShaderError::Missing(format!("ddgi_visualizer.wgsl: const {name}")));
-    Ok((6 * constant("SPHERE_RINGS")? * constant("SPHERE_SEGMENTS")?, constant("LINE_VERTICES")?))
+    let line =
+        parsed.u32_constant("LINE_VERTICES").ok_or_else(|| ShaderError::Missing("ddgi_visualizer.wgsl: const LINE_VERTICES".into()))?;
+    Ok((ddgi::debug_view::probe_sphere_vertices()?, line))
 }
 
 /// The pass's pipeline, with the vertices of one sphere and of one line.
