@@ -96,7 +96,7 @@ enum Command {
         settle_frames: u32,
         /// Probes along x, y and z of the fixed- and adaptive-budget DDGI configurations (default: the
         /// published grid of the scene).
-        #[arg(long, value_parser = parse_uvec3)]
+        #[arg(long, value_parser = lab::parse_uvec3)]
         probes: Option<glam::UVec3>,
         /// Adaptive configuration: the longest rest of a quiet probe in frames (DdgiAdaptive::max_rest_frames).
         #[arg(long)]
@@ -145,7 +145,7 @@ enum Command {
         #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=8))]
         cascades: u32,
         /// Probes of each cascade.
-        #[arg(long, value_parser = parse_uvec3, default_value = "16,8,16")]
+        #[arg(long, value_parser = lab::parse_uvec3, default_value = "16,8,16")]
         cascade_probes: glam::UVec3,
         /// Probe spacing of the finest cascade (default: the coarsest as wide as the scene).
         #[arg(long)]
@@ -228,7 +228,7 @@ struct PlayArgs {
     height: u32,
     /// Probes along x, y and z of the level's DDGI volume, `X,Y,Z` (default: every 1.5 m over the
     /// level, play::level::level_probe_counts).
-    #[arg(long, value_parser = parse_uvec3)]
+    #[arg(long, value_parser = lab::parse_uvec3)]
     probes: Option<glam::UVec3>,
     /// With --cascades: probe spacing of the finest cascade, in metres.
     #[arg(long, default_value_t = play::PROBE_SPACING)]
@@ -363,10 +363,10 @@ enum BenchCommand {
         #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(0..=8))]
         cascades: u32,
         /// Probes of the one volume with --cascades 0, `X,Y,Z`.
-        #[arg(long, value_parser = parse_uvec3, default_value = "32,8,32")]
+        #[arg(long, value_parser = lab::parse_uvec3, default_value = "32,8,32")]
         probes: glam::UVec3,
         /// Probes of each cascade, `X,Y,Z`.
-        #[arg(long, value_parser = parse_uvec3, default_value = "16,8,16")]
+        #[arg(long, value_parser = lab::parse_uvec3, default_value = "16,8,16")]
         cascade_probes: glam::UVec3,
         /// Probe spacing of the finest cascade (metres).
         #[arg(long, default_value_t = 1.5)]
@@ -494,7 +494,7 @@ enum BenchCommand {
         #[arg(long, default_value_t = 1080)]
         height: u32,
         /// Probe grids `X,Y,Z` to measure instead of the published four (repeatable).
-        #[arg(long, value_parser = parse_uvec3)]
+        #[arg(long, value_parser = lab::parse_uvec3)]
         probes: Vec<glam::UVec3>,
         /// Rays per probe to measure instead of 32, 64, 128, 256 (repeatable).
         #[arg(long)]
@@ -519,7 +519,7 @@ enum BenchCommand {
         #[arg(long, default_value = "cathedral")]
         scene: String,
         /// Probes along x, y and z (default: the published grid of the scene).
-        #[arg(long, value_parser = parse_uvec3)]
+        #[arg(long, value_parser = lab::parse_uvec3)]
         probes: Option<glam::UVec3>,
         /// Frames DDGI runs (classifying its probes) before the check.
         #[arg(long, default_value_t = 60)]
@@ -656,10 +656,10 @@ struct DdgiArgs {
     /// Probes along x, y and z of the volume, `X,Y,Z` (default: fitted to the volume's box,
     /// ddgi::auto_probe_counts: 16 along its longest side, at least 8 along any side an eighth as
     /// long).
-    #[arg(long, value_parser = parse_uvec3)]
+    #[arg(long, value_parser = lab::parse_uvec3)]
     probes: Option<glam::UVec3>,
     /// With --cascades: probes of each cascade, `X,Y,Z`.
-    #[arg(long, value_parser = parse_uvec3, default_value = "16,8,16")]
+    #[arg(long, value_parser = lab::parse_uvec3, default_value = "16,8,16")]
     cascade_probes: glam::UVec3,
     /// Rays per probe per frame.
     #[arg(long, default_value_t = ddgi::DdgiVolume::default().rays_per_probe)]
@@ -729,20 +729,6 @@ impl DdgiArgs {
 }
 
 /// `x,y,z`; also glam's display form `[x, y, z]` (how clap shows a default).
-fn parse_uvec3(text: &str) -> Result<glam::UVec3, String> {
-    let v: Vec<u32> = text
-        .trim()
-        .trim_start_matches('[')
-        .trim_end_matches(']')
-        .split(',')
-        .map(|p| p.trim().parse::<u32>().map_err(|e| format!("'{p}': {e}")))
-        .collect::<Result<_, _>>()?;
-    match v[..] {
-        [x, y, z] => Ok(glam::UVec3::new(x, y, z)),
-        _ => Err(format!("expected three whole numbers x,y,z, got '{text}'")),
-    }
-}
-
 fn parse_dvec3(text: &str) -> Result<glam::DVec3, String> {
     let v: Vec<f64> = text.split(',').map(|p| p.trim().parse::<f64>().map_err(|e| format!("'{p}': {e}"))).collect::<Result<_, _>>()?;
     match v[..] {
@@ -764,16 +750,13 @@ pub const LEVEL_SCENE: &str = scenes::level::NAME;
 
 /// A built-in scene (of [`scenes::ALL`]) or the demo level by name, or a scene file by path.
 fn load(scene: &str) -> Result<SceneDescription, String> {
-    if let Some(entry) = scenes::find(scene) {
-        return Ok((entry.build)());
-    }
-    if scene == LEVEL_SCENE {
-        return Ok(scenes::level::scene());
+    if let Some(built_in) = lab::eval::built_in_scene(scene) {
+        return Ok(built_in);
     }
     let path = std::path::Path::new(scene);
     if path.extension().is_none() {
-        let names = scenes::names().collect::<Vec<_>>().join(", ");
-        return Err(format!("'{scene}' is neither a built-in scene ({names}, {LEVEL_SCENE}) nor a scene file"));
+        let names = lab::eval::built_in_scene_names().collect::<Vec<_>>().join(", ");
+        return Err(format!("'{scene}' is neither a built-in scene ({names}) nor a scene file"));
     }
     engine::import::load_scene(path).map_err(|e| e.to_string())
 }
@@ -800,7 +783,7 @@ fn replace_camera(scene: &mut SceneDescription, position: glam::Vec3, target: gl
 
 fn render(args: RenderArgs) -> Result<(), String> {
     if args.list_scenes {
-        for name in scenes::names().chain([LEVEL_SCENE]) {
+        for name in lab::eval::built_in_scene_names() {
             println!("{name}");
         }
         return Ok(());

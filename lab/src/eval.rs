@@ -104,6 +104,20 @@ pub struct SceneFacts {
 /// camera to where the change shows).
 pub type PrepareChange = fn(&mut SceneDescription) -> Result<SceneChange, String>;
 
+/// A built-in scene by name: one of [`scenes::ALL`] or the demo level ([`scenes::level::NAME`]);
+/// `None` for any other name.
+pub fn built_in_scene(name: &str) -> Option<SceneDescription> {
+    if let Some(entry) = scenes::find(name) {
+        return Some((entry.build)());
+    }
+    (name == scenes::level::NAME).then(scenes::level::scene)
+}
+
+/// The names [`built_in_scene`] knows: [`scenes::names`], then the demo level's.
+pub fn built_in_scene_names() -> impl Iterator<Item = &'static str> {
+    scenes::names().chain([scenes::level::NAME])
+}
+
 impl SceneFacts {
     /// The facts of the built-in scene `name` (its published grid and its own GI box), of the demo
     /// level ([`scenes::level::NAME`]: `play`'s grid and box, its change left to the demo), or of a
@@ -497,15 +511,22 @@ pub(crate) fn cached_image(
     if let Some(dir) = key.parent() {
         std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     }
-    let rgb: Vec<f32> = hdr.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
-    image::Rgb32FImage::from_raw(width, height, rgb)
-        .ok_or("reference size mismatch")?
-        .save(key)
-        .map_err(|e| format!("{}: {e}", key.display()))?;
+    save_exr(key, &hdr, width, height)?;
     Ok((hdr, false))
 }
 
-fn save_strip(path: &Path, panels: &[Vec<u8>], width: u32, height: u32) -> Result<(), String> {
+/// Writes the linear RGBA image `rgba` (`width` × `height`) to `path` as an RGB EXR.
+pub fn save_exr(path: &Path, rgba: &[f32], width: u32, height: u32) -> Result<(), String> {
+    let rgb: Vec<f32> = rgba.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
+    image::Rgb32FImage::from_raw(width, height, rgb)
+        .ok_or_else(|| format!("{}: the pixel count does not match {width}×{height}", path.display()))?
+        .save(path)
+        .map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// Writes `panels` (sRGB8 RGB images of `width` × `height`) side by side, left to right, to `path`
+/// as one PNG.
+pub fn save_strip(path: &Path, panels: &[Vec<u8>], width: u32, height: u32) -> Result<(), String> {
     let mut strip = image::RgbImage::new(width * panels.len() as u32, height);
     for (k, panel) in panels.iter().enumerate() {
         for y in 0..height {

@@ -23,3 +23,18 @@ pub fn median(values: &mut [f64]) -> Option<f64> {
     values.sort_by(f64::total_cmp);
     values.get(values.len() / 2).copied()
 }
+
+/// Three whole numbers `x,y,z` (a probe grid, a cell count), optionally in brackets: `[x,y,z]`.
+pub fn parse_uvec3(text: &str) -> Result<engine::glam::UVec3, String> {
+    let v: Vec<u32> = text
+        .trim()
+        .trim_start_matches('[')
+        .trim_end_matches(']')
+        .split(',')
+        .map(|p| p.trim().parse::<u32>().map_err(|e| format!("'{p}': {e}")))
+        .collect::<Result<_, _>>()?;
+    match v[..] {
+        [x, y, z] => Ok(engine::glam::UVec3::new(x, y, z)),
+        _ => Err(format!("expected three whole numbers x,y,z, got '{text}'")),
+    }
+}

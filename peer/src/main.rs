@@ -69,12 +69,13 @@ struct Args {
     no_awake: bool,
 }
 
+/// A probe grid ([`lab::parse_uvec3`]) of at least 2 probes along each axis (sgl-3d's least).
 fn parse_grid(text: &str) -> Result<[u32; 3], String> {
-    let parts: Vec<u32> = text.split(',').map(|p| p.trim().parse::<u32>().map_err(|e| format!("'{p}': {e}"))).collect::<Result<_, _>>()?;
-    match parts[..] {
-        [x, y, z] if x >= 2 && y >= 2 && z >= 2 => Ok([x, y, z]),
-        _ => Err(format!("expected X,Y,Z with each at least 2 (sgl-3d's least), got '{text}'")),
+    let grid = lab::parse_uvec3(text)?;
+    if grid.cmplt(engine::glam::UVec3::splat(2)).any() {
+        return Err(format!("expected X,Y,Z with each at least 2 (sgl-3d's least), got '{text}'"));
     }
+    Ok(grid.to_array())
 }
 
 /// One row of the table.
@@ -140,15 +141,10 @@ fn run(args: &Args) -> Result<(), String> {
     // The level as `game_demo eval --scene level` renders it: the same description, still, with
     // the sky of every still evaluation (black: `engine::render::Sky`'s default, which neither
     // sets), so that the reference is the evaluation's (the same cache entry).
-    let scene = if args.scene == scenes::level::NAME {
-        scenes::level::scene()
-    } else {
-        let entry = scenes::find(&args.scene).ok_or_else(|| {
-            let names: Vec<_> = scenes::names().chain([scenes::level::NAME]).collect();
-            format!("--scene '{}': not a built-in scene ({})", args.scene, names.join(", "))
-        })?;
-        (entry.build)()
-    };
+    let scene = lab::eval::built_in_scene(&args.scene).ok_or_else(|| {
+        let names: Vec<_> = lab::eval::built_in_scene_names().collect();
+        format!("--scene '{}': not a built-in scene ({})", args.scene, names.join(", "))
+    })?;
     let scene = lab::eval::still(scene);
     let facts = SceneFacts::named(&args.scene);
     let grid = args.probes.unwrap_or(facts.paper_grid);
@@ -309,7 +305,7 @@ fn run(args: &Args) -> Result<(), String> {
                     error,
                     update_passes: Vec::new(),
                 });
-                images.push((name.replace([',', ' '], "_").replace("__", "_"), timed.hdr));
+                images.push((image_name(&name), timed.hdr));
                 sgl_frames.push((name, timed.frames));
             }
             Runner::Ours(app) => {
@@ -433,7 +429,7 @@ fn ours_row(config: &Config, frame: RenderedFrame, args: &Args, reference: &[f32
     let update_frames = updates.len();
     let update_ms = median(updates);
     let error = compare(reference, &frame.hdr, args.width, args.height, 1.0);
-    images.push((config.name().replace([',', ' '], "_").replace("__", "_"), frame.hdr));
+    images.push((image_name(&config.name()), frame.hdr));
     Row {
         renderer: config.name(),
         update_ms,
@@ -487,21 +483,21 @@ fn table(args: &Args, adapter: &str, grid: [u32; 3], rows: &[Row]) -> String {
     md
 }
 
+/// A row's name as a file name: commas and spaces as single underscores.
+fn image_name(renderer: &str) -> String {
+    renderer.replace([',', ' '], "_").replace("__", "_")
+}
+
 /// Each image as `<scene>_<name>.exr` (linear) and all of them side by side in `<scene>.png`
 /// (tonemapped at exposure 1, sRGB), in the table's order with the reference last.
 fn write_images(out: &Path, scene: &str, w: u32, h: u32, images: &[(String, Vec<f32>)]) -> Result<(), String> {
-    let mut strip = image::RgbImage::new(w * images.len() as u32, h);
-    for (k, (name, hdr)) in images.iter().enumerate() {
-        let rgb: Vec<f32> = hdr.chunks_exact(4).flat_map(|p| [p[0], p[1], p[2]]).collect();
-        let path = out.join(format!("{scene}_{name}.exr"));
-        image::Rgb32FImage::from_raw(w, h, rgb).ok_or("image size")?.save(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let ldr = tonemap_to_srgb8(hdr, 1.0);
-        for (i, p) in ldr.chunks_exact(3).enumerate() {
-            strip.put_pixel(k as u32 * w + i as u32 % w, i as u32 / w, image::Rgb([p[0], p[1], p[2]]));
-        }
+    let mut panels = Vec::new();
+    for (name, hdr) in images {
+        lab::eval::save_exr(&out.join(format!("{scene}_{name}.exr")), hdr, w, h)?;
+        panels.push(tonemap_to_srgb8(hdr, 1.0));
     }
     let path = out.join(format!("{scene}.png"));
-    strip.save(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+    lab::eval::save_strip(&path, &panels, w, h)?;
     println!("images: {} (sgl-3d rows, ours, reference)", path.display());
     Ok(())
 }

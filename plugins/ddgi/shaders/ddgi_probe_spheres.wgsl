@@ -3,6 +3,7 @@
 // each point of its surface (a white diffuse ball lit by the probe's map), or a false colour of
 // its state, its ray budget or its temporal error.
 #include "ddgi_common.inc.wgsl"
+#include "ddgi_debug_draw.inc.wgsl"
 
 struct DdgiProbeViewParams {
     // 1 irradiance, 2 state, 3 ray budget, 4 temporal error.
@@ -24,11 +25,6 @@ struct DdgiProbeViewParams {
 // The volume's probe states, read-only (vertex shaders may not bind writable storage).
 @group(2) @binding(1) var<storage, read> ddgi_probe_view_probes: array<DdgiProbeData>;
 
-// The sphere's tessellation; the draw takes 6 · rings · segments vertices per probe (read from
-// here by the plugin through naga).
-const SPHERE_RINGS: u32 = 8u;
-const SPHERE_SEGMENTS: u32 = 12u;
-
 struct ProbeVertex {
     @builtin(position) clip: vec4<f32>,
     @location(0) normal: vec3<f32>,
@@ -37,27 +33,14 @@ struct ProbeVertex {
 
 @vertex
 fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) probe: u32) -> ProbeVertex {
-    let du = array<u32, 6>(0u, 1u, 1u, 0u, 1u, 0u);
-    let dv = array<u32, 6>(0u, 0u, 1u, 0u, 1u, 1u);
-    let quad = vertex / 6u;
-    let corner = vertex % 6u;
-    let ring = quad / SPHERE_SEGMENTS + dv[corner];
-    let segment = quad % SPHERE_SEGMENTS + du[corner];
-    let theta = PI * f32(ring) / f32(SPHERE_RINGS);
-    let phi = 2.0 * PI * f32(segment) / f32(SPHERE_SEGMENTS);
-    let n = vec3<f32>(sin(theta) * cos(phi), cos(theta), sin(theta) * sin(phi));
+    // 6 · SPHERE_RINGS · SPHERE_SEGMENTS vertices per probe (ddgi_debug_draw.inc.wgsl).
+    let n = ddgi_sphere_normal(vertex);
     let center = ddgi_volume.origin + ddgi_volume.spacing * vec3<f32>(ddgi_probe_coords(probe)) + ddgi_probe_view_probes[probe].offset;
     var out: ProbeVertex;
     out.clip = view_raster_position(vec4<f32>(center + n * max(ddgi_probe_view.radius, 0.0), 1.0));
     out.normal = n;
     out.probe = probe;
     return out;
-}
-
-// Blue → green → yellow → red as t goes 0 → 1.
-fn heat(t_in: f32) -> vec3<f32> {
-    let t = clamp(t_in, 0.0, 1.0);
-    return clamp(vec3<f32>(1.5 * t - 0.25, 1.0 - abs(2.0 * t - 1.0) * 0.8, 1.0 - 2.0 * t), vec3<f32>(0.0), vec3<f32>(1.0));
 }
 
 @fragment
@@ -85,10 +68,10 @@ fn fs_main(in: ProbeVertex) -> @location(0) vec4<f32> {
             radiance = c * display;
         }
         case 3u: {
-            radiance = heat(f32(probe.ray_count) / max(ddgi_probe_view.max_rays, 1.0)) * display;
+            radiance = ddgi_heat(f32(probe.ray_count) / max(ddgi_probe_view.max_rays, 1.0)) * display;
         }
         default: {
-            radiance = heat(probe.error / max(ddgi_probe_view.max_error, 1e-6)) * display;
+            radiance = ddgi_heat(probe.error / max(ddgi_probe_view.max_error, 1e-6)) * display;
         }
     }
     // A lit rim on the selected probe.

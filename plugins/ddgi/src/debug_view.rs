@@ -4,7 +4,7 @@
 use bevy_ecs::prelude::*;
 use std::sync::Arc;
 
-use engine::graph::{Bind, Handle, RenderGraph, Texture as GraphTexture};
+use engine::graph::{Bind, Handle, PassBuilder, RenderGraph, Texture as GraphTexture};
 use engine::render::CameraFrame;
 use engine::shader::{Program, ShaderError};
 use engine::wgpu;
@@ -181,10 +181,11 @@ impl Default for DdgiProbeView {
     }
 }
 
-/// Vertices of one probe sphere: two triangles per ring × segment of `ddgi_probe_spheres.wgsl`.
+/// Vertices of one probe sphere: two triangles per ring × segment of `ddgi_debug_draw.inc.wgsl`
+/// (the sphere of the probe debug view and of any debug view that includes that module).
 pub fn probe_sphere_vertices() -> Result<u32, ShaderError> {
-    let parsed = engine::shader::parse("ddgi_probe_spheres.wgsl")?;
-    let missing = |name: &str| ShaderError::Missing(format!("ddgi_probe_spheres.wgsl: const {name}"));
+    let parsed = engine::shader::parse("ddgi_debug_draw.inc.wgsl")?;
+    let missing = |name: &str| ShaderError::Missing(format!("ddgi_debug_draw.inc.wgsl: const {name}"));
     let rings = parsed.u32_constant("SPHERE_RINGS").ok_or_else(|| missing("SPHERE_RINGS"))?;
     let segments = parsed.u32_constant("SPHERE_SEGMENTS").ok_or_else(|| missing("SPHERE_SEGMENTS"))?;
     Ok(6 * rings * segments)
@@ -228,15 +229,35 @@ pub(crate) fn add_probe_spheres(
     let uniform = graph.import_buffer("ddgi_probe_view", &uniform);
     let mut pass = graph.add_pass("ddgi_probe_spheres");
     pass.note(view.color.name());
+    let count = volume.layout.probe_count;
+    let group2 = |pass: &mut PassBuilder<'_>, handles: &VolumeHandles| {
+        vec![("ddgi_probe_view", Bind::buffer(pass.read(&uniform))), ("ddgi_probe_view_probes", Bind::buffer(pass.read(&handles.probes)))]
+    };
+    render_over_image(pass, program, handles, group2, depth, hdr, move |rp| rp.draw(0..vertices, 0..count));
+}
+
+/// Finishes `pass`, a debug view of one volume drawn over the lit image with `program` (the probe
+/// spheres, the overlay's visualizer): declares group 1 (the volume's resources, from `handles`),
+/// then group 2 (the pass's own bindings, which `group2` declares on the pass), reads and writes
+/// `hdr` and `depth` (the G-buffer's depth) and declares group 0 (the view's named imports). Its
+/// closure begins a render pass over the image ([`engine::render::begin_pass_over_image`]), sets the
+/// pipeline and the three bind groups, and records `draw`.
+pub fn render_over_image(
+    mut pass: PassBuilder<'_>,
+    program: Arc<Program<wgpu::RenderPipeline>>,
+    handles: &mut VolumeHandles,
+    group2: impl FnOnce(&mut PassBuilder<'_>, &VolumeHandles) -> Vec<(&'static str, Bind)>,
+    depth: &mut Handle<GraphTexture>,
+    hdr: &mut Handle<GraphTexture>,
+    draw: impl FnOnce(&mut wgpu::RenderPass<'_>) + 'static,
+) {
     let group1 = handles.declare(&mut pass, &program.bindings, 1);
-    let group2 =
-        [("ddgi_probe_view", Bind::buffer(pass.read(&uniform))), ("ddgi_probe_view_probes", Bind::buffer(pass.read(&handles.probes)))];
+    let group2 = group2(&mut pass, handles);
     pass.read(hdr);
     pass.read(depth);
     let color = pass.write(hdr);
     let depth = pass.write(depth);
     let group0 = pass.read_named(&program.bindings, 0);
-    let count = volume.layout.probe_count;
     pass.render(move |ctx| {
         let group0 = ctx.bind_group(&*program, 0, &group0);
         let group1 = ctx.bind_group(&*program, 1, &group1);
@@ -246,7 +267,7 @@ pub(crate) fn add_probe_spheres(
         rp.set_bind_group(0, &group0, &[]);
         rp.set_bind_group(1, &group1, &[]);
         rp.set_bind_group(2, &group2, &[]);
-        rp.draw(0..vertices, 0..count);
+        draw(&mut rp);
     });
 }
 

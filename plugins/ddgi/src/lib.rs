@@ -131,7 +131,9 @@ pub mod prelude {
 
 /// DDGI's WGSL (`plugins/ddgi/shaders/`): one file per pass, named after the pass label, and the
 /// modules they share — `ddgi_common.inc.wgsl` (structs, bindings, helpers), `ddgi_sampling.inc.wgsl`
-/// (the 8-probe sampling function, for any crate's WGSL to include) and `ddgi_camera.inc.wgsl`.
+/// (the 8-probe sampling function, for any crate's WGSL to include), `ddgi_camera.inc.wgsl` and
+/// `ddgi_debug_draw.inc.wgsl` (the probe sphere and false colours of the debug views, for any
+/// crate's debug view to include).
 /// [`register_shaders`] adds them, with the generated `ddgi_constants.inc.wgsl`.
 pub const SHADERS: &[engine::shader::ShaderModule] = &[
     ("ddgi_common.inc.wgsl", include_str!("../shaders/ddgi_common.inc.wgsl")),
@@ -146,6 +148,7 @@ pub const SHADERS: &[engine::shader::ShaderModule] = &[
     ("ddgi_visibility.inc.wgsl", include_str!("../shaders/ddgi_visibility.inc.wgsl")),
     ("ddgi_contact_occlusion.wgsl", include_str!("../shaders/ddgi_contact_occlusion.wgsl")),
     ("ddgi_composite.wgsl", include_str!("../shaders/ddgi_composite.wgsl")),
+    ("ddgi_debug_draw.inc.wgsl", include_str!("../shaders/ddgi_debug_draw.inc.wgsl")),
     ("ddgi_probe_spheres.wgsl", include_str!("../shaders/ddgi_probe_spheres.wgsl")),
 ];
 

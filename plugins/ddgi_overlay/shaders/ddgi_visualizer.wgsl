@@ -9,6 +9,7 @@
 // Lines are screen-space quads `line_width` pixels wide, moved a little towards the camera so that
 // a line lying on a surface is not hidden by it.
 #include "ddgi_common.inc.wgsl"
+#include "ddgi_debug_draw.inc.wgsl"
 
 struct DdgiVisualizerParams {
     // Instances [0, spheres) are distance spheres, [offsets_begin, offsets_end) offset lines (one
@@ -29,10 +30,6 @@ struct DdgiVisualizerParams {
 // The volume's probe states, read-only (vertex shaders may not bind writable storage).
 @group(2) @binding(1) var<storage, read> ddgi_visualizer_probes: array<DdgiProbeData>;
 
-// The sphere's tessellation; the distance spheres take 6 · rings · segments vertices each (read
-// from here by the plugin through naga).
-const SPHERE_RINGS: u32 = 8u;
-const SPHERE_SEGMENTS: u32 = 12u;
 // Vertices of one line: two triangles.
 const LINE_VERTICES: u32 = 6u;
 // The colours of the line views, display-referred (divided by the exposure).
@@ -109,15 +106,8 @@ fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) instance
     out.normal = vec3<f32>(0.0, 1.0, 0.0);
     let display = 1.0 / max(view.exposure, 1e-6);
     if instance < ddgi_visualizer.spheres {
-        let du = array<u32, 6>(0u, 1u, 1u, 0u, 1u, 0u);
-        let dv = array<u32, 6>(0u, 0u, 1u, 0u, 1u, 1u);
-        let quad = vertex / 6u;
-        let corner = vertex % 6u;
-        let ring = quad / SPHERE_SEGMENTS + dv[corner];
-        let segment = quad % SPHERE_SEGMENTS + du[corner];
-        let theta = PI * f32(ring) / f32(SPHERE_RINGS);
-        let phi = 2.0 * PI * f32(segment) / f32(SPHERE_SEGMENTS);
-        let n = vec3<f32>(sin(theta) * cos(phi), cos(theta), sin(theta) * sin(phi));
+        // 6 · SPHERE_RINGS · SPHERE_SEGMENTS vertices per sphere (ddgi_debug_draw.inc.wgsl).
+        let n = ddgi_sphere_normal(vertex);
         let center = probe_grid_point(instance) + ddgi_visualizer_probes[instance].offset;
         out.clip = view_raster_position(vec4<f32>(center + n * max(ddgi_visualizer.radius, 0.0), 1.0));
         out.normal = n;
@@ -141,12 +131,6 @@ fn vs_main(@builtin(vertex_index) vertex: u32, @builtin(instance_index) instance
     return out;
 }
 
-// Blue → green → yellow → red as t goes 0 → 1 (as the probe spheres' false colours).
-fn heat(t_in: f32) -> vec3<f32> {
-    let t = clamp(t_in, 0.0, 1.0);
-    return clamp(vec3<f32>(1.5 * t - 0.25, 1.0 - abs(2.0 * t - 1.0) * 0.8, 1.0 - 2.0 * t), vec3<f32>(0.0), vec3<f32>(1.0));
-}
-
 @fragment
 fn fs_main(in: VisualizerVertex) -> @location(0) vec4<f32> {
     if in.probe == 0xffffffffu {
@@ -158,5 +142,5 @@ fn fs_main(in: VisualizerVertex) -> @location(0) vec4<f32> {
     let uv = ddgi_atlas_uv(in.probe, n, ddgi_volume.distance_texels, ddgi_volume.distance_atlas_size);
     let mean = textureSampleLevel(ddgi_distance, ddgi_sampler, uv, 0.0).r;
     let display = 1.0 / max(view.exposure, 1e-6);
-    return vec4<f32>(sanitize_radiance(heat(mean) * display), 1.0);
+    return vec4<f32>(sanitize_radiance(ddgi_heat(mean) * display), 1.0);
 }

@@ -9,8 +9,9 @@ use std::sync::{Arc, Mutex};
 use bevy_app::App;
 use bevy_ecs::prelude::*;
 use bytemuck::{Pod, Zeroable};
+use ddgi::debug_view::render_over_image;
 use ddgi::{DdgiDebugPass, DdgiDebugPasses, VolumeGpu, VolumeHandles};
-use engine::graph::{Bind, Handle, RenderGraph, Texture as GraphTexture};
+use engine::graph::{Bind, Handle, PassBuilder, RenderGraph, Texture as GraphTexture};
 use engine::render::{CameraFrame, HDR_FORMAT};
 use engine::shader::{Program, RenderTargets, ShaderError, render_program};
 use engine::wgpu;
@@ -82,13 +83,13 @@ pub fn gpu_structs() -> Vec<engine::shader::HostStruct> {
     })]
 }
 
-/// Vertices of one distance sphere (`6 · SPHERE_RINGS · SPHERE_SEGMENTS` of the shader) and of one
-/// line (`LINE_VERTICES`), read from the shader.
+/// Vertices of one distance sphere (ddgi's probe sphere, [`ddgi::debug_view::probe_sphere_vertices`])
+/// and of one line (`LINE_VERTICES`), read from the shaders.
 pub fn vertex_counts() -> Result<(u32, u32), ShaderError> {
     let parsed = engine::shader::parse("ddgi_visualizer.wgsl")?;
-    let constant =
-        |name: &str| parsed.u32_constant(name).ok_or_else(|| ShaderError::Missing(format!("ddgi_visualizer.wgsl: const {name}")));
-    Ok((6 * constant("SPHERE_RINGS")? * constant("SPHERE_SEGMENTS")?, constant("LINE_VERTICES")?))
+    let line =
+        parsed.u32_constant("LINE_VERTICES").ok_or_else(|| ShaderError::Missing("ddgi_visualizer.wgsl: const LINE_VERTICES".into()))?;
+    Ok((ddgi::debug_view::probe_sphere_vertices()?, line))
 }
 
 /// The pass's pipeline, with the vertices of one sphere and of one line.
@@ -199,23 +200,13 @@ impl DdgiDebugPass for Visualizer {
             .map(|(_, name)| *name)
             .collect();
         pass.note(&on.join(", "));
-        let group1 = handles.declare(&mut pass, &program.bindings, 1);
-        let group2 =
-            [("ddgi_visualizer", Bind::buffer(pass.read(&uniform))), ("ddgi_visualizer_probes", Bind::buffer(pass.read(&handles.probes)))];
-        pass.read(hdr);
-        pass.read(depth);
-        let color = pass.write(hdr);
-        let depth = pass.write(depth);
-        let group0 = pass.read_named(&program.bindings, 0);
-        pass.render(move |ctx| {
-            let group0 = ctx.bind_group(&*program, 0, &group0);
-            let group1 = ctx.bind_group(&*program, 1, &group1);
-            let group2 = ctx.bind_group(&*program, 2, &group2);
-            let mut rp = engine::render::begin_pass_over_image(ctx, color, depth);
-            rp.set_pipeline(&program.pipeline);
-            rp.set_bind_group(0, &group0, &[]);
-            rp.set_bind_group(1, &group1, &[]);
-            rp.set_bind_group(2, &group2, &[]);
+        let group2 = |pass: &mut PassBuilder<'_>, handles: &VolumeHandles| {
+            vec![
+                ("ddgi_visualizer", Bind::buffer(pass.read(&uniform))),
+                ("ddgi_visualizer_probes", Bind::buffer(pass.read(&handles.probes))),
+            ]
+        };
+        render_over_image(pass, program, handles, group2, depth, hdr, move |rp| {
             if spheres > 0 {
                 rp.draw(0..sphere_vertices, 0..spheres);
             }
