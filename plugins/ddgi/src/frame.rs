@@ -32,6 +32,12 @@ use crate::resources::{DdgiGpuVolumes, VolumeGpu};
 /// dispatches under its one label.
 pub const PROBE_UPDATE_PASSES: [&str; 4] = ["ddgi_budget", "ddgi_trace", "ddgi_shade", "ddgi_probe_update"];
 
+/// Whether a pass label names a pass of the probe update ([`PROBE_UPDATE_PASSES`], with or without
+/// a volume's suffix `_k`): not the gather, the composite or a debug view.
+pub fn is_probe_update_pass(label: &str) -> bool {
+    PROBE_UPDATE_PASSES.iter().any(|p| label.strip_prefix(p).is_some_and(|rest| rest.is_empty() || rest.starts_with('_')))
+}
+
 /// Where in [`DdgiCounters`] the indirect dispatches of the ray passes and of the per-probe passes are.
 const RAY_DISPATCH_OFFSET: u64 = std::mem::offset_of!(DdgiCounters, dispatch) as u64;
 const PROBE_DISPATCH_OFFSET: u64 = std::mem::offset_of!(DdgiCounters, probe_dispatch) as u64;
@@ -506,6 +512,14 @@ enum DispatchSize {
     Indirect(engine::graph::Read<GraphBuffer>, u64),
 }
 
+/// One volume's dispatch of `program` in `pass`: its bindings declared, sized by the volume's
+/// counters at `offset` (an indirect dispatch from the budget pass's results).
+fn indirect_dispatch(pass: &mut PassBuilder<'_>, handles: &mut VolumeHandles, program: &ComputeProgram, offset: u64) -> Dispatch {
+    let (group0, group1) = (pass.read_named(&program.bindings, 0), handles.declare(pass, &program.bindings, 1));
+    let args = pass.read(&handles.counters);
+    Dispatch { program: program.clone(), group0, group1, size: DispatchSize::Indirect(args, offset) }
+}
+
 /// Records `dispatches` in one compute pass, in their order.
 fn record_dispatches(dispatches: Vec<Dispatch>) -> impl FnOnce(&mut engine::graph::PassContext<'_>) {
     move |ctx: &mut engine::graph::PassContext<'_>| {
@@ -611,9 +625,7 @@ fn add_volume_update_passes(
                 Some(p) if volumes[k].settings.persistent_trace => (p, PERSISTENT_DISPATCH_OFFSET),
                 _ => (&trace, RAY_DISPATCH_OFFSET),
             };
-            let (group0, group1) = (pass.read_named(&program.bindings, 0), handles[k].declare(&mut pass, &program.bindings, 1));
-            let args = pass.read(&handles[k].counters);
-            dispatches.push(Dispatch { program: program.clone(), group0, group1, size: DispatchSize::Indirect(args, offset) });
+            dispatches.push(indirect_dispatch(&mut pass, &mut handles[k], program, offset));
         }
         pass.render(record_dispatches(dispatches));
     }
@@ -622,12 +634,11 @@ fn add_volume_update_passes(
         let mut pass = graph.add_pass("ddgi_shade");
         note_skipped(&mut pass);
         pass.note(&specialization.note());
-        let mut dispatches = Vec::new();
-        for &k in updating.iter().filter(|&&k| volumes[k].settings.persistent_trace) {
-            let (group0, group1) = (pass.read_named(&shade.bindings, 0), handles[k].declare(&mut pass, &shade.bindings, 1));
-            let args = pass.read(&handles[k].counters);
-            dispatches.push(Dispatch { program: shade.clone(), group0, group1, size: DispatchSize::Indirect(args, RAY_DISPATCH_OFFSET) });
-        }
+        let dispatches = updating
+            .iter()
+            .filter(|&&k| volumes[k].settings.persistent_trace)
+            .map(|&k| indirect_dispatch(&mut pass, &mut handles[k], &shade, RAY_DISPATCH_OFFSET))
+            .collect();
         pass.render(record_dispatches(dispatches));
     }
     {
