@@ -243,12 +243,6 @@ fn settle_frames_of(config: &Config, settle_frames: u32) -> u32 {
     }
 }
 
-/// Whether a pass belongs to DDGI's probe update (every DDGI pass but the camera's gather and
-/// composite).
-fn is_probe_update(label: &str) -> bool {
-    label.starts_with("ddgi_") && !label.starts_with("ddgi_gather") && !label.starts_with("ddgi_composite")
-}
-
 fn mean(v: &[f64]) -> Option<f64> {
     (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
 }
@@ -257,7 +251,7 @@ fn mean(v: &[f64]) -> Option<f64> {
 /// frame left the update out (its `ddgi_budget` was left out: no volume's update period fell on
 /// it); `None` for a frame without DDGI or without GPU times.
 fn probe_update_ms(frame: &engine::render::FrameTiming) -> Option<f64> {
-    let update: Vec<f64> = frame.passes.iter().filter(|p| p.ran && is_probe_update(&p.label)).filter_map(|p| p.gpu_ms).collect();
+    let update: Vec<f64> = frame.passes.iter().filter(|p| p.ran && ddgi::is_probe_update_pass(&p.label)).filter_map(|p| p.gpu_ms).collect();
     if !update.is_empty() {
         return Some(update.iter().sum());
     }
@@ -286,7 +280,7 @@ fn static_update(timings: &FrameTimings, frames: std::ops::Range<u64>) -> Update
     let share = (!all.is_empty()).then(|| updating.len() as f64 / all.len() as f64);
     let mut passes: Vec<(String, f64)> = Vec::new();
     for (t, _) in &per_frame {
-        for p in t.passes.iter().filter(|p| p.ran && is_probe_update(&p.label)) {
+        for p in t.passes.iter().filter(|p| p.ran && ddgi::is_probe_update_pass(&p.label)) {
             let ms = p.gpu_ms.unwrap_or(0.0);
             match passes.iter_mut().find(|(l, _)| *l == p.label) {
                 Some((_, sum)) => *sum += ms,

@@ -109,7 +109,7 @@ use engine::render::{FrameScript, frame_script_is};
 
 pub use cascades::{DdgiCascade, DdgiCascades, DdgiFirstCameraCascades};
 pub use debug_view::{DdgiContactOcclusion, DdgiDebugPass, DdgiDebugPasses, DdgiOutput, DdgiProbeColor, DdgiProbeView, DdgiSkyLight};
-pub use frame::{DdgiFrame, PROBE_UPDATE_PASSES, VolumeHandles, render_ddgi_frame};
+pub use frame::{DdgiFrame, PROBE_UPDATE_PASSES, VolumeHandles, is_probe_update_pass, render_ddgi_frame};
 pub use inspect::{DdgiProbeStateCounts, DdgiUpdateControl};
 pub use pipelines::DdgiPipelines;
 pub use resources::{DdgiGpuVolumes, VolumeGpu};

@@ -20,7 +20,7 @@ const HISTORY: usize = 240;
 /// the GPU).
 const ATLAS_REFRESH_SECONDS: f64 = 0.5;
 /// The passes of the probe update (everything DDGI does before the camera's gather).
-use ddgi::PROBE_UPDATE_PASSES;
+use ddgi::is_probe_update_pass;
 
 /// The frame rate and GPU time history of the performance window.
 #[derive(Default)]
@@ -55,7 +55,7 @@ impl History {
         let since = self.last_timing_frame;
         for f in timings.frames.iter().filter(|f| since.is_none_or(|last| f.frame > last)) {
             let total: f64 = f.passes.iter().filter_map(|p| p.gpu_ms).sum();
-            let ddgi: f64 = f.passes.iter().filter(|p| is_probe_update(&p.label)).filter_map(|p| p.gpu_ms).sum();
+            let ddgi: f64 = f.passes.iter().filter(|p| is_probe_update_pass(&p.label)).filter_map(|p| p.gpu_ms).sum();
             self.gpu_ms.push_back((total, ddgi));
             self.last_timing_frame = Some(f.frame);
         }
@@ -63,11 +63,6 @@ impl History {
             self.gpu_ms.pop_front();
         }
     }
-}
-
-/// Whether a pass is part of the probe update (not the gather, the composite or a debug view).
-fn is_probe_update(label: &str) -> bool {
-    PROBE_UPDATE_PASSES.iter().any(|p| label.strip_prefix(p).is_some_and(|rest| rest.is_empty() || rest.starts_with('_')))
 }
 
 /// Builds the overlay's windows for one frame from (and into) `world`, then the app's
