@@ -236,16 +236,22 @@ pub fn parse(name: &str) -> Result<ParsedShader, ShaderError> {
     let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::default())
         .validate(&module)
         .map_err(|e| {
-            let mut message = e.as_inner().to_string();
-            let mut cause = std::error::Error::source(e.as_inner());
-            while let Some(c) = cause {
-                message.push_str(&format!(": {c}"));
-                cause = c.source();
-            }
+            let message = with_causes(e.as_inner());
             let labels: Vec<(naga::Span, String)> = e.spans().cloned().collect();
             ShaderError::Validation { file: name.into(), report: expanded.report(&message, &labels) }
         })?;
     Ok(ParsedShader { name: name.into(), source: expanded.source, module, info })
+}
+
+/// An error's message followed by each of its causes' (naga nests the reason in `source()`).
+fn with_causes(e: &dyn std::error::Error) -> String {
+    let mut message = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        message.push_str(&format!(": {c}"));
+        cause = c.source();
+    }
+    message
 }
 
 impl ParsedShader {
@@ -305,14 +311,9 @@ impl ParsedShader {
         }
         naga::back::pipeline_constants::process_overrides(&self.module, &self.info, Some((naga::ShaderStage::Compute, entry)), &values)
             .map(|_| ())
-            .map_err(|e| {
-                let mut report = format!("entry point '{entry}' with {constants:?}: {e}");
-                let mut cause = std::error::Error::source(&e);
-                while let Some(c) = cause {
-                    report.push_str(&format!(": {c}"));
-                    cause = c.source();
-                }
-                ShaderError::Validation { file: self.name.clone(), report }
+            .map_err(|e| ShaderError::Validation {
+                file: self.name.clone(),
+                report: format!("entry point '{entry}' with {constants:?}: {}", with_causes(&e)),
             })
     }
 
