@@ -903,6 +903,22 @@ fn render(args: RenderArgs) -> Result<(), String> {
     Ok(())
 }
 
+/// A probe grid as the bench tables name it: `32×8×32`.
+fn grid_name(g: &[u32; 3]) -> String {
+    format!("{}×{}×{}", g[0], g[1], g[2])
+}
+
+/// Prints a Markdown table with a row per ray count and a column per probe grid, each cell from
+/// `cell` ("-" where it gives nothing).
+fn print_grid_table(grids: &[[u32; 3]], ray_counts: &[u32], cell: impl Fn(&[u32; 3], u32) -> Option<String>) {
+    println!("| rays/probe | {} |", grids.iter().map(grid_name).collect::<Vec<_>>().join(" | "));
+    println!("|---|{}", "---:|".repeat(grids.len()));
+    for &rays in ray_counts {
+        let row: Vec<String> = grids.iter().map(|g| cell(g, rays).unwrap_or_else(|| "-".into())).collect();
+        println!("| {rays} | {} |", row.join(" | "));
+    }
+}
+
 fn bench_ddgi(
     name: &str,
     iterations: u32,
@@ -919,22 +935,15 @@ fn bench_ddgi(
     println!("# bench ddgi: {name} ({triangles} triangles) on {}, camera {}×{}", gpu.adapter_name(), size.width, size.height);
     let ways: &[bool] = if persistent_trace { &[false, true] } else { &[false] };
     let cells = bench::ddgi_throughput(&gpu, scene, size, iterations.max(1), &grids, &ray_counts, ways)?;
-    let grid_name = |g: &[u32; 3]| format!("{}×{}×{}", g[0], g[1], g[2]);
     let cell =
         |g: &[u32; 3], rays: u32, way: bool| cells.iter().find(|c| c.grid == *g && c.rays_per_probe == rays && c.persistent_trace == way);
     let way_name = |way: bool| if way { "persistent trace, then ddgi_shade" } else { "thread a ray, trace and shading in ddgi_trace" };
     let grid = if grids.contains(&[32, 8, 32]) { [32, 8, 32] } else { grids[0] };
     for &way in ways {
         println!("\n## Full probe update, MRays/s ({}; median of {iterations} frames; every probe active)\n", way_name(way));
-        println!("| rays/probe | {} |", grids.iter().map(grid_name).collect::<Vec<_>>().join(" | "));
-        println!("|---|{}", "---:|".repeat(grids.len()));
-        for &rays in &ray_counts {
-            let row: Vec<String> = grids
-                .iter()
-                .map(|g| cell(g, rays, way).map_or("-".into(), |c| format!("{:.0} ({:.3} ms)", c.mrays_per_second(), c.update_ms)))
-                .collect();
-            println!("| {rays} | {} |", row.join(" | "));
-        }
+        print_grid_table(&grids, &ray_counts, |g, rays| {
+            cell(g, rays, way).map(|c| format!("{:.0} ({:.3} ms)", c.mrays_per_second(), c.update_ms))
+        });
         println!("\n## GPU ms per pass at {} probes ({}; median)\n", grid_name(&grid), way_name(way));
         let mut labels: Vec<String> = bench::DDGI_UPDATE_PASSES.iter().map(|s| s.to_string()).collect();
         labels.extend(["ddgi_gather".to_string(), "ddgi_composite".to_string(), "gbuffer".to_string(), "direct_lighting".to_string()]);
@@ -955,18 +964,10 @@ fn bench_ddgi(
     }
     if persistent_trace {
         println!("\n## Persistent trace against a thread a ray: the full probe update's time, thread a ray / persistent (same run)\n");
-        println!("| rays/probe | {} |", grids.iter().map(grid_name).collect::<Vec<_>>().join(" | "));
-        println!("|---|{}", "---:|".repeat(grids.len()));
-        for &rays in &ray_counts {
-            let row: Vec<String> = grids
-                .iter()
-                .map(|g| match (cell(g, rays, false), cell(g, rays, true)) {
-                    (Some(a), Some(b)) => format!("{:.2}×", a.update_ms / b.update_ms),
-                    _ => "-".into(),
-                })
-                .collect();
-            println!("| {rays} | {} |", row.join(" | "));
-        }
+        print_grid_table(&grids, &ray_counts, |g, rays| {
+            let (a, b) = (cell(g, rays, false)?, cell(g, rays, true)?);
+            Some(format!("{:.2}×", a.update_ms / b.update_ms))
+        });
     }
     let cells: Vec<serde_json::Value> = cells
         .iter()
@@ -1246,15 +1247,9 @@ fn bench(command: BenchCommand) -> Result<(), String> {
             report["throughput_shared_stack"] = json_cells(shared);
         }
         let print_table = |cells: &[bench::TraceCell], cell: &dyn Fn(&bench::TraceCell) -> String| {
-            println!("| rays/probe | {} |", bench::GRIDS.map(|g| format!("{}×{}×{}", g[0], g[1], g[2])).join(" | "));
-            println!("|---|{}", "---:|".repeat(bench::GRIDS.len()));
-            for rays in bench::RAYS {
-                let row: Vec<String> = bench::GRIDS
-                    .iter()
-                    .map(|g| cells.iter().find(|c| c.grid == *g && c.rays_per_probe == rays).map_or("-".into(), cell))
-                    .collect();
-                println!("| {rays} | {} |", row.join(" | "));
-            }
+            print_grid_table(&bench::GRIDS, &bench::RAYS, |g, rays| {
+                cells.iter().find(|c| c.grid == *g && c.rays_per_probe == rays).map(cell)
+            });
         };
         for (v, cells) in variants.iter().zip(&tables) {
             let which = if variants.len() > 1 { format!(", {}", stack_name(v)) } else { String::new() };
