@@ -18,6 +18,9 @@ B=${B:-dist/game_demo}
 # Binaries may travel gzipped (dist/NAME.gz): unpacked here once.
 for z in dist/*.gz; do [ -e "$z" ] && [ ! -e "${z%.gz}" ] && gunzip -k "$z" && chmod +x "${z%.gz}"; done
 TAG=${TAG:-}
+# CACHE: where the path-traced references are kept (default one folder per TAG; name one to share
+# them between calls of the same binary).
+CACHE=${CACHE:-/tmp/cache$TAG}
 R=$OUT/r$TAG
 mkdir -p "$R"
 nvidia-smi --query-gpu=name,driver_version --format=csv > "$R/gpu.txt" 2>&1
@@ -34,9 +37,12 @@ run() { # name, command...
 for step in "$@"; do
     case $step in
     bench_*) scene=${step#bench_}; run "$step" $B bench ddgi --scene "$scene" --iterations 10 ;;
-    eval_*) scene=${step#eval_}; run "$step" $B eval --scene "$scene" --width 256 --height 256 --reference-spp 4096 --experiments --out "$R/$step" --cache /tmp/cache$TAG ;;
+    # benchgrid_SCENE: DDGI's full probe update with its per-pass times at the cells BENCH_ARGS asks
+    # for (e.g. "--probes 8,8,8 --rays 8,32,128").
+    benchgrid_*) scene=${step#benchgrid_}; run "$step" $B bench ddgi --scene "$scene" --iterations 15 ${BENCH_ARGS:-} ;;
+    eval_*) scene=${step#eval_}; run "$step" $B eval --scene "$scene" --width 256 --height 256 --reference-spp 4096 --experiments --out "$R/$step" --cache $CACHE ;;
     # evalplain_SCENE: the evaluation without the experiments (the configurations every binary has).
-    evalplain_*) scene=${step#evalplain_}; run "$step" $B eval --scene "$scene" --width 256 --height 256 --reference-spp 4096 --out "$R/$step" --cache /tmp/cache$TAG ;;
+    evalplain_*) scene=${step#evalplain_}; run "$step" $B eval --scene "$scene" --width 256 --height 256 --reference-spp 4096 --out "$R/$step" --cache $CACHE ;;
     # camera_SCENE-AO: the camera path at 1920x1080 as the demo shows it (DDGI, TAA, contact
     # occlusion with AO rays a pixel, AgX, auto-exposure), 120 frames: timings.json per pass.
     camera_*) IFS=- read -r scene ao <<< "${step#camera_}"; run "$step" $B render --scene "$scene" --mode ddgi --width 1920 --height 1080 --contact-occlusion "$ao" --display-transform agx --auto-exposure --out "$R/$step" ;;
@@ -45,11 +51,11 @@ for step in "$@"; do
     # shots-FRAMES-EVERY: the demo's scripted walk at 1920x1080, a PNG every EVERY frames.
     shots-*) IFS=- read -r _ frames every <<< "$step"; run "$step" $B play --headless --width 1920 --height 1080 --frames "$frames" --every "$every" --out "$R/$step" ;;
     # SERIES_ARGS: more eval options for every series step (e.g. "--hysteresis-exponent 0.5").
-    series_*) scene=${step#series_}; run "$step" $B eval --scene "$scene" --time-series --width 256 --height 256 --reference-spp 4096 --out "$R/$step" --cache /tmp/cache$TAG ${SERIES_ARGS:-} ;;
+    series_*) scene=${step#series_}; run "$step" $B eval --scene "$scene" --time-series --width 256 --height 256 --reference-spp 4096 --out "$R/$step" --cache $CACHE ${SERIES_ARGS:-} ;;
     # seriesrest-SCENE-FRAMES-ERROR: the time series with other resting parameters for the adaptive budgets.
     # seriesgrid-SCENE-X,Y,Z-FRAMES-ERROR: the same on another probe grid.
-    seriesgrid-*) IFS=- read -r _ scene grid rest error <<< "$step"; run "$step" $B eval --scene "$scene" --time-series --width 256 --height 256 --reference-spp 4096 --probes "$grid" --rest-frames "$rest" --rest-error "$error" --out "$R/$step" --cache /tmp/cache$TAG ${SERIES_ARGS:-} ;;
-    seriesrest-*) IFS=- read -r _ scene rest error <<< "$step"; run "$step" $B eval --scene "$scene" --time-series --width 256 --height 256 --reference-spp 4096 --rest-frames "$rest" --rest-error "$error" --out "$R/$step" --cache /tmp/cache$TAG ${SERIES_ARGS:-} ;;
+    seriesgrid-*) IFS=- read -r _ scene grid rest error <<< "$step"; run "$step" $B eval --scene "$scene" --time-series --width 256 --height 256 --reference-spp 4096 --probes "$grid" --rest-frames "$rest" --rest-error "$error" --out "$R/$step" --cache $CACHE ${SERIES_ARGS:-} ;;
+    seriesrest-*) IFS=- read -r _ scene rest error <<< "$step"; run "$step" $B eval --scene "$scene" --time-series --width 256 --height 256 --reference-spp 4096 --rest-frames "$rest" --rest-error "$error" --out "$R/$step" --cache $CACHE ${SERIES_ARGS:-} ;;
     trace_*) scene=${step#trace_}; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild ;;
     # tracecoh_SCENE: the same with each probe's rays in coherent order (a warp's rays in one patch of the sphere).
     tracecoh_*) scene=${step#tracecoh_}; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild --ray-order coherent ;;
@@ -80,21 +86,21 @@ for step in "$@"; do
     walk-*) IFS=- read -r _ cascades grid <<< "$step"; run "$step" $B bench walk --cascades "$cascades" --probes "$grid" --cascade-probes "$grid" --out "$R/$step" ${WALK_ARGS:-} ;;
     # offset-SCENE-X,Y,Z: the still evaluation of SCENE placed at X,Y,Z (the reference is the
     # scene's at the origin: the cache key leaves the placement out).
-    offset-*) IFS=- read -r _ scene at <<< "$step"; run "$step" $B eval --scene "$scene" --width 256 --height 256 --reference-spp 4096 --offset "$at" --out "$R/$step" --cache /tmp/cache$TAG ;;
+    offset-*) IFS=- read -r _ scene at <<< "$step"; run "$step" $B eval --scene "$scene" --width 256 --height 256 --reference-spp 4096 --offset "$at" --out "$R/$step" --cache $CACHE ;;
     # view-D: the open world seen from the tour at D metres (positions in tools' VIEWS), one
     # volume of 32x8x32 probes against 4 cascades of 16x8x16 (the same rays per frame).
     # VIEW_CASCADES: other cascade options (e.g. "--cascades 8 --cascade-probes 16,4,16 --cascade-blend 1").
-    view-*) d=${step#view-}; read -r eye target <<< "${VIEWS[$d]}"; run "$step" $B eval --scene open_world --width 256 --height 256 --reference-spp 4096 --probes 32,8,32 --cascade-spacing 1.5 ${VIEW_CASCADES:---cascades 4 --cascade-probes 16,8,16} --camera-position "$eye" --camera-target "$target" --fov 70 --out "$R/$step" --cache /tmp/cache$TAG ;;
+    view-*) d=${step#view-}; read -r eye target <<< "${VIEWS[$d]}"; run "$step" $B eval --scene open_world --width 256 --height 256 --reference-spp 4096 --probes 32,8,32 --cascade-spacing 1.5 ${VIEW_CASCADES:---cascades 4 --cascade-probes 16,8,16} --camera-position "$eye" --camera-target "$target" --fov 70 --out "$R/$step" --cache $CACHE ;;
     # walkseries-FROM-SPEED-FRAMES: eval --time-series --walk on the open world's tour from FROM
     # metres at SPEED m/s for FRAMES frames, 256x256, every frame against a 256-spp reference of
     # its view, under the pale sky; one volume of 32x8x32 (fixed and adaptive) and 8 cascades of
     # 16x4x16 (SERIES_CASCADES: other cascade options).
-    walkseries-*) IFS=- read -r _ from speed frames <<< "$step"; run "$step" $B eval --scene open_world --time-series --walk --walk-from "$from" --walk-speed "$speed" --frames "$frames" --settle-frames 120 --width 256 --height 256 --reference-spp 256 --probes 32,8,32 --cascade-spacing 1.5 ${SERIES_CASCADES:---cascades 8 --cascade-probes 16,4,16 --cascade-blend 1} --sky 0.35,0.45,0.6 --out "$R/$step" --cache /tmp/cache$TAG ;;
+    walkseries-*) IFS=- read -r _ from speed frames <<< "$step"; run "$step" $B eval --scene open_world --time-series --walk --walk-from "$from" --walk-speed "$speed" --frames "$frames" --settle-frames 120 --width 256 --height 256 --reference-spp 256 --probes 32,8,32 --cascade-spacing 1.5 ${SERIES_CASCADES:---cascades 8 --cascade-probes 16,4,16 --cascade-blend 1} --sky 0.35,0.45,0.6 --out "$R/$step" --cache $CACHE ;;
     # peer_SCENE: the peer benchmark against sgl-3d (docs/evaluation.md, "Peer benchmark"), its
     # timed rows interleaved frame by frame; the binary P (default .peer/peer, built from peer/ with
     # `cargo build --release --ignore-rust-version --manifest-path peer/Cargo.toml`); cornell at
     # 256x256, other scenes (cathedral, level) at 1280x720, 128 rays a probe. PEER_ARGS: more options.
-    peer_*) scene=${step#peer_}; size="--width 1280 --height 720"; [ "$scene" = cornell ] && size="--width 256 --height 256"; run "$step" ${P:-.peer/peer} --scene "$scene" $size --rays 128 --out "$R/$step" --json "$R/$step.json" --cache /tmp/cache$TAG ${PEER_ARGS:-} ;;
+    peer_*) scene=${step#peer_}; size="--width 1280 --height 720"; [ "$scene" = cornell ] && size="--width 256 --height 256"; run "$step" ${P:-.peer/peer} --scene "$scene" $size --rays 128 --out "$R/$step" --json "$R/$step.json" --cache $CACHE ${PEER_ARGS:-} ;;
     esac
 done
 # Reports, tables and plots only (the per-configuration strips would pass the 16 MiB a file that

@@ -38,8 +38,9 @@ pub struct VolumeGpu {
     pub counters: wgpu::Buffer,
     /// The budget pass's per-block sums (one `DdgiBlock` per 256 probes).
     pub(crate) blocks: wgpu::Buffer,
-    /// The probes with rays this frame, listed by the budget pass for the per-probe passes.
-    pub(crate) updated: wgpu::Buffer,
+    /// The probes with rays this frame, listed by the budget pass for the per-probe passes: a `u32`
+    /// probe index each, in ascending order, the first [`DdgiCounters::updated_probes`] valid.
+    pub updated: wgpu::Buffer,
     /// Each probe's luma (−1: switched off) as the budget pass found it, for the dark test.
     pub(crate) lit: wgpu::Buffer,
     /// This frame's boxes around movers (two vec4 corners each, [`crate::gpu::MAX_WAKE_BOXES`]).
@@ -131,7 +132,7 @@ impl VolumeGpu {
             probes,
             counters: buffer("ddgi_counters", size_of::<DdgiCounters>() as u64, B::STORAGE | B::INDIRECT | B::COPY_SRC),
             blocks: buffer("ddgi_blocks", sizes.blocks, B::STORAGE),
-            updated: buffer("ddgi_updated", sizes.probe_words, B::STORAGE),
+            updated: buffer("ddgi_updated", sizes.probe_words, B::STORAGE | B::COPY_SRC),
             lit: buffer("ddgi_lit", sizes.probe_words, B::STORAGE),
             wake: buffer("ddgi_wake", u64::from(crate::gpu::MAX_WAKE_BOXES) * 32, B::STORAGE | B::COPY_DST),
             rays: buffer("ddgi_rays", sizes.rays, B::STORAGE | B::COPY_SRC),

@@ -850,6 +850,60 @@ fn a_frame_budget_caps_the_rays_of_every_frame() {
     assert!(rays.iter().all(|&r| r > 0.5 * f64::from(budget)), "the budget is used: {rays:?}");
 }
 
+/// The budget pass packs every probe's rays as a CPU prefix sum of its ray counts would, lists the
+/// probes with rays in order and sizes the indirect dispatches from the totals — over several
+/// blocks of its prefix sum, with a frame budget and without.
+#[test]
+fn the_budget_pass_packs_the_rays_as_a_cpu_prefix_sum() {
+    let Some(gpu) = gpu("the_budget_pass_packs_the_rays_as_a_cpu_prefix_sum") else { return };
+    use ddgi::gpu::{BUDGET_BLOCK, DdgiCounters, DdgiProbeData, RAY_GROUP};
+    // 9 × 8 × 8 probes: three blocks, the last one partial.
+    let counts = UVec3::new(9, 8, 8);
+    let probe_count = counts.x * counts.y * counts.z;
+    assert!(probe_count > 2 * BUDGET_BLOCK && probe_count % BUDGET_BLOCK != 0);
+    for frame_budget in [None, Some(4000)] {
+        let what = format!("frame budget {frame_budget:?}");
+        let volume = DdgiVolume {
+            bounds: scenes::find("cornell").expect("built-in scene").gi_box(),
+            probe_counts: Some(counts),
+            rays_per_probe: 32,
+            adaptive: ddgi::DdgiAdaptive { frame_budget, max_update_period: 1, min_rays: 4, ..ddgi::DdgiAdaptive::on() },
+            ..Default::default()
+        };
+        let (_, app) = run_ddgi(&gpu, (scenes::find("cornell").expect("cornell").build)(), volume, 16, 8);
+        let v = first_volume(&app);
+        let read = |b: &engine::wgpu::Buffer| engine::render::readback::read_buffer(&gpu, b);
+        let probes: Vec<DdgiProbeData> =
+            bytemuck::pod_collect_to_vec(&read(&v.probes)[..probe_count as usize * size_of::<DdgiProbeData>()]);
+        let updated: Vec<u32> = bytemuck::pod_collect_to_vec(&read(&v.updated));
+        let counters: DdgiCounters = bytemuck::pod_read_unaligned(&read(&v.counters)[..size_of::<DdgiCounters>()]);
+        let mut offset = 0u32;
+        let mut listed = Vec::new();
+        for (p, data) in probes.iter().enumerate() {
+            assert_eq!(data.ray_offset, offset, "{what}: probe {p}'s ray offset");
+            offset += data.ray_count;
+            if data.ray_count > 0 {
+                listed.push(p as u32);
+            }
+        }
+        assert!(probes.iter().any(|d| d.ray_count != probes[0].ray_count), "{what}: every probe has {} rays", probes[0].ray_count);
+        assert_eq!(counters.total_rays, offset, "{what}: total rays");
+        assert_eq!(counters.updated_probes as usize, listed.len(), "{what}: probes with rays");
+        assert_eq!(&updated[..listed.len()], &listed[..], "{what}: the list of probes with rays");
+        assert_eq!(counters.dispatch, [offset.div_ceil(RAY_GROUP), 1, 1], "{what}: the trace's dispatch");
+        assert_eq!(counters.probe_dispatch, [listed.len() as u32, 1, 1], "{what}: the per-probe passes' dispatch");
+        assert!(counters.max_luma.is_finite() && counters.max_luma > 0.0, "{what}: the brightest probe's luma {}", counters.max_luma);
+        if let Some(budget) = frame_budget {
+            assert!(offset <= budget + probe_count, "{what}: {offset} rays over the budget");
+            assert!(
+                counters.budget_scale > 0.0 && counters.budget_scale < 1.0,
+                "{what}: the budget cut nothing (scale {})",
+                counters.budget_scale
+            );
+        }
+    }
+}
+
 #[test]
 fn quiet_probes_rest_and_the_per_probe_passes_skip_them() {
     let Some(gpu) = gpu("quiet_probes_rest") else { return };
