@@ -970,4 +970,3 @@ fn a_gpu_refit_of_far_flat_and_tiny_instances_is_the_cpu_refit() {
         assert_eq!(bytemuck::bytes_of(a), bytemuck::bytes_of(b), "ray {i} {:?}: CPU refit {a:?}, GPU refit {b:?}", rays[i]);
     }
 }
-
