@@ -22,7 +22,9 @@
 //!   refitting has let its quality decay. Many movers are refitted in parallel on rayon's pool: the binary BVH is cut into
 //!   subtrees whose nodes are contiguous, each refitted through its own slice, then the few nodes
 //!   above them (the same TLAS as on one thread). Only changed nodes are uploaded, those near each
-//!   other in one copy. A static scene does no BVH work per frame.
+//!   other in one copy. Or, with [`TlasRefit::Gpu`], the GPU refits (`engine/shaders/tlas_refit.wgsl`,
+//!   the same nodes bit for bit): the CPU only computes and uploads the moved leaves' world boxes.
+//!   A static scene does no BVH work per frame.
 //!
 //! Traversal lives in `engine/shaders/ray_tracing.inc.wgsl`: closest hit and any hit in one loop over both
 //! levels (a warp's lanes test TLAS and BLAS nodes with the same code in the same step), the ray
