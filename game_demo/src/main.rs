@@ -1315,7 +1315,10 @@ fn bench(command: BenchCommand) -> Result<(), String> {
     }
     println!("\n## CPU cost per frame of instance and TLAS updates and uploads (median of 9 frames)\n");
     let (gpu_header, gpu_rule) = if gpu_refit {
-        (" TLAS CPU ms, refit on the GPU: median (slowest frame) | GPU ms of the GPU refit |", "---:|---:|")
+        (
+            " TLAS CPU ms, refit on the GPU: median (slowest frame) | of which leaf boxes / staging + dispatches | GPU ms of the GPU refit |",
+            "---:|---:|---:|",
+        )
     } else {
         ("", "")
     };
@@ -1340,8 +1343,9 @@ fn bench(command: BenchCommand) -> Result<(), String> {
                     if let Some(g) = bench::tlas_gpu_refit_cost(&mut app, count, 9, timed) {
                         rebuilt |= g.rebuilt;
                         let gpu_ms = g.gpu.map(ms);
+                        let [boxes, staging] = g.steps.map(ms);
                         gpu_cells = format!(
-                            " {:.3} ({:.3}) | {} |",
+                            " {:.3} ({:.3}) | {boxes:.3} / {staging:.3} | {} |",
                             ms(g.tlas),
                             ms(g.tlas_slowest),
                             gpu_ms.map_or("n/a".into(), |t| format!("{t:.3}"))
@@ -1349,6 +1353,8 @@ fn bench(command: BenchCommand) -> Result<(), String> {
                         if let Some(last) = movers.last_mut() {
                             last["gpu_refit_tlas_ms"] = ms(g.tlas).into();
                             last["gpu_refit_tlas_slowest_ms"] = ms(g.tlas_slowest).into();
+                            last["gpu_refit_boxes_ms"] = boxes.into();
+                            last["gpu_refit_staging_ms"] = staging.into();
                             last["gpu_refit_gpu_ms"] = gpu_ms.into();
                             last["gpu_refit_rebuilt"] = g.rebuilt.into();
                         }

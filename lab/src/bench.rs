@@ -587,6 +587,9 @@ pub struct TlasGpuRefitCost {
     /// The slowest frame's: the one that also refits the CPU's copy of the binary TLAS to decide on a
     /// rebuild (every [`engine::rt::TLAS_GPU_REFIT_CHECK_FRAMES`] refits).
     pub tlas_slowest: Duration,
+    /// Medians of its steps: the moved leaves' world boxes (with the CPU copy's refit on a check
+    /// frame), and their staging with the dispatches' recording ([`engine::rt::BvhFrameStats`]).
+    pub steps: [Duration; 2],
     /// Median GPU time of the refit's three dispatches (`None` without timestamp queries, or not asked).
     pub gpu: Option<Duration>,
     /// Whether any of the frames rebuilt the TLAS.
@@ -607,6 +610,7 @@ pub fn tlas_gpu_refit_cost(app: &mut App, count: usize, frames: usize, gpu_itera
     world.resource_mut::<RayTracingScene>().tlas_refit = engine::rt::TlasRefit::Gpu;
     let mut rng = SplitMix64::new(0x6B0F_17E0 + count as u64);
     let mut times = Vec::new();
+    let mut steps: [Vec<Duration>; 2] = Default::default();
     let mut rebuilt = false;
     for frame in 0..=frames {
         let world = app.world_mut();
@@ -620,6 +624,8 @@ pub fn tlas_gpu_refit_cost(app: &mut App, count: usize, frames: usize, gpu_itera
         if frame > 0 {
             rebuilt |= rt.stats.tlas_rebuilt;
             times.push(rt.stats.cpu_time);
+            steps[0].push(rt.stats.tlas_refit_time);
+            steps[1].push(rt.stats.tlas_upload_time);
         }
     }
     let gpu = app.world().resource::<GpuContext>();
@@ -633,6 +639,10 @@ pub fn tlas_gpu_refit_cost(app: &mut App, count: usize, frames: usize, gpu_itera
     Some(TlasGpuRefitCost {
         tlas: times[times.len() / 2],
         tlas_slowest: *times.last()?,
+        steps: steps.map(|mut v| {
+            v.sort();
+            v[v.len() / 2]
+        }),
         gpu: gpu_times.get(gpu_times.len() / 2).copied(),
         rebuilt,
     })
