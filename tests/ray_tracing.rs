@@ -793,3 +793,180 @@ fn the_shared_stack_finds_the_hits_of_the_function_memory_stack() {
         assert!(work.deepest_stack > deep, "{name}: deepest stack {}: it should pass a shared part of {deep}", work.deepest_stack);
     }
 }
+
+/// A cube's node of [`cube_field`] (`cube{i}`; not the scene's root, `cube_field`, nor the mesh
+/// entities under the nodes, `cube{i}#0`).
+fn is_cube_node(name: &str) -> bool {
+    name.strip_prefix("cube").is_some_and(|i| !i.is_empty() && i.bytes().all(|b| b.is_ascii_digit()))
+}
+
+/// Moves `share` of the cube nodes of [`cube_field`] (seeded) a little; when `wild`, a fifth of them
+/// far instead, or rescaled (tiny, large, flat, stretched), as thrown objects move.
+fn move_cubes(app: &mut App, rng: &mut SplitMix64, share: f32, wild: bool) {
+    let world = app.world_mut();
+    let mut q = world.query::<(&engine::scene::Name, &mut Transform)>();
+    for (_, mut t) in q.iter_mut(world).filter(|(name, _)| is_cube_node(&name.0)) {
+        if rng.unit() >= share {
+            continue;
+        }
+        let kind = if wild { rng.unit() } else { 0.0 };
+        if kind < 0.8 {
+            t.translation += Vec3::new(rng.range(-0.3, 0.3), rng.range(-0.3, 0.3), rng.range(-0.3, 0.3));
+            t.rotation *= Quat::from_rotation_y(rng.range(-0.3, 0.3));
+        } else if kind < 0.9 {
+            t.translation = Vec3::new(rng.range(-60.0, 60.0), rng.range(0.0, 8.0), rng.range(-60.0, 60.0));
+            t.rotation = Quat::from_axis_angle(rng.direction(), rng.range(0.0, 6.3));
+        } else {
+            let s = [Vec3::splat(1e-3), Vec3::splat(20.0), Vec3::new(3.0, 0.0, 3.0), Vec3::new(0.5, 2.0, 1.0)];
+            t.scale = s[(rng.unit() * 4.0) as usize % 4];
+        }
+    }
+}
+
+/// The wide nodes the GPU refit wrote, read back, against the CPU copy refitted and re-encoded from
+/// the same leaves ([`RayTracingScene::sync_cpu_tlas`]): the same bytes.
+fn assert_gpu_nodes_are_the_cpu_copy(app: &mut App, gpu: &engine::gpu::GpuContext, what: &str) {
+    let on_gpu = app.world().resource::<RayTracingScene>().read_tlas_nodes(gpu);
+    let mut rt = app.world_mut().resource_mut::<RayTracingScene>();
+    rt.sync_cpu_tlas();
+    let (cpu, _) = rt.tlas_cpu();
+    assert_eq!(on_gpu.len(), cpu.len());
+    for (w, (g, c)) in on_gpu.iter().zip(cpu).enumerate() {
+        assert_eq!(bytemuck::bytes_of(g), bytemuck::bytes_of(c), "{what}: wide node {w} differs: GPU {g:?}, CPU {c:?}");
+    }
+}
+
+#[test]
+fn a_gpu_refit_writes_the_wide_nodes_a_cpu_refit_encodes_bit_for_bit() {
+    use engine::rt::TlasRefit;
+    let Some(gpu) = testkit::gpu("a_gpu_refit_writes_the_wide_nodes_a_cpu_refit_encodes_bit_for_bit") else { return };
+    let start = field_transforms(2000, 80.0, 12);
+    let mut apps = [app_for(&gpu, cube_field(&start)), app_for(&gpu, cube_field(&start))];
+    apps[1].world_mut().resource_mut::<RayTracingScene>().tlas_refit = TlasRefit::Gpu;
+    let (mut gpu_refits, mut compared) = (0, 0);
+    // Frames 9 and 10 refit on the CPU (the GPU's copy is then reloaded), the others on the GPU; from
+    // frame 4 on some instances move far or change scale (the TLASes are then rebuilt at times).
+    for frame in 0..14u64 {
+        let mode = if (9..11).contains(&frame) { TlasRefit::Cpu } else { TlasRefit::Gpu };
+        apps[1].world_mut().resource_mut::<RayTracingScene>().tlas_refit = mode;
+        let share = if frame % 3 == 0 { 1.0 } else { 0.1 };
+        for app in &mut apps {
+            move_cubes(app, &mut SplitMix64::new(300 + frame), share, frame >= 4);
+            run_headless(app, 1);
+        }
+        let stats = apps.each_ref().map(|app| app.world().resource::<RayTracingScene>().stats);
+        assert_eq!(stats[1].tlas_refit_on_gpu, mode == TlasRefit::Gpu && !stats[1].tlas_rebuilt, "frame {frame}: {stats:?}");
+        gpu_refits += usize::from(stats[1].tlas_refit_on_gpu);
+        assert_gpu_nodes_are_the_cpu_copy(&mut apps[1], &gpu, &format!("frame {frame}"));
+        // While neither has rebuilt its TLAS (each decides on its own schedule), both apps' TLASes are one.
+        if !stats.iter().any(|s| s.tlas_rebuilt) && compared == frame {
+            let [cpu, on_gpu] = apps.each_ref().map(|app| app.world().resource::<RayTracingScene>().read_tlas_nodes(&gpu));
+            assert_eq!(
+                bytemuck::cast_slice::<_, u8>(&cpu),
+                bytemuck::cast_slice::<_, u8>(&on_gpu),
+                "frame {frame}: the apps' TLASes differ"
+            );
+            compared += 1;
+        }
+    }
+    assert!(gpu_refits >= 8 && compared >= 4, "{gpu_refits} GPU refits, {compared} frames compared: the test would prove little");
+}
+
+#[test]
+fn rays_after_a_gpu_refit_hit_what_rays_after_a_cpu_refit_hit() {
+    use engine::rt::TlasRefit;
+    let Some(gpu) = testkit::gpu("rays_after_a_gpu_refit_hit_what_rays_after_a_cpu_refit_hit") else { return };
+    let start = field_transforms(3000, 120.0, 41);
+    let mut apps = [app_for(&gpu, cube_field(&start)), app_for(&gpu, cube_field(&start))];
+    apps[1].world_mut().resource_mut::<RayTracingScene>().tlas_refit = TlasRefit::Gpu;
+    for frame in 0..5u64 {
+        for app in &mut apps {
+            move_cubes(app, &mut SplitMix64::new(900 + frame), 0.5, true);
+            run_headless(app, 1);
+        }
+        let stats = apps[1].world().resource::<RayTracingScene>().stats;
+        assert!(stats.tlas_refit_on_gpu && !stats.tlas_rebuilt, "frame {frame}: {stats:?}");
+    }
+    let bounds = (Vec3::new(-60.0, 0.0, -60.0), Vec3::new(60.0, 8.0, 60.0));
+    let mut rays = random_rays(bounds, 4000, 7);
+    let mut rng = SplitMix64::new(8);
+    for _ in 0..1000 {
+        let o = Vec3::new(-70.0, rng.range(0.0, 6.0), rng.range(-60.0, 60.0));
+        let d = Vec3::new(1.0, rng.range(-0.02, 0.02), rng.range(-0.3, 0.3));
+        rays.push(GpuRay { origin: o.to_array(), tmin: 0.0, direction: d.to_array(), tmax: 1e30 });
+    }
+    let [cpu, on_gpu] = apps.each_ref().map(|app| trace(app, &gpu, &rays, true));
+    let hits = cpu.iter().filter(|r| r.instance != u32::MAX).count();
+    assert!(hits > rays.len() / 4, "too few rays hit the field ({hits} of {}): the test would prove little", rays.len());
+    for (i, (a, b)) in cpu.iter().zip(&on_gpu).enumerate() {
+        assert_eq!(bytemuck::bytes_of(a), bytemuck::bytes_of(b), "ray {i} {:?}: CPU refit {a:?}, GPU refit {b:?}", rays[i]);
+    }
+    // And what a TLAS built from scratch over the same instances hits (a new instance far from every
+    // ray makes the next frame rebuild it).
+    cube_field(&[Transform::from_xyz(0.0, -1e5, 0.0)]).spawn(apps[1].world_mut());
+    run_headless(&mut apps[1], 1);
+    assert!(apps[1].world().resource::<RayTracingScene>().stats.tlas_rebuilt);
+    let rebuilt = trace(&apps[1], &gpu, &rays, true);
+    assert_same_hits("GPU refit against a rebuild", &apps[1], &rays, &rebuilt, &on_gpu);
+}
+
+#[test]
+fn a_gpu_refit_of_far_flat_and_tiny_instances_is_the_cpu_refit() {
+    use engine::rt::TlasRefit;
+    let Some(gpu) = testkit::gpu("a_gpu_refit_of_far_flat_and_tiny_instances_is_the_cpu_refit") else { return };
+    // Cubes 300 km out (float steps of 1/32 m there), flat ones (zero thickness on an
+    // axis), tiny ones, mirrored ones and a few at the origin, all moving.
+    let far = Vec3::new(1.0e5, -2.0e4, 3.0e5);
+    let mut rng = SplitMix64::new(3);
+    let start: Vec<Transform> = (0..300)
+        .map(|i| {
+            let at = if i % 10 == 0 { Vec3::ZERO } else { far };
+            let scale = match i % 4 {
+                0 => Vec3::new(4.0, 0.0, 4.0),
+                1 => Vec3::splat(1e-4),
+                2 => Vec3::new(-2.0, 1.0, 1.0),
+                _ => Vec3::ONE,
+            };
+            Transform::from_translation(at + Vec3::new(rng.range(-50.0, 50.0), rng.range(-50.0, 50.0), rng.range(-50.0, 50.0)))
+                .with_scale(scale)
+        })
+        .collect();
+    let mut apps = [app_for(&gpu, cube_field(&start)), app_for(&gpu, cube_field(&start))];
+    apps[1].world_mut().resource_mut::<RayTracingScene>().tlas_refit = TlasRefit::Gpu;
+    for frame in 0..4u64 {
+        for app in &mut apps {
+            let mut rng = SplitMix64::new(50 + frame);
+            let world = app.world_mut();
+            let mut q = world.query::<(&engine::scene::Name, &mut Transform)>();
+            for (_, mut t) in q.iter_mut(world).filter(|(name, _)| is_cube_node(&name.0)) {
+                t.translation += Vec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0));
+            }
+            run_headless(app, 1);
+        }
+        let stats = apps.each_ref().map(|app| app.world().resource::<RayTracingScene>().stats);
+        assert!(stats[1].tlas_refit_on_gpu && !stats[0].tlas_rebuilt && !stats[1].tlas_rebuilt, "frame {frame}: {stats:?}");
+        let [cpu, on_gpu] = apps.each_ref().map(|app| app.world().resource::<RayTracingScene>().read_tlas_nodes(&gpu));
+        assert_eq!(bytemuck::cast_slice::<_, u8>(&cpu), bytemuck::cast_slice::<_, u8>(&on_gpu), "frame {frame}: the TLASes differ");
+        assert_gpu_nodes_are_the_cpu_copy(&mut apps[1], &gpu, &format!("frame {frame}"));
+    }
+    // Rays at each cube from a few metres off, and random ones through the far cluster: the same
+    // hits either way.
+    let world = apps[0].world_mut();
+    let mut q = world.query::<(&engine::scene::Name, &Transform)>();
+    let centres: Vec<Vec3> = q.iter(world).filter(|(name, _)| is_cube_node(&name.0)).map(|(_, t)| t.translation).collect();
+    let mut rng = SplitMix64::new(5);
+    let mut rays: Vec<GpuRay> = centres
+        .iter()
+        .map(|&c| {
+            let d = rng.direction();
+            GpuRay { origin: (c - 3.0 * d).to_array(), tmin: 0.0, direction: d.to_array(), tmax: 1e30 }
+        })
+        .collect();
+    rays.extend(random_rays((far - Vec3::splat(60.0), far + Vec3::splat(60.0)), 1000, 6));
+    let [cpu, on_gpu] = apps.each_ref().map(|app| trace(app, &gpu, &rays, true));
+    let hits = cpu.iter().filter(|r| r.instance != u32::MAX).count();
+    assert!(hits > 100, "too few rays hit the cubes ({hits}): the test would prove little");
+    for (i, (a, b)) in cpu.iter().zip(&on_gpu).enumerate() {
+        assert_eq!(bytemuck::bytes_of(a), bytemuck::bytes_of(b), "ray {i} {:?}: CPU refit {a:?}, GPU refit {b:?}", rays[i]);
+    }
+}

@@ -84,6 +84,9 @@ fn constants_shared_with_the_host_read_back_from_the_parsed_shader() {
     let exposure = shader::parse("exposure.inc.wgsl").expect("parse");
     assert_eq!(exposure.u32_constant("EXPOSURE_BINS"), Some(engine::render::exposure::HISTOGRAM_BINS));
     assert_eq!(parsed.u32_constant("BRDF_DFG_SIZE"), Some(engine::brdf::DFG_SIZE as u32));
+    let refit = shader::parse("tlas_refit.wgsl").expect("parse");
+    assert_eq!(refit.u32_constant("ENCODE_INV_255_BITS"), Some(engine::rt::TLAS_ENCODE_INV_255.to_bits()));
+    assert_eq!(refit.u32_constant("ENCODE_MIN_EXTENT_BITS"), Some(engine::rt::TLAS_ENCODE_MIN_EXTENT.to_bits()));
 }
 
 #[test]

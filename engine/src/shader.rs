@@ -33,6 +33,7 @@ pub const ENGINE_SHADERS: &[ShaderModule] = &[
     ("brdf.inc.wgsl", include_str!("../shaders/brdf.inc.wgsl")),
     ("ray_tracing.inc.wgsl", include_str!("../shaders/ray_tracing.inc.wgsl")),
     ("trace_rays.wgsl", include_str!("../shaders/trace_rays.wgsl")),
+    ("tlas_refit.wgsl", include_str!("../shaders/tlas_refit.wgsl")),
     ("gbuffer.wgsl", include_str!("../shaders/gbuffer.wgsl")),
     ("direct_lighting.wgsl", include_str!("../shaders/direct_lighting.wgsl")),
     ("tonemap.wgsl", include_str!("../shaders/tonemap.wgsl")),

@@ -430,7 +430,7 @@ enum BenchCommand {
     /// Closest-hit throughput of probe-like rays (grids 16×8×16 … 32×32×32, 32 … 256 rays per probe;
     /// GPU timestamps of the trace pass alone) and the CPU cost of TLAS updates when instances move.
     #[command(
-        after_long_help = "Examples:\n  game_demo bench trace --scene cathedral --iterations 15 --no-flat-rebuild\n  game_demo bench trace --scene forest --cpu-only   # the TLAS refit for moving instances only\n  game_demo bench trace --scene forest --rebraid 4   # a re-braided TLAS (up to 4 primitives an instance)\n  game_demo bench trace --scene forest --work-only --no-flat-rebuild   # traversal work per ray, no timing\n  game_demo bench trace --scene cathedral --no-flat-rebuild --shared-stack 8   # the stack's top 8 entries in workgroup memory against function memory"
+        after_long_help = "Examples:\n  game_demo bench trace --scene cathedral --iterations 15 --no-flat-rebuild\n  game_demo bench trace --scene forest --cpu-only   # the TLAS refit for moving instances only\n  game_demo bench trace --scene forest --iterations 15 --no-flat-rebuild --cpu-only --gpu-refit   # CPU refit against GPU refit (CPU ms)\n  game_demo bench trace --scene forest --rebraid 4   # a re-braided TLAS (up to 4 primitives an instance)\n  game_demo bench trace --scene forest --work-only --no-flat-rebuild   # traversal work per ray, no timing\n  game_demo bench trace --scene cathedral --no-flat-rebuild --shared-stack 8   # the stack's top 8 entries in workgroup memory against function memory"
     )]
     Trace {
         /// A built-in scene or a scene file.
@@ -470,6 +470,12 @@ enum BenchCommand {
         /// lavapipe gives the same as any other.
         #[arg(long, conflicts_with = "cpu_only")]
         work_only: bool,
+        /// Also time the TLAS refit on the GPU (engine::rt::TlasRefit::Gpu) for each count of moving
+        /// instances: its CPU ms (median, and the slowest frame, which refits the CPU's copy for the
+        /// rebuild test) beside the CPU refit's, and without --cpu-only the refit's GPU ms
+        /// (timestamps around its three dispatches, median of --iterations).
+        #[arg(long)]
+        gpu_refit: bool,
         /// Also write the results as JSON to this file (the same figures as the Markdown).
         #[arg(long)]
         json: Option<PathBuf>,
@@ -1101,7 +1107,7 @@ fn bench_walk(
 }
 
 fn bench(command: BenchCommand) -> Result<(), String> {
-    let (name, iterations, no_flat_rebuild, cpu_only, work_only, rebraid, variant, shared_stack, json) = match command {
+    let (name, iterations, no_flat_rebuild, cpu_only, work_only, gpu_refit, rebraid, variant, shared_stack, json) = match command {
         BenchCommand::Trace {
             scene,
             iterations,
@@ -1113,6 +1119,7 @@ fn bench(command: BenchCommand) -> Result<(), String> {
             persistent_groups,
             shared_stack,
             work_only,
+            gpu_refit,
             json,
         } => {
             let ray_order = match ray_order {
@@ -1125,6 +1132,7 @@ fn bench(command: BenchCommand) -> Result<(), String> {
                 no_flat_rebuild,
                 cpu_only,
                 work_only,
+                gpu_refit,
                 rebraid,
                 bench::TraceVariant { ray_order, workgroup_size, persistent_groups, shared_stack_entries: 0 },
                 shared_stack,
@@ -1306,10 +1314,18 @@ fn bench(command: BenchCommand) -> Result<(), String> {
         return write_json(json.as_deref(), report);
     }
     println!("\n## CPU cost per frame of instance and TLAS updates and uploads (median of 9 frames)\n");
+    let (gpu_header, gpu_rule) = if gpu_refit {
+        (
+            " TLAS CPU ms, refit on the GPU: median (slowest frame) | of which leaf boxes / staging + dispatches | GPU ms of the GPU refit |",
+            "---:|---:|---:|",
+        )
+    } else {
+        ("", "")
+    };
     println!(
-        "| moving instances | CPU ms (total) | of which TLAS refit/rebuild + upload | same, refit on one thread | of which refit / re-encode / upload staging | TLAS rebuilt |"
+        "| moving instances | CPU ms (total) | of which TLAS refit/rebuild + upload | same, refit on one thread | of which refit / re-encode / upload staging | TLAS rebuilt |{gpu_header}"
     );
-    println!("|---:|---:|---:|---:|---:|---|");
+    println!("|---:|---:|---:|---:|---:|---|{gpu_rule}");
     let mut movers = Vec::new();
     for count in bench::MOVING {
         match bench::tlas_update_cost(&mut app, count, 9) {
@@ -1320,10 +1336,34 @@ fn bench(command: BenchCommand) -> Result<(), String> {
                     "one_thread_refit_ms": ms(c.one_thread_steps[0]), "one_thread_encode_ms": ms(c.one_thread_steps[1]),
                     "one_thread_upload_ms": ms(c.one_thread_steps[2]), "tlas_rebuilt": c.rebuilt,
                 }));
-                let rebuilt = if c.rebuilt { "yes" } else { "no (refit)" };
+                let mut rebuilt = c.rebuilt;
+                let mut gpu_cells = String::new();
+                if gpu_refit {
+                    let timed = if cpu_only { 0 } else { iterations.max(1) };
+                    if let Some(g) = bench::tlas_gpu_refit_cost(&mut app, count, 9, timed) {
+                        rebuilt |= g.rebuilt;
+                        let gpu_ms = g.gpu.map(ms);
+                        let [boxes, staging] = g.steps.map(ms);
+                        gpu_cells = format!(
+                            " {:.3} ({:.3}) | {boxes:.3} / {staging:.3} | {} |",
+                            ms(g.tlas),
+                            ms(g.tlas_slowest),
+                            gpu_ms.map_or("n/a".into(), |t| format!("{t:.3}"))
+                        );
+                        if let Some(last) = movers.last_mut() {
+                            last["gpu_refit_tlas_ms"] = ms(g.tlas).into();
+                            last["gpu_refit_tlas_slowest_ms"] = ms(g.tlas_slowest).into();
+                            last["gpu_refit_boxes_ms"] = boxes.into();
+                            last["gpu_refit_staging_ms"] = staging.into();
+                            last["gpu_refit_gpu_ms"] = gpu_ms.into();
+                            last["gpu_refit_rebuilt"] = g.rebuilt.into();
+                        }
+                    }
+                }
+                let rebuilt = if rebuilt { "yes" } else { "no (refit)" };
                 let [refit, encode, upload] = c.one_thread_steps.map(ms);
                 println!(
-                    "| {count} | {:.3} | {:.3} | {:.3} | {refit:.3} / {encode:.3} / {upload:.3} | {rebuilt} |",
+                    "| {count} | {:.3} | {:.3} | {:.3} | {refit:.3} / {encode:.3} / {upload:.3} | {rebuilt} |{gpu_cells}",
                     ms(c.total),
                     ms(c.tlas),
                     ms(c.tlas_one_thread)

@@ -578,6 +578,76 @@ pub fn tlas_update_cost(app: &mut App, count: usize, frames: usize) -> Option<Tl
     Some(TlasUpdateCost { total, tlas, tlas_one_thread: one_thread[one_thread.len() / 2], one_thread_steps, rebuilt })
 }
 
+/// CPU cost of one frame's TLAS update with the refit on the GPU ([`engine::rt::TlasRefit::Gpu`]),
+/// and the refit's GPU time.
+pub struct TlasGpuRefitCost {
+    /// Median CPU time of the frames' TLAS work (the moved leaves' world boxes, their staging and the
+    /// dispatches' recording).
+    pub tlas: Duration,
+    /// The slowest frame's: the one that also refits the CPU's copy of the binary TLAS to decide on a
+    /// rebuild (every [`engine::rt::TLAS_GPU_REFIT_CHECK_FRAMES`] refits).
+    pub tlas_slowest: Duration,
+    /// Medians of its steps: the moved leaves' world boxes (with the CPU copy's refit on a check
+    /// frame), and their staging with the dispatches' recording ([`engine::rt::BvhFrameStats`]).
+    pub steps: [Duration; 2],
+    /// Median GPU time of the refit's three dispatches (`None` without timestamp queries, or not asked).
+    pub gpu: Option<Duration>,
+    /// Whether any of the frames rebuilt the TLAS.
+    pub rebuilt: bool,
+}
+
+/// [`tlas_update_cost`]'s frames with the refit on the GPU: `frames` frames (after one untimed, which
+/// uploads the binary TLAS to the GPU once) in which `count` instances move; with `gpu_iterations`
+/// above 0, the last refit's dispatches are then timed that many times (GPU timestamps). The refit
+/// goes back to the CPU afterwards. `None` when the scene has fewer instances.
+pub fn tlas_gpu_refit_cost(app: &mut App, count: usize, frames: usize, gpu_iterations: u32) -> Option<TlasGpuRefitCost> {
+    let world = app.world_mut();
+    let mut query = world.query_filtered::<Entity, With<MeshInstance>>();
+    let entities: Vec<Entity> = query.iter(world).collect();
+    if entities.len() < count {
+        return None;
+    }
+    world.resource_mut::<RayTracingScene>().tlas_refit = engine::rt::TlasRefit::Gpu;
+    let mut rng = SplitMix64::new(0x6B0F_17E0 + count as u64);
+    let mut times = Vec::new();
+    let mut steps: [Vec<Duration>; 2] = Default::default();
+    let mut rebuilt = false;
+    for frame in 0..=frames {
+        let world = app.world_mut();
+        for &e in entities.iter().take(count) {
+            if let Some(mut t) = world.get_mut::<Transform>(e) {
+                t.translation += Vec3::new(rng.unit() - 0.5, rng.unit() - 0.5, rng.unit() - 0.5) * 0.02;
+            }
+        }
+        app.update();
+        let rt = app.world().resource::<RayTracingScene>();
+        if frame > 0 {
+            rebuilt |= rt.stats.tlas_rebuilt;
+            times.push(rt.stats.cpu_time);
+            steps[0].push(rt.stats.tlas_refit_time);
+            steps[1].push(rt.stats.tlas_upload_time);
+        }
+    }
+    let gpu = app.world().resource::<GpuContext>();
+    let rt = app.world().resource::<RayTracingScene>();
+    let mut gpu_times: Vec<Duration> = (0..gpu_iterations).filter_map(|_| rt.time_gpu_refit(gpu)).collect();
+    gpu_times.sort();
+    let mut rt = app.world_mut().resource_mut::<RayTracingScene>();
+    rt.tlas_refit = engine::rt::TlasRefit::Cpu;
+    rt.sync_cpu_tlas();
+    times.sort();
+    Some(TlasGpuRefitCost {
+        tlas: times[times.len() / 2],
+        tlas_slowest: *times.last()?,
+        steps: steps.map(|mut v| {
+            v.sort();
+            v[v.len() / 2]
+        }),
+        gpu: gpu_times.get(gpu_times.len() / 2).copied(),
+        rebuilt,
+    })
+}
+
 /// CPU time to build one flat CWBVH over every triangle of the scene in world space.
 pub fn flat_rebuild_cost(app: &mut App) -> (Duration, usize) {
     let world = app.world();

@@ -610,6 +610,13 @@ impl Uploads {
         self.belt.write_buffer(encoder, buffer, offset, size).copy_from_slice(bytes);
     }
 
+    /// The encoder the copies are recorded in (created if none is yet), for GPU work that must follow
+    /// this frame's uploads and precede its passes (the TLAS refit on the GPU): what is recorded in it
+    /// after a copy runs after that copy.
+    pub fn encoder(&mut self, gpu: &GpuContext) -> &mut wgpu::CommandEncoder {
+        self.encoder.get_or_insert_with(|| gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("uploads") }))
+    }
+
     /// Uploads the elements of `data` listed in `dirty` (sorted and deduplicated here) to `buffer`:
     /// runs less than 1 KiB apart are merged, and when the runs cover most of the array it
     /// is copied whole.

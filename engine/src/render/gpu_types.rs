@@ -145,6 +145,7 @@ pub struct GpuLight {
 pub fn gpu_structs() -> Vec<crate::shader::HostStruct> {
     use crate::gpu_struct_layout as layout;
     use crate::rt::cpu::{GpuRay as Ray, TraceResult};
+    use crate::rt::gpu_refit::{TlasRefitLeaf, TlasRefitParams};
     use crate::rt::{GpuBlas, TlasEntry};
     use crate::sky::GpuSky;
     vec![
@@ -165,6 +166,8 @@ pub fn gpu_structs() -> Vec<crate::shader::HostStruct> {
         layout!(GpuBlas in "ray_tracing.inc.wgsl" { node_offset, triangle_offset, node_count, triangle_count, first_index, base_vertex, _pad0, _pad1 }),
         layout!(TlasEntry in "ray_tracing.inc.wgsl" { instance, node_offset, triangle_offset, start_node }),
         layout!(Ray in "ray_tracing.inc.wgsl" { origin, tmin, direction, tmax }),
+        layout!(TlasRefitParams in "tlas_refit.wgsl" { moved, inner, leaves, wide }),
+        layout!(TlasRefitLeaf in "tlas_refit.wgsl" { lo, leaf, hi, _pad }),
         layout!(TraceResult in "trace_rays.wgsl" { t, instance, primitive, flags, barycentrics, any_hit, _pad, albedo, emissive }),
     ]
 }

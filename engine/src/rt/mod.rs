@@ -22,7 +22,9 @@
 //!   refitting has let its quality decay. Many movers are refitted in parallel on rayon's pool: the binary BVH is cut into
 //!   subtrees whose nodes are contiguous, each refitted through its own slice, then the few nodes
 //!   above them (the same TLAS as on one thread). Only changed nodes are uploaded, those near each
-//!   other in one copy. A static scene does no BVH work per frame.
+//!   other in one copy. Or, with [`TlasRefit::Gpu`], the GPU refits (`engine/shaders/tlas_refit.wgsl`,
+//!   the same nodes bit for bit): the CPU only computes and uploads the moved leaves' world boxes.
+//!   A static scene does no BVH work per frame.
 //!
 //! Traversal lives in `engine/shaders/ray_tracing.inc.wgsl`: closest hit and any hit in one loop over both
 //! levels (a warp's lanes test TLAS and BLAS nodes with the same code in the same step), the ray
@@ -30,6 +32,7 @@
 //! instances.
 
 pub mod cpu;
+pub(crate) mod gpu_refit;
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, Sender, channel};
@@ -83,6 +86,30 @@ pub fn default_parallel_refit_from() -> usize {
 /// Subtrees the binary TLAS is cut into for a parallel refit: several per core, so that movers spread
 /// unevenly over the scene still keep every core busy.
 const TLAS_REFIT_SUBTREES: usize = 128;
+
+/// How the TLAS is refitted when instances move ([`RayTracingScene::tlas_refit`]). Both give the same
+/// wide nodes, bit for bit.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum TlasRefit {
+    /// On the CPU: the moved leaves, their ancestors in the binary TLAS and the wide nodes over them
+    /// (on rayon's pool from [`RayTracingScene::parallel_refit_from`] movers on); the changed wide
+    /// nodes are uploaded.
+    #[default]
+    Cpu,
+    /// On the GPU (`engine/shaders/tlas_refit.wgsl`): the CPU computes the moved leaves' world boxes
+    /// and uploads them (32 bytes a mover); three dispatches before anything traces refit every inner
+    /// node and re-encode every wide node in place. The CPU's copy of the binary TLAS keeps its leaves
+    /// current and refits its inner nodes every [`TLAS_GPU_REFIT_CHECK_FRAMES`] refits (to decide on
+    /// a rebuild) or when asked ([`RayTracingScene::sync_cpu_tlas`]).
+    Gpu,
+}
+
+/// With [`TlasRefit::Gpu`], the CPU's copy of the binary TLAS has its inner nodes refitted, and the
+/// rebuild test ([`TLAS_REBUILD_COST_RATIO`]) made, once every this many refits: a frame of them
+/// costs about one CPU refit of the instances moved since the last (the other frames none), and a
+/// TLAS whose quality decayed is rebuilt at most this many frames late (its refitted bounds are
+/// exact meanwhile: no hit is missed).
+pub const TLAS_GPU_REFIT_CHECK_FRAMES: u32 = 8;
 
 /// Changed wide TLAS nodes at most this many bytes apart are uploaded in one copy, with the unchanged
 /// ones between them: recording a copy costs the CPU a microsecond or two (wgpu's tracking), about
@@ -184,7 +211,9 @@ fn world_aabb((lo, hi): (Vec3, Vec3), world: &Affine3A) -> Option<Aabb> {
             Vec3::new(if i & 1 == 0 { lo.x } else { hi.x }, if i & 2 == 0 { lo.y } else { hi.y }, if i & 4 == 0 { lo.z } else { hi.z });
         aabb.extend(world.transform_point3a(corner.into()));
     }
-    aabb.valid().then_some(aabb)
+    // + 0.0 turns -0.0 into +0.0 (and nothing else), so that a union's minimum never depends on the
+    // order of its operands: the GPU refit's integer min/max then gives the CPU's bits.
+    aabb.valid().then_some(Aabb { min: aabb.min + Vec3A::ZERO, max: aabb.max + Vec3A::ZERO })
 }
 
 /// The default of [`RayTracingScene::rebraid_budget`]: re-braiding off (see
@@ -325,8 +354,14 @@ pub struct BvhFrameStats {
     pub tlas_refit_time: Duration,
     /// Of a refit's time: re-encoding the wide nodes over changed children.
     pub tlas_encode_time: Duration,
-    /// Of a refit's time: staging the changed wide nodes for upload.
+    /// Of a refit's time: staging the changed wide nodes for upload (with [`TlasRefit::Gpu`]: the
+    /// moved leaves' boxes and the refit's dispatches).
     pub tlas_upload_time: Duration,
+    /// Whether this frame's refit ran on the GPU ([`TlasRefit::Gpu`]).
+    pub tlas_refit_on_gpu: bool,
+    /// Whether this frame refitted the CPU's copy of the binary TLAS after GPU refits (every
+    /// [`TLAS_GPU_REFIT_CHECK_FRAMES`] of them, to decide on a rebuild), in `tlas_refit_time`.
+    pub tlas_cpu_copy_refitted: bool,
 }
 
 /// The scene's BVHs on the CPU and the GPU.
@@ -377,6 +412,20 @@ pub struct RayTracingScene {
     /// Moving instances from which the TLAS refit runs on rayon's thread pool (default
     /// [`default_parallel_refit_from`]; `usize::MAX`: never, 0: always). Both ways give the same TLAS.
     pub parallel_refit_from: usize,
+    /// Where the TLAS is refitted when instances move (default [`TlasRefit::Cpu`]). Either way gives
+    /// the same TLAS; it can change from one frame to the next.
+    pub tlas_refit: TlasRefit,
+    /// With [`TlasRefit::Gpu`]: leaves whose boxes changed since the CPU copy's inner nodes were last
+    /// refitted (and a mark per Bvh2 node), and the wide nodes whose CPU encoding is stale.
+    stale_leaves: Vec<u32>,
+    leaf_stale: Vec<bool>,
+    wide_stale: Vec<bool>,
+    /// GPU refits since the CPU copy was last refitted.
+    gpu_refits_unchecked: u32,
+    /// The GPU refit's pipelines and buffers (created at the first GPU refit), and whether its
+    /// buffers hold this TLAS and its leaves' current boxes.
+    gpu_refit: Option<gpu_refit::GpuRefit>,
+    gpu_refit_ready: bool,
     /// Re-braiding (partial re-braiding, Benthin, Woop, Wald and Áfra, HPG 2017): the TLAS build
     /// may have up to this many times as many primitives as instances, opening the BLAS nodes of
     /// static instances with the largest world-space boxes into TLAS leaves of their own (each
@@ -408,7 +457,8 @@ impl RayTracingScene {
             blas_nodes: GrowableBuffer::new(&gpu.device, "blas_nodes", storage),
             blas_triangles: GrowableBuffer::new(&gpu.device, "blas_triangles", storage),
             blas_info: GrowableBuffer::new(&gpu.device, "blas_info", storage),
-            tlas_nodes: GrowableBuffer::new(&gpu.device, "tlas_nodes", storage),
+            // COPY_SRC: read back to check the GPU refit ([`RayTracingScene::read_tlas_nodes`]).
+            tlas_nodes: GrowableBuffer::new(&gpu.device, "tlas_nodes", storage | wgpu::BufferUsages::COPY_SRC),
             blas: Vec::new(),
             gpu_blas: Vec::new(),
             requested_meshes: 0,
@@ -430,6 +480,13 @@ impl RayTracingScene {
             built_cost: 0.0,
             refit_plan: None,
             parallel_refit_from: default_parallel_refit_from(),
+            tlas_refit: TlasRefit::Cpu,
+            stale_leaves: Vec::new(),
+            leaf_stale: Vec::new(),
+            wide_stale: Vec::new(),
+            gpu_refits_unchecked: 0,
+            gpu_refit: None,
+            gpu_refit_ready: false,
             rebraid_budget: TLAS_REBRAID_BUDGET,
             rebuild_requested: false,
             slot_moved: Vec::new(),
@@ -471,9 +528,63 @@ impl RayTracingScene {
             .collect()
     }
 
-    /// The TLAS as uploaded (CPU copy): its 8-wide nodes and their entries, eight per node.
+    /// The TLAS as uploaded (CPU copy): its 8-wide nodes and their entries, eight per node. After
+    /// GPU refits ([`TlasRefit::Gpu`]) the nodes are those of the last [`RayTracingScene::sync_cpu_tlas`].
     pub fn tlas_cpu(&self) -> (&[CwBvhNode], &[TlasEntry]) {
         (&self.gpu_tlas, &self.gpu_entries)
+    }
+
+    /// The wide TLAS nodes as the GPU holds them, read back (as many as [`RayTracingScene::tlas_cpu`]
+    /// has). Blocks until the GPU is idle. For tests of the GPU refit.
+    pub fn read_tlas_nodes(&self, gpu: &GpuContext) -> Vec<CwBvhNode> {
+        let bytes = crate::render::readback::read_buffer(gpu, &self.tlas_nodes.buffer);
+        bytemuck::pod_collect_to_vec(&bytes[..size_of_val(self.gpu_tlas.as_slice())])
+    }
+
+    /// Brings the CPU's copy of the TLAS up to date after GPU refits ([`TlasRefit::Gpu`]): refits the
+    /// binary TLAS's inner nodes above the leaves moved since it was last refitted and re-encodes the
+    /// wide nodes over them, which then equal the GPU's bit for bit. Costs about one CPU refit of
+    /// those movers; nothing when the copy is current (always with [`TlasRefit::Cpu`]).
+    pub fn sync_cpu_tlas(&mut self) {
+        self.refit_cpu_copy();
+        let Some(bvh) = &self.tlas else { return };
+        for (w, stale) in self.wide_stale.iter_mut().enumerate().filter(|(_, s)| **s) {
+            encode_bounds(bvh, self.wide_source[w] as usize, &self.wide_children[w], &mut self.gpu_tlas[w]);
+            *stale = false;
+        }
+    }
+
+    /// Refits the CPU copy's inner nodes above the leaves GPU refits moved (marking the wide nodes
+    /// over changed nodes stale) and updates the SAH cost.
+    fn refit_cpu_copy(&mut self) {
+        self.gpu_refits_unchecked = 0;
+        if self.stale_leaves.is_empty() {
+            return;
+        }
+        let Some(mut bvh) = self.tlas.take() else { return };
+        let leaves: Vec<(u32, Aabb)> = self.stale_leaves.iter().map(|&l| (l, *bvh.nodes[l as usize].aabb())).collect();
+        for &l in &self.stale_leaves {
+            self.leaf_stale[l as usize] = false;
+        }
+        self.stale_leaves.clear();
+        self.marked.clear();
+        self.marked.resize(bvh.nodes.len(), false);
+        let part = TlasPart { nodes: &mut bvh.nodes, marks: &mut self.marked, base: 0, stop: NONE as usize, scan_marks: true };
+        let mut out = SubtreeRefit::default();
+        part.refit(&bvh.parents, &leaves, &[], &mut out);
+        self.inner_area += out.area;
+        for &i in &out.dirty {
+            if let Some(&w) = self.wide_owner.get(i as usize).filter(|&&w| w != NONE) {
+                self.wide_stale[w as usize] = true;
+            }
+        }
+        self.tlas = Some(bvh);
+    }
+
+    /// The SAH cost of the TLAS over its cost when built exceeds [`TLAS_REBUILD_COST_RATIO`].
+    fn decayed(&self, bvh: &Bvh2) -> bool {
+        let cost = self.inner_area / f64::from(bvh.nodes[0].aabb().half_area()).max(f64::MIN_POSITIVE);
+        cost > TLAS_REBUILD_COST_RATIO * self.built_cost
     }
 
     /// The re-braiding budget ([`RayTracingScene::set_rebraid_budget`]).
@@ -685,9 +796,14 @@ impl RayTracingScene {
             self.inner_area = bvh.nodes.iter().filter(|n| !n.is_leaf()).map(|n| f64::from(n.aabb().half_area())).sum();
             self.built_cost = self.inner_area / f64::from(bvh.nodes[0].aabb().half_area()).max(f64::MIN_POSITIVE);
             self.refit_plan = RefitPlan::new(&bvh, TLAS_REFIT_SUBTREES);
+            self.leaf_stale = vec![false; bvh.nodes.len()];
             self.tlas = Some(bvh);
         }
+        self.stale_leaves.clear();
+        self.gpu_refits_unchecked = 0;
+        self.gpu_refit_ready = false;
         self.collapse_tlas();
+        self.wide_stale = vec![false; self.gpu_tlas.len()];
         self.stats.tlas_rebuilt = true;
         self.upload_tlas_all(gpu);
     }
@@ -870,6 +986,13 @@ impl RayTracingScene {
         if opened_mover {
             return false;
         }
+        if self.tlas_refit == TlasRefit::Gpu {
+            return self.refit_tlas_on_gpu(gpu, uploads, moved);
+        }
+        // After GPU refits: the CPU copy catches up (its wide nodes then equal the GPU's, so none
+        // is uploaded for it), and the GPU's boxes will need uploading before the next GPU refit.
+        self.sync_cpu_tlas();
+        self.gpu_refit_ready = false;
         let Some(mut bvh) = self.tlas.take() else { return moved.is_empty() };
         self.marked.clear();
         self.marked.resize(bvh.nodes.len(), false);
@@ -881,8 +1004,7 @@ impl RayTracingScene {
             return false;
         };
         self.inner_area += area;
-        let cost = self.inner_area / f64::from(bvh.nodes[0].aabb().half_area()).max(f64::MIN_POSITIVE);
-        if cost > TLAS_REBUILD_COST_RATIO * self.built_cost {
+        if self.decayed(&bvh) {
             self.tlas = Some(bvh);
             return false;
         }
@@ -915,6 +1037,77 @@ impl RayTracingScene {
         self.stats.tlas_refitted_leaves += moved.len();
         self.stats.tlas_refit_parallel = parallel;
         true
+    }
+
+    /// The refit with [`TlasRefit::Gpu`]: the moved leaves' world boxes into the CPU copy's leaves
+    /// and to the GPU, whose dispatches (recorded in `uploads`' encoder, after its copies) refit the
+    /// inner nodes and re-encode the wide ones. Every [`TLAS_GPU_REFIT_CHECK_FRAMES`] refits the CPU
+    /// copy's inner nodes are refitted too, for the rebuild test. Returns false when the TLAS should
+    /// be rebuilt instead.
+    fn refit_tlas_on_gpu(&mut self, gpu: &GpuContext, uploads: &mut Uploads, moved: &[(u32, u32, Affine3A)]) -> bool {
+        let started = Instant::now();
+        let Some(bvh) = self.tlas.as_mut() else { return moved.is_empty() };
+        let mut leaves = Vec::with_capacity(moved.len());
+        for &(slot, _, world) in moved {
+            let prim = self.slot_prims.get(slot as usize).copied().unwrap_or(NONE) as usize;
+            let Some(aabb) = self.tlas_prims.get(prim).and_then(|p| world_aabb(p.local, &world)) else { return false };
+            let leaf = self.prim_leaf[prim];
+            bvh.nodes[leaf as usize].set_aabb(aabb);
+            if !std::mem::replace(&mut self.leaf_stale[leaf as usize], true) {
+                self.stale_leaves.push(leaf);
+            }
+            leaves.push(gpu_refit::TlasRefitLeaf::new(leaf, &aabb));
+        }
+        self.gpu_refits_unchecked += 1;
+        if self.gpu_refits_unchecked >= TLAS_GPU_REFIT_CHECK_FRAMES {
+            self.refit_cpu_copy();
+            self.stats.tlas_cpu_copy_refitted = true;
+            if self.tlas.as_ref().is_some_and(|bvh| self.decayed(bvh)) {
+                return false;
+            }
+        }
+        let refitted = Instant::now();
+        if let Err(error) = self.record_gpu_refit(gpu, uploads, &leaves) {
+            // Refitted on the CPU from now on (this frame: rebuilt, its leaves being ahead of the GPU).
+            log::error!("the TLAS refit on the GPU is not available ({error}); refitting on the CPU");
+            self.tlas_refit = TlasRefit::Cpu;
+            return false;
+        }
+        self.stats.tlas_refit_time = refitted - started;
+        self.stats.tlas_upload_time = refitted.elapsed();
+        self.stats.tlas_refitted_leaves += moved.len();
+        self.stats.tlas_refit_on_gpu = true;
+        true
+    }
+
+    /// Stages the moved leaves and records the GPU refit's dispatches after this frame's uploads,
+    /// first uploading the whole binary TLAS when the GPU's copy is not this TLAS's (after a build or
+    /// a CPU refit).
+    fn record_gpu_refit(
+        &mut self,
+        gpu: &GpuContext,
+        uploads: &mut Uploads,
+        leaves: &[gpu_refit::TlasRefitLeaf],
+    ) -> Result<(), crate::shader::ShaderError> {
+        let refit = match &mut self.gpu_refit {
+            Some(r) => r,
+            none => none.insert(gpu_refit::GpuRefit::new(gpu)?),
+        };
+        let Some(bvh) = &self.tlas else { return Ok(()) };
+        if !self.gpu_refit_ready {
+            refit.load(gpu, bvh, &self.wide_source, &self.wide_children, &self.tlas_nodes.buffer);
+            self.gpu_refit_ready = true;
+        }
+        refit.record(gpu, uploads, leaves, &self.tlas_nodes.buffer);
+        self.stats.tlas_upload_copies += 2;
+        Ok(())
+    }
+
+    /// Runs the last GPU refit's dispatches again (the same result: they are idempotent) between
+    /// two timestamps and returns their GPU time; `None` without timestamp queries or before a GPU
+    /// refit. Blocks. For benchmarks.
+    pub fn time_gpu_refit(&self, gpu: &GpuContext) -> Option<Duration> {
+        self.gpu_refit.as_ref().filter(|_| self.gpu_refit_ready)?.time(gpu)
     }
 
     /// Remembers that instance `slot` has moved: re-braiding no longer opens it.
@@ -1201,6 +1394,13 @@ fn order_slots(bvh: &Bvh2, source: usize, children: &[u32]) -> [u32; 8] {
     slots
 }
 
+/// The smallest extent a wide node's quantization step is computed from (`encode_bounds`; the GPU
+/// refit's `ENCODE_MIN_EXTENT_BITS` holds its bits).
+pub const TLAS_ENCODE_MIN_EXTENT: f32 = 1e-20;
+
+/// 1 / 255 as `encode_bounds` multiplies by it (the GPU refit's `ENCODE_INV_255_BITS` holds its bits).
+pub const TLAS_ENCODE_INV_255: f32 = 1.0 / 255.0;
+
 /// Sets a wide node's bounds (origin, exponents) and its children's quantized boxes from the Bvh2's
 /// current bounds, rounding outwards (as obvhs encodes a CWBVH node).
 fn encode_bounds(bvh: &Bvh2, source: usize, children: &[u32; 8], node: &mut CwBvhNode) {
@@ -1209,7 +1409,7 @@ fn encode_bounds(bvh: &Bvh2, source: usize, children: &[u32; 8], node: &mut CwBv
     // The smallest power of two at least extent / 255 (from the float's bits: refits re-encode
     // many nodes), so that 255 steps span the node.
     let step = |extent: f32| {
-        let bits = (extent.max(1e-20) * (1.0 / 255.0)).to_bits();
+        let bits = (extent.max(TLAS_ENCODE_MIN_EXTENT) * TLAS_ENCODE_INV_255).to_bits();
         let exponent = bits & 0x7f80_0000;
         f32::from_bits(if bits & 0x007f_ffff != 0 { exponent + 0x0080_0000 } else { exponent })
     };
