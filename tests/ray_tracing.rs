@@ -797,10 +797,12 @@ fn the_shared_stack_finds_the_hits_of_the_function_memory_stack() {
 /// Postponed triangle tests (`bench trace --subgroup-postpone SHARE`: a thread tests its triangles
 /// only when at least SHARE of its subgroup's active threads want theirs, and otherwise walks nodes
 /// first) find the closest hits of tests done at once, ray for ray: the same distance, instance and
-/// triangle, in both bench kernels, at shares from "rarely" to "only when every lane wants to", and
+/// triangle (but for rare exact ties), in both bench kernels, at shares from "rarely" to "only when every lane wants to", and
 /// with a shared stack of 2 (postponed triangles pushed through the workgroup ring). At a share of
-/// 1 the lanes do wait, so the postponing path is the one tested. Needs subgroup operations
-/// (lavapipe has them); skipped with a line saying so on an adapter without them.
+/// 1 the lanes do wait, so the postponing path is the one tested. So does the persistent kernel's
+/// dynamic fetch (`--subgroup-fetch`: one atomic add for a subgroup's lanes done together), with
+/// tests at once or postponed. Needs subgroup operations (lavapipe has them); skipped with a line
+/// saying so on an adapter without them.
 #[test]
 fn postponed_triangle_tests_find_the_hits_of_tests_at_once() {
     let test = "postponed_triangle_tests_find_the_hits_of_tests_at_once";
@@ -829,9 +831,18 @@ fn postponed_triangle_tests_find_the_hits_of_tests_at_once() {
             expected.iter().map(|h| h.t).collect::<Vec<_>>(),
             "{name}: writing the hits' ids changes no distance"
         );
+        // The first ray whose hit differs, if any. Two triangles hit at the same distance, bit for
+        // bit (along a shared edge), are a tie that the order of the tests settles: tests in another
+        // order may find the other one, in the same instance. A few such rays are allowed.
         let first_difference = |got: &[lab::bench::BenchHit]| {
             assert_eq!(got.len(), expected.len());
-            got.iter().zip(&expected).enumerate().find(|(_, (a, b))| a != b).map(|(i, (a, b))| (i, *a, *b))
+            let tie = |a: &lab::bench::BenchHit, b: &lab::bench::BenchHit| a.t.to_bits() == b.t.to_bits() && a.instance == b.instance;
+            let ties = got.iter().zip(&expected).filter(|(a, b)| a != b && tie(a, b)).count();
+            if ties > 0 {
+                eprintln!("{name}: {ties} ties of {hits} hits settled otherwise");
+            }
+            assert!(ties * 200 <= hits, "{name}: {ties} ties settled otherwise of {hits} hits: too many to be ties");
+            got.iter().zip(&expected).enumerate().find(|(_, (a, b))| a != b && !tie(a, b)).map(|(i, (a, b))| (i, *a, *b))
         };
         for share in [0.2, 0.5, 1.0] {
             for (workgroup_size, shared_stack_entries) in [(64, 0), (128, 0), (128, 2)] {
@@ -840,11 +851,18 @@ fn postponed_triangle_tests_find_the_hits_of_tests_at_once() {
                 let what = format!("{name}, share {share}, {workgroup_size} threads a workgroup, shared stack {shared_stack_entries}");
                 let got = lab::bench::closest_hits(&gpu, &app, bounds, grid, rays, postponed).expect("postponed, thread a ray");
                 assert_eq!(first_difference(&got), None, "{what}, thread a ray: (ray, got, expected)");
-                // Fewer workgroups than rays / 64, and a share that does not divide the rays evenly.
-                let persistent = lab::bench::TraceVariant { persistent_groups: Some(7), ..postponed };
-                let got = lab::bench::closest_hits(&gpu, &app, bounds, grid, rays, persistent).expect("postponed, persistent");
-                assert_eq!(first_difference(&got), None, "{what}, persistent: (ray, got, expected)");
+                // Fewer workgroups than rays / 64, and a share that does not divide the rays evenly;
+                // next rays taken one a lane, or one fetch for a subgroup's lanes done together.
+                for subgroup_fetch in [false, true] {
+                    let persistent = lab::bench::TraceVariant { persistent_groups: Some(7), subgroup_fetch, ..postponed };
+                    let got = lab::bench::closest_hits(&gpu, &app, bounds, grid, rays, persistent).expect("postponed, persistent");
+                    assert_eq!(first_difference(&got), None, "{what}, persistent, subgroup fetch {subgroup_fetch}: (ray, got, expected)");
+                }
             }
+            // Dynamic fetch alone.
+            let fetch = lab::bench::TraceVariant { persistent_groups: Some(7), subgroup_fetch: true, ..at_once };
+            let got = lab::bench::closest_hits(&gpu, &app, bounds, grid, rays, fetch).expect("subgroup fetch");
+            assert_eq!(first_difference(&got), None, "{name}, persistent, subgroup fetch: (ray, got, expected)");
             let w = lab::bench::traversal_work(
                 &gpu,
                 &app,
@@ -855,15 +873,19 @@ fn postponed_triangle_tests_find_the_hits_of_tests_at_once() {
             )
             .expect("work");
             eprintln!(
-                "{name}, share {share}: {:.1} BLAS nodes, {:.1} triangles, {:.1} steps of which {:.2} waits a ray, SIMT efficiency {:.0}%",
+                "{name}, share {share}: {:.1} BLAS nodes, {:.1} triangles, {:.1} steps of which {:.2} put tests off and {:.2} waited, a ray; \
+                 SIMT efficiency {:.0}%",
                 w.blas_nodes,
                 w.triangles,
                 w.steps,
+                w.postponed,
                 w.waits,
                 100.0 * w.simt_efficiency
             );
+            assert!(w.postponed >= w.waits, "{name}, share {share}");
             if share == 1.0 {
                 assert!(w.waits > 0.0, "{name}: at a share of 1 some lane should wait for the others");
+                assert!(w.postponed > w.waits, "{name}: at a share of 1 some lane should walk nodes before its triangles");
             }
         }
     }

@@ -1328,7 +1328,7 @@ fn bench(command: BenchCommand) -> Result<(), String> {
             let json = serde_json::json!({
                 "probes": grid, "rays_per_probe": rays, "tlas_nodes": w.tlas_nodes, "instances_entered": w.instances,
                 "blas_nodes": w.blas_nodes, "triangles": w.triangles, "steps": w.steps, "simt_efficiency": w.simt_efficiency,
-                "stack_spills": w.stack_spills, "deepest_stack": w.deepest_stack, "waits": w.waits,
+                "stack_spills": w.stack_spills, "deepest_stack": w.deepest_stack, "postponed": w.postponed, "waits": w.waits,
             });
             match v.postpone_triangles {
                 Some(share) => postponed_work.push(serde_json::json!({"share": share, "work": json})),
@@ -1352,13 +1352,14 @@ fn bench(command: BenchCommand) -> Result<(), String> {
                 ),
                 // Postponed tests reorder the walk: a closer hit found later culls fewer nodes.
                 Some(_) if v.postpone_triangles.is_some() => println!(
-                    "{}: {:.1} TLAS nodes, {:.1} BLAS nodes, {:.1} triangles tested; {:.1} loop steps of which {:.1} only waited, \
-                     SIMT efficiency {:.0}% (waits idle); deepest stack {} entries",
+                    "{}: {:.1} TLAS nodes, {:.1} BLAS nodes, {:.1} triangles tested; {:.1} loop steps, {:.1} of which put triangle tests off \
+                     and {:.1} only waited, SIMT efficiency {:.0}% (waits idle); deepest stack {} entries",
                     stack_name(v),
                     w.tlas_nodes,
                     w.blas_nodes,
                     w.triangles,
                     w.steps,
+                    w.postponed,
                     w.waits,
                     100.0 * w.simt_efficiency,
                     w.deepest_stack

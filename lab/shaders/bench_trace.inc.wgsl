@@ -25,9 +25,10 @@ struct BenchParams {
 // summed over the warps (lanes 32k … 32k + 31 of a workgroup), whose ratio is the SIMT efficiency;
 // the stack entries moved from workgroup to function memory summed over all rays
 // (RT_SHARED_STACK_ENTRIES), and the deepest any ray's stack got.
-// Last (RT_COUNT_WORK, postponed triangle tests): the steps in which a lane did nothing but wait
-// with its triangles (bench_step), summed over all rays.
-@group(1) @binding(2) var<storage, read_write> bench_work: array<atomic<u32>, 9>;
+// Last (RT_COUNT_WORK, postponed triangle tests): the steps in which a lane put off its triangle
+// tests, and of those the steps in which it did nothing but wait with them (bench_step), summed
+// over all rays.
+@group(1) @binding(2) var<storage, read_write> bench_work: array<atomic<u32>, 10>;
 // Coherent orders (lab::bench::coherent_ray_order) of each ray count, one after another.
 @group(1) @binding(3) var<storage, read> bench_order: array<u32>;
 // Each ray's hit instance and mesh triangle (RT_NO_HIT, 0 for a miss), when the pipeline sets
@@ -51,8 +52,11 @@ fn bench_step(w: ptr<function, RtWalk>, stack: ptr<function, array<vec2<u32>, RT
     let waiting = rt_walk_wants_triangles(w);
     rt_walk_node(w, stack);
     if bench_postpone_triangles(rt_walk_wants_triangles(w)) {
-        if RT_COUNT_WORK && waiting && ((*w).group.y & 0xff000000u) == 0u {
-            bench_waits += 1u;
+        if RT_COUNT_WORK {
+            bench_postponed += 1u;
+            if waiting && ((*w).group.y & 0xff000000u) == 0u {
+                bench_waits += 1u;
+            }
         }
         rt_walk_postpone_triangles(w, stack);
         return false;
@@ -60,7 +64,9 @@ fn bench_step(w: ptr<function, RtWalk>, stack: ptr<function, array<vec2<u32>, RT
     return rt_walk_prims(w, stack, false);
 }
 
-// Steps of this thread's rays that did nothing but wait (RT_COUNT_WORK).
+// Steps of this thread's rays that put off their triangle tests, and that did nothing but wait
+// (RT_COUNT_WORK).
+var<private> bench_postponed: u32;
 var<private> bench_waits: u32;
 
 // Keeps ray `i`'s hit: its distance, and with BENCH_HIT_IDS what it hit.
@@ -127,7 +133,8 @@ fn trace_one(i: u32) {
         atomicAdd(&bench_work[4], rt_steps);
         atomicAdd(&bench_work[6], rt_stack_work.x);
         atomicMax(&bench_work[7], rt_stack_work.y);
-        atomicAdd(&bench_work[8], bench_waits);
+        atomicAdd(&bench_work[8], bench_postponed);
+        atomicAdd(&bench_work[9], bench_waits);
     }
 }
 

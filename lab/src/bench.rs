@@ -103,7 +103,7 @@ pub const RT_STACK_SIZE: u32 = 48;
 const BENCH_WORKGROUP_BYTES: u32 = 1024 * 4 + 4;
 
 /// Words of `bench_work` (see `bench_trace.inc.wgsl`).
-const BENCH_WORK_WORDS: usize = 9;
+const BENCH_WORK_WORDS: usize = 10;
 
 /// Direction i of n spherical Fibonacci points (the bench shader's formula).
 fn spherical_fibonacci(i: u32, n: u32) -> Vec3 {
@@ -536,8 +536,10 @@ pub struct TraversalWork {
     /// workgroup): the share of a warp's lanes busy while it walks, if lanes stepped in lockstep.
     /// Steps in which a lane only waited with its postponed triangles count as idle.
     pub simt_efficiency: f64,
-    /// Steps in which a lane did nothing but wait with its postponed triangles, per ray
-    /// ([`TraceVariant::postpone_triangles`] only).
+    /// Steps in which a lane put off its triangle tests, per ray ([`TraceVariant::postpone_triangles`]
+    /// only).
+    pub postponed: f64,
+    /// Of those, steps in which it did nothing but wait with them, per ray.
     pub waits: f64,
     /// Stack entries moved from workgroup memory to function memory, per ray (a shared stack
     /// only: [`TraceVariant::shared_stack_entries`]).
@@ -572,8 +574,9 @@ pub fn traversal_work(
         blas_nodes: per_ray(w[2]),
         triangles: per_ray(w[3]),
         steps: per_ray(w[4]),
-        simt_efficiency: if w[5] > 0.0 { (w[4] - w[8]) / w[5] } else { 1.0 },
-        waits: per_ray(w[8]),
+        simt_efficiency: if w[5] > 0.0 { (w[4] - w[9]) / w[5] } else { 1.0 },
+        postponed: per_ray(w[8]),
+        waits: per_ray(w[9]),
         stack_spills: per_ray(w[6]),
         deepest_stack: words[7],
     })
