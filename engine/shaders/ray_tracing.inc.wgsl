@@ -383,8 +383,9 @@ fn rt_walk_wants_triangles(w: ptr<function, RtWalk>) -> bool {
 // Puts off the triangle tests the walk wants (rt_walk_wants_triangles), in place of a step's second
 // half (Ylitie, Karras and Laine 2017, postponed triangle tests): with nodes left to visit, the
 // triangles wait on the stack above them and the next step tests a node; without (or with a full
-// stack), they stay and the next step does nothing but ask again. The closest hit found is the
-// same; the nodes and triangles tested may differ (a closer hit found later culls less).
+// stack), they stay and the next step does nothing but ask again. The closest hit's distance is
+// the same (of two triangles at exactly that distance, the other may be found); the nodes and
+// triangles tested may differ (a closer hit found later culls less).
 fn rt_walk_postpone_triangles(w: ptr<function, RtWalk>, stack: ptr<function, array<vec2<u32>, RT_STACK_SIZE>>) {
     if ((*w).group.y & 0xff000000u) != 0u && (*w).sp < RT_STACK_SIZE {
         rt_walk_push(w, stack, (*w).prims);
