@@ -970,3 +970,100 @@ fn a_gpu_refit_of_far_flat_and_tiny_instances_is_the_cpu_refit() {
         assert_eq!(bytemuck::bytes_of(a), bytemuck::bytes_of(b), "ray {i} {:?}: CPU refit {a:?}, GPU refit {b:?}", rays[i]);
     }
 }
+
+/// Postponed triangle tests (`bench trace --subgroup-postpone SHARE`: a thread tests its triangles
+/// only when at least SHARE of its subgroup's active threads want theirs, and otherwise walks nodes
+/// first) find the closest hits of tests done at once, ray for ray: the same distance, instance and
+/// triangle (but for rare exact ties), in both bench kernels, at shares from "rarely" to "only when every lane wants to", and
+/// with a shared stack of 2 (postponed triangles pushed through the workgroup ring). At a share of
+/// 1 the lanes do wait, so the postponing path is the one tested. So does the persistent kernel's
+/// dynamic fetch (`--subgroup-fetch`: one atomic add for a subgroup's lanes done together), with
+/// tests at once or postponed. Needs subgroup operations (lavapipe has them); skipped with a line
+/// saying so on an adapter without them.
+#[test]
+fn postponed_triangle_tests_find_the_hits_of_tests_at_once() {
+    let test = "postponed_triangle_tests_find_the_hits_of_tests_at_once";
+    let Some(gpu) = testkit::gpu_with(test, engine::gpu::GpuOptions { subgroups: true, ..Default::default() }) else { return };
+    if !gpu.subgroups {
+        let adapter = gpu.adapter_name();
+        // lavapipe offers subgroups: there a skip would hide a regression.
+        assert!(
+            !(std::env::var("CI").is_ok_and(|v| v == "true") && adapter.contains("llvmpipe")),
+            "{test}: CI=true and lavapipe ({adapter}) without subgroup operations"
+        );
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), "{test}: skipped: {adapter} has no subgroup operations (wgpu::Features::SUBGROUP)");
+        return;
+    }
+    let (grid, rays) = ([5, 4, 3], 64);
+    for (name, scene) in [("door_room", (scenes::find("door_room").expect("built-in").build)()), ("crowd", crowd_scene())] {
+        let bounds = lab::bench::world_bounds(&scene).expect("bounds");
+        let app = lab::bench::prepared_app(&gpu, scene);
+        let at_once = lab::bench::TraceVariant { ray_order: lab::bench::RayOrder::Coherent, ..Default::default() };
+        let expected = lab::bench::closest_hits(&gpu, &app, bounds, grid, rays, at_once).expect("tests at once");
+        let hits = expected.iter().filter(|h| h.instance != u32::MAX).count();
+        assert!(hits > expected.len() / 4, "{name}: {hits} of {} rays hit: the rays should meet the scene", expected.len());
+        assert_eq!(
+            lab::bench::hit_distances(&gpu, &app, bounds, grid, rays, at_once).expect("distances"),
+            expected.iter().map(|h| h.t).collect::<Vec<_>>(),
+            "{name}: writing the hits' ids changes no distance"
+        );
+        // The first ray whose hit differs, if any. Two triangles hit at the same distance, bit for
+        // bit (along a shared edge), are a tie that the order of the tests settles: tests in another
+        // order may find the other one, in the same instance. A few such rays are allowed.
+        let first_difference = |got: &[lab::bench::BenchHit]| {
+            assert_eq!(got.len(), expected.len());
+            let tie = |a: &lab::bench::BenchHit, b: &lab::bench::BenchHit| a.t.to_bits() == b.t.to_bits() && a.instance == b.instance;
+            let ties = got.iter().zip(&expected).filter(|(a, b)| a != b && tie(a, b)).count();
+            if ties > 0 {
+                eprintln!("{name}: {ties} ties of {hits} hits settled otherwise");
+            }
+            assert!(ties * 200 <= hits, "{name}: {ties} ties settled otherwise of {hits} hits: too many to be ties");
+            got.iter().zip(&expected).enumerate().find(|(_, (a, b))| a != b && !tie(a, b)).map(|(i, (a, b))| (i, *a, *b))
+        };
+        for share in [0.2, 0.5, 1.0] {
+            for (workgroup_size, shared_stack_entries) in [(64, 0), (128, 0), (128, 2)] {
+                let postponed =
+                    lab::bench::TraceVariant { postpone_triangles: Some(share), workgroup_size, shared_stack_entries, ..at_once };
+                let what = format!("{name}, share {share}, {workgroup_size} threads a workgroup, shared stack {shared_stack_entries}");
+                let got = lab::bench::closest_hits(&gpu, &app, bounds, grid, rays, postponed).expect("postponed, thread a ray");
+                assert_eq!(first_difference(&got), None, "{what}, thread a ray: (ray, got, expected)");
+                // Fewer workgroups than rays / 64, and a share that does not divide the rays evenly;
+                // next rays taken one a lane, or one fetch for a subgroup's lanes done together.
+                for subgroup_fetch in [false, true] {
+                    let persistent = lab::bench::TraceVariant { persistent_groups: Some(7), subgroup_fetch, ..postponed };
+                    let got = lab::bench::closest_hits(&gpu, &app, bounds, grid, rays, persistent).expect("postponed, persistent");
+                    assert_eq!(first_difference(&got), None, "{what}, persistent, subgroup fetch {subgroup_fetch}: (ray, got, expected)");
+                }
+            }
+            // Dynamic fetch alone.
+            let fetch = lab::bench::TraceVariant { persistent_groups: Some(7), subgroup_fetch: true, ..at_once };
+            let got = lab::bench::closest_hits(&gpu, &app, bounds, grid, rays, fetch).expect("subgroup fetch");
+            assert_eq!(first_difference(&got), None, "{name}, persistent, subgroup fetch: (ray, got, expected)");
+            let w = lab::bench::traversal_work(
+                &gpu,
+                &app,
+                bounds,
+                grid,
+                rays,
+                lab::bench::TraceVariant { postpone_triangles: Some(share), ..at_once },
+            )
+            .expect("work");
+            eprintln!(
+                "{name}, share {share}: {:.1} BLAS nodes, {:.1} triangles, {:.1} steps of which {:.2} put tests off and {:.2} waited, a ray; \
+                 SIMT efficiency {:.0}%",
+                w.blas_nodes,
+                w.triangles,
+                w.steps,
+                w.postponed,
+                w.waits,
+                100.0 * w.simt_efficiency
+            );
+            assert!(w.postponed >= w.waits, "{name}, share {share}");
+            if share == 1.0 {
+                assert!(w.waits > 0.0, "{name}: at a share of 1 some lane should wait for the others");
+                assert!(w.postponed > w.waits, "{name}: at a share of 1 some lane should walk nodes before its triangles");
+            }
+        }
+    }
+}

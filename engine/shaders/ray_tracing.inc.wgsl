@@ -323,6 +323,13 @@ fn rt_walk_start(ray: Ray) -> RtWalk {
 // One step of the walk; true when it is over (every node it must visit visited, or with `any_hit`
 // a hit found). `stack` is the function-memory stack.
 fn rt_walk_step(w: ptr<function, RtWalk>, stack: ptr<function, array<vec2<u32>, RT_STACK_SIZE>>, any_hit: bool) -> bool {
+    rt_walk_node(w, stack);
+    return rt_walk_prims(w, stack, any_hit);
+}
+
+// A step's first half: tests the next node of the walk's group (TLAS or BLAS), unless primitives
+// of the last one wait for their tests.
+fn rt_walk_node(w: ptr<function, RtWalk>, stack: ptr<function, array<vec2<u32>, RT_STACK_SIZE>>) {
     if RT_COUNT_WORK {
         rt_steps += 1u;
     }
@@ -366,6 +373,29 @@ fn rt_walk_step(w: ptr<function, RtWalk>, stack: ptr<function, array<vec2<u32>, 
         (*w).group = vec2<u32>(n1.x, (hit_mask & 0xff000000u) | (n0.w >> 24u));
         (*w).prims = vec2<u32>(n1.y, select(rt_xor_permute8(hit_mask & 0xffu, oct_inv4 & 7u), hit_mask & 0x00ffffffu, (*w).in_blas));
     }
+}
+
+// Whether the walk holds triangles to test (in a BLAS; rt_walk_prims tests them all).
+fn rt_walk_wants_triangles(w: ptr<function, RtWalk>) -> bool {
+    return (*w).in_blas && (*w).prims.y != 0u;
+}
+
+// Puts off the triangle tests the walk wants (rt_walk_wants_triangles), in place of a step's second
+// half (Ylitie, Karras and Laine 2017, postponed triangle tests): with nodes left to visit, the
+// triangles wait on the stack above them and the next step tests a node; without (or with a full
+// stack), they stay and the next step does nothing but ask again. The closest hit's distance is
+// the same (of two triangles at exactly that distance, the other may be found); the nodes and
+// triangles tested may differ (a closer hit found later culls less).
+fn rt_walk_postpone_triangles(w: ptr<function, RtWalk>, stack: ptr<function, array<vec2<u32>, RT_STACK_SIZE>>) {
+    if ((*w).group.y & 0xff000000u) != 0u && (*w).sp < RT_STACK_SIZE {
+        rt_walk_push(w, stack, (*w).prims);
+        (*w).prims = vec2<u32>(0u, 0u);
+    }
+}
+
+// A step's second half: tests the triangles the node hit (BLAS) or enters the next instance it hit
+// (TLAS), and pops the stack when the group is done; true when the walk is over.
+fn rt_walk_prims(w: ptr<function, RtWalk>, stack: ptr<function, array<vec2<u32>, RT_STACK_SIZE>>, any_hit: bool) -> bool {
     if (*w).in_blas {
         while (*w).prims.y != 0u {
             let local = firstLeadingBit((*w).prims.y);

@@ -60,6 +60,12 @@ pub struct GpuOptions<'a> {
     /// Limits to ask for instead of the adapter's own (each clamped to the adapter's): tests of
     /// scenes over a small GPU's limits.
     pub limits: Option<wgpu::Limits>,
+    /// Ask for subgroup operations ([`wgpu::Features::SUBGROUP`]) where the adapter has them
+    /// ([`GpuContext::subgroups`] says whether it did): the trace bench's postponing kernels
+    /// (`lab/shaders/bench_trace_subgroup.wgsl`). Off by default: on Vulkan the feature lets the
+    /// driver pick every pipeline's subgroup size (`ALLOW_VARYING_SUBGROUP_SIZE`), which the
+    /// engine's own shaders do not need.
+    pub subgroups: bool,
 }
 
 /// The device everything renders with. Cheap to clone (wgpu handles are reference counted).
@@ -77,6 +83,9 @@ pub struct GpuContext {
     pub timestamps: bool,
     /// Nanoseconds per timestamp tick.
     pub timestamp_period: f32,
+    /// Whether shaders may use subgroup operations ([`wgpu::Features::SUBGROUP`]): asked for with
+    /// [`GpuOptions::subgroups`] and offered by the adapter.
+    pub subgroups: bool,
     /// Why the device was lost, once it is (see [`GpuContext::lost`]).
     lost: Arc<Mutex<Option<String>>>,
 }
@@ -128,9 +137,14 @@ impl GpuContext {
                 seen: if seen.is_empty() { "none".into() } else { seen.join(", ") },
             });
         };
-        let wanted = wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS;
+        let timestamp_features = wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS;
+        let mut wanted = timestamp_features;
+        if options.subgroups {
+            wanted |= wgpu::Features::SUBGROUP;
+        }
         let features = adapter.features() & wanted;
-        let timestamps = features.contains(wanted);
+        let timestamps = features.contains(timestamp_features);
+        let subgroups = features.contains(wgpu::Features::SUBGROUP);
         let (device, queue) = adapter
             .request_device(&wgpu::DeviceDescriptor {
                 label: Some("engine_device"),
@@ -166,8 +180,8 @@ impl GpuContext {
             ValidationErrors::Log => device.on_uncaptured_error(Arc::new(|e| log::error!("wgpu error: {e}"))),
         }
         let timestamp_period = queue.get_timestamp_period();
-        log::info!("GPU: {} ({:?}), timestamps: {timestamps}", adapter.get_info().name, adapter.get_info().backend);
-        Ok(Self { instance, adapter, device, queue, timestamps, timestamp_period, lost })
+        log::info!("GPU: {} ({:?}), timestamps: {timestamps}, subgroups: {subgroups}", adapter.get_info().name, adapter.get_info().backend);
+        Ok(Self { instance, adapter, device, queue, timestamps, timestamp_period, subgroups, lost })
     }
 
     /// Adapter name, e.g. "llvmpipe (LLVM 15.0.6, 256 bits)" or "NVIDIA H100 80GB HBM3".

@@ -42,5 +42,7 @@ pub mod window;
 pub use bevy_app;
 pub use bevy_ecs;
 pub use glam;
+/// naga, the shader validator behind [`shader`] (for [`shader::parse_with`]'s capabilities).
+pub use naga;
 pub use wgpu;
 pub use winit;

@@ -223,8 +223,25 @@ pub struct ParsedShader {
 }
 
 /// Parses and validates a registered module with naga (no GPU needed). Errors name the module and
-/// line where the fault is, included modules too.
+/// line where the fault is, included modules too. Validated for any device: subgroup operations
+/// are refused ([`parse_with`] takes them).
 pub fn parse(name: &str) -> Result<ParsedShader, ShaderError> {
+    parse_with(name, naga::valid::Capabilities::default())
+}
+
+/// What naga may let a module use on `device`, as wgpu validates it: the defaults, and subgroup
+/// operations where the device has [`wgpu::Features::SUBGROUP`].
+pub fn device_capabilities(device: &wgpu::Device) -> naga::valid::Capabilities {
+    let mut capabilities = naga::valid::Capabilities::default();
+    if device.features().contains(wgpu::Features::SUBGROUP) {
+        capabilities |= naga::valid::Capabilities::SUBGROUP;
+    }
+    capabilities
+}
+
+/// [`parse`], validated with `capabilities` (e.g. [`naga::valid::Capabilities::SUBGROUP`] for a
+/// module with subgroup operations).
+pub fn parse_with(name: &str, capabilities: naga::valid::Capabilities) -> Result<ParsedShader, ShaderError> {
     let expanded = preprocess(name)?;
     let module = naga::front::wgsl::parse_str(&expanded.source).map_err(|e| {
         let labels: Vec<(naga::Span, String)> = e.labels().map(|(s, l)| (s, l.to_string())).collect();
@@ -234,13 +251,11 @@ pub fn parse(name: &str) -> Result<ParsedShader, ShaderError> {
         }
         ShaderError::Parse { file: name.into(), report }
     })?;
-    let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::default())
-        .validate(&module)
-        .map_err(|e| {
-            let message = with_causes(e.as_inner());
-            let labels: Vec<(naga::Span, String)> = e.spans().cloned().collect();
-            ShaderError::Validation { file: name.into(), report: expanded.report(&message, &labels) }
-        })?;
+    let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), capabilities).validate(&module).map_err(|e| {
+        let message = with_causes(e.as_inner());
+        let labels: Vec<(naga::Span, String)> = e.spans().cloned().collect();
+        ShaderError::Validation { file: name.into(), report: expanded.report(&message, &labels) }
+    })?;
     Ok(ParsedShader { name: name.into(), source: expanded.source, module, info })
 }
 
@@ -409,7 +424,7 @@ pub fn compute_program_with_constants(
     label: &str,
     constants: &[(&str, f64)],
 ) -> Result<Program<wgpu::ComputePipeline>, ShaderError> {
-    let parsed = parse(file)?;
+    let parsed = parse_with(file, device_capabilities(device))?;
     let module = parsed.create_module(device);
     let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
         label: Some(label),

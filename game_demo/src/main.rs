@@ -430,7 +430,7 @@ enum BenchCommand {
     /// Closest-hit throughput of probe-like rays (grids 16×8×16 … 32×32×32, 32 … 256 rays per probe;
     /// GPU timestamps of the trace pass alone) and the CPU cost of TLAS updates when instances move.
     #[command(
-        after_long_help = "Examples:\n  game_demo bench trace --scene cathedral --iterations 15 --no-flat-rebuild\n  game_demo bench trace --scene forest --cpu-only   # the TLAS refit for moving instances only\n  game_demo bench trace --scene forest --iterations 15 --no-flat-rebuild --cpu-only --gpu-refit   # CPU refit against GPU refit (CPU ms)\n  game_demo bench trace --scene forest --rebraid 4   # a re-braided TLAS (up to 4 primitives an instance)\n  game_demo bench trace --scene forest --work-only --no-flat-rebuild   # traversal work per ray, no timing\n  game_demo bench trace --scene cathedral --no-flat-rebuild --shared-stack 8   # the stack's top 8 entries in workgroup memory against function memory"
+        after_long_help = "Examples:\n  game_demo bench trace --scene cathedral --iterations 15 --no-flat-rebuild\n  game_demo bench trace --scene forest --cpu-only   # the TLAS refit for moving instances only\n  game_demo bench trace --scene forest --iterations 15 --no-flat-rebuild --cpu-only --gpu-refit   # CPU refit against GPU refit (CPU ms)\n  game_demo bench trace --scene forest --rebraid 4   # a re-braided TLAS (up to 4 primitives an instance)\n  game_demo bench trace --scene forest --work-only --no-flat-rebuild   # traversal work per ray, no timing\n  game_demo bench trace --scene cathedral --no-flat-rebuild --shared-stack 8   # the stack's top 8 entries in workgroup memory against function memory\n  game_demo bench trace --scene cathedral --no-flat-rebuild --persistent-groups 4224 --workgroup-size 128 --ray-order coherent --subgroup-postpone 0.2,0.35,0.5   # postponed triangle tests at three thresholds against tests at once"
     )]
     Trace {
         /// A built-in scene or a scene file.
@@ -466,6 +466,19 @@ enum BenchCommand {
         /// their ratio, and the stack entries moved per ray.
         #[arg(long, value_name = "K")]
         shared_stack: Option<u32>,
+        /// Also time the same kernel with postponed triangle tests (Ylitie, Karras and Laine 2017),
+        /// once for each SHARE given (comma separated, each in (0, 1]), in the same run: a thread
+        /// tests the triangles a node hit only when at least SHARE of its subgroup's active threads
+        /// want to test theirs, and otherwise walks its next nodes first. Needs a GPU with subgroup
+        /// operations (wgpu::Features::SUBGROUP).
+        #[arg(long, value_name = "SHARE", value_delimiter = ',')]
+        subgroup_postpone: Vec<f32>,
+        /// With --persistent-groups: also time the kernel (and each --subgroup-postpone variant)
+        /// with dynamic fetch, in the same run: the threads of a subgroup whose rays ended in the
+        /// same step take their next rays with one atomic add, not one each. Needs a GPU with
+        /// subgroup operations.
+        #[arg(long, requires = "persistent_groups")]
+        subgroup_fetch: bool,
         /// Only the traversal work per ray (no timings): the counts do not depend on the GPU, so
         /// lavapipe gives the same as any other.
         #[arg(long, conflicts_with = "cpu_only")]
@@ -1107,7 +1120,7 @@ fn bench_walk(
 }
 
 fn bench(command: BenchCommand) -> Result<(), String> {
-    let (name, iterations, no_flat_rebuild, cpu_only, work_only, gpu_refit, rebraid, variant, shared_stack, json) = match command {
+    let (name, iterations, no_flat_rebuild, cpu_only, work_only, gpu_refit, rebraid, variant, (shared_stack, postpone, fetch), json) = match command {
         BenchCommand::Trace {
             scene,
             iterations,
@@ -1118,6 +1131,8 @@ fn bench(command: BenchCommand) -> Result<(), String> {
             workgroup_size,
             persistent_groups,
             shared_stack,
+            subgroup_postpone,
+            subgroup_fetch,
             work_only,
             gpu_refit,
             json,
@@ -1134,8 +1149,8 @@ fn bench(command: BenchCommand) -> Result<(), String> {
                 work_only,
                 gpu_refit,
                 rebraid,
-                bench::TraceVariant { ray_order, workgroup_size, persistent_groups, shared_stack_entries: 0 },
-                shared_stack,
+                bench::TraceVariant { ray_order, workgroup_size, persistent_groups, ..Default::default() },
+                (shared_stack, subgroup_postpone, subgroup_fetch),
                 json,
             )
         }
@@ -1212,7 +1227,8 @@ fn bench(command: BenchCommand) -> Result<(), String> {
     let scene = load(&name)?;
     let bounds = bench::world_bounds(&scene).ok_or("the scene has no geometry")?;
     let triangles = scene.instanced_triangle_count();
-    let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
+    // Subgroup operations only where a variant uses them (the device is then the same for all).
+    let gpu = GpuContext::new(GpuOptions { subgroups: !postpone.is_empty() || fetch, ..Default::default() }).map_err(|e| e.to_string())?;
     let started = std::time::Instant::now();
     let mut app = bench::prepared_app(&gpu, scene);
     println!("# bench trace: {name} ({triangles} triangles) on {}", gpu.adapter_name());
@@ -1232,14 +1248,38 @@ fn bench(command: BenchCommand) -> Result<(), String> {
         "prepare_ms": prepare_ms, "rebraid_budget": build.budget, "tlas_primitives": build.primitives,
         "tlas_instances": build.instances, "tlas_build_ms": build.time.as_secs_f64() * 1e3,
     });
-    // The variants timed and counted: the one asked for, then the same with a shared stack.
+    // The variants timed and counted: the one asked for, then the same with a shared stack, then
+    // the same with triangle tests postponed at each share asked for.
     let mut variants = vec![variant];
     if let Some(k) = shared_stack {
         variants.push(bench::TraceVariant { shared_stack_entries: k, ..variant });
     }
-    let stack_name = |v: &bench::TraceVariant| match v.shared_stack_entries {
-        0 => "stack in function memory".to_string(),
-        k => format!("top {k} stack entries in workgroup memory"),
+    for &share in &postpone {
+        variants.push(bench::TraceVariant { postpone_triangles: Some(share), ..variant });
+    }
+    // Then each of those without a shared stack again, with dynamic fetch.
+    if fetch {
+        let unfetched: Vec<_> = variants.iter().filter(|v| v.shared_stack_entries == 0).copied().collect();
+        variants.extend(unfetched.into_iter().map(|v| bench::TraceVariant { subgroup_fetch: true, ..v }));
+    }
+    let stack_name = |v: &bench::TraceVariant| {
+        let mut parts = Vec::new();
+        if shared_stack.is_some() {
+            parts.push(match v.shared_stack_entries {
+                0 => "stack in function memory".to_string(),
+                k => format!("top {k} stack entries in workgroup memory"),
+            });
+        }
+        if !postpone.is_empty() {
+            parts.push(match v.postpone_triangles {
+                None => "triangle tests at once".to_string(),
+                Some(share) => format!("triangle tests postponed below {:.0}% of a subgroup's lanes", 100.0 * share),
+            });
+        }
+        if fetch {
+            parts.push(if v.subgroup_fetch { "one fetch a subgroup" } else { "one fetch a lane" }.to_string());
+        }
+        parts.join(", ")
     };
     if !cpu_only && !work_only {
         let tables = bench::trace_throughput_compared(&gpu, &app, bounds, iterations.max(1), &variants)?;
@@ -1250,9 +1290,19 @@ fn bench(command: BenchCommand) -> Result<(), String> {
                 .collect()
         };
         report["throughput"] = json_cells(&tables[0]);
-        if let Some(shared) = tables.get(1) {
-            report["shared_stack_entries"] = serde_json::json!(variants[1].shared_stack_entries);
-            report["throughput_shared_stack"] = json_cells(shared);
+        if let Some(k) = shared_stack {
+            report["shared_stack_entries"] = serde_json::json!(k);
+            report["throughput_shared_stack"] = json_cells(&tables[1]);
+        }
+        if !postpone.is_empty() || fetch {
+            report["throughput_subgroup"] = variants
+                .iter()
+                .zip(&tables)
+                .filter(|(v, _)| v.uses_subgroups())
+                .map(|(v, cells)| {
+                    serde_json::json!({"postpone_share": v.postpone_triangles, "subgroup_fetch": v.subgroup_fetch, "throughput": json_cells(cells)})
+                })
+                .collect();
         }
         let print_table = |cells: &[bench::TraceCell], cell: &dyn Fn(&bench::TraceCell) -> String| {
             print_grid_table(&bench::GRIDS, &bench::RAYS, |g, rays| {
@@ -1264,27 +1314,35 @@ fn bench(command: BenchCommand) -> Result<(), String> {
             println!("\n## Closest-hit probe rays, MRays/s (median of {iterations} dispatches, trace pass GPU time{which})\n");
             print_table(cells, &|c| format!("{:.0} ({:.3} ms)", c.mrays_per_second(), c.median_ms));
         }
-        if let [default, shared] = tables.as_slice() {
-            println!("\n## {} against {}, same run: throughput ratio\n", stack_name(&variants[1]), stack_name(&variants[0]));
-            print_table(shared, &|c| {
-                default
-                    .iter()
-                    .find(|d| d.grid == c.grid && d.rays_per_probe == c.rays_per_probe)
-                    .map_or("-".into(), |d| format!("{:.3}", d.median_ms / c.median_ms))
-            });
+        if let [default, others @ ..] = tables.as_slice() {
+            for (v, other) in variants[1..].iter().zip(others) {
+                println!("\n## {} against {}, same run: throughput ratio\n", stack_name(v), stack_name(&variants[0]));
+                print_table(other, &|c| {
+                    default
+                        .iter()
+                        .find(|d| d.grid == c.grid && d.rays_per_probe == c.rays_per_probe)
+                        .map_or("-".into(), |d| format!("{:.3}", d.median_ms / c.median_ms))
+                });
+            }
         }
     }
     if !cpu_only {
         let (grid, rays) = ([32, 8, 32], 128);
         let mut first: Option<bench::TraversalWork> = None;
-        for v in &variants {
+        let mut postponed_work = Vec::new();
+        // Work is counted by the thread-a-ray kernel: dynamic fetch (persistent) changes nothing.
+        for v in variants.iter().filter(|v| !v.subgroup_fetch) {
             let w = bench::traversal_work(&gpu, &app, bounds, grid, rays, *v)?;
-            let key = if v.shared_stack_entries > 0 { "traversal_work_per_ray_shared_stack" } else { "traversal_work_per_ray" };
-            report[key] = serde_json::json!({
+            let json = serde_json::json!({
                 "probes": grid, "rays_per_probe": rays, "tlas_nodes": w.tlas_nodes, "instances_entered": w.instances,
                 "blas_nodes": w.blas_nodes, "triangles": w.triangles, "steps": w.steps, "simt_efficiency": w.simt_efficiency,
-                "stack_spills": w.stack_spills, "deepest_stack": w.deepest_stack,
+                "stack_spills": w.stack_spills, "deepest_stack": w.deepest_stack, "postponed": w.postponed, "waits": w.waits,
             });
+            match v.postpone_triangles {
+                Some(share) => postponed_work.push(serde_json::json!({"share": share, "work": json})),
+                None if v.shared_stack_entries > 0 => report["traversal_work_per_ray_shared_stack"] = json,
+                None => report["traversal_work_per_ray"] = json,
+            }
             match first {
                 None => println!(
                     "\nTraversal work per ray at {}×{}×{} × {rays} rays: {:.1} TLAS nodes, {:.2} instances entered, {:.1} BLAS nodes, {:.1} triangles tested; \
@@ -1300,6 +1358,20 @@ fn bench(command: BenchCommand) -> Result<(), String> {
                     100.0 * w.simt_efficiency,
                     w.deepest_stack
                 ),
+                // Postponed tests reorder the walk: a closer hit found later culls fewer nodes.
+                Some(_) if v.postpone_triangles.is_some() => println!(
+                    "{}: {:.1} TLAS nodes, {:.1} BLAS nodes, {:.1} triangles tested; {:.1} loop steps, {:.1} of which put triangle tests off \
+                     and {:.1} only waited, SIMT efficiency {:.0}% (waits idle); deepest stack {} entries",
+                    stack_name(v),
+                    w.tlas_nodes,
+                    w.blas_nodes,
+                    w.triangles,
+                    w.steps,
+                    w.postponed,
+                    w.waits,
+                    100.0 * w.simt_efficiency,
+                    w.deepest_stack
+                ),
                 Some(f) => println!(
                     "{}: {:.3} stack entries moved to function memory per ray; {}",
                     stack_name(v),
@@ -1308,6 +1380,9 @@ fn bench(command: BenchCommand) -> Result<(), String> {
                 ),
             }
             first.get_or_insert(w);
+        }
+        if !postponed_work.is_empty() {
+            report["traversal_work_per_ray_postponed"] = postponed_work.into();
         }
     }
     if work_only {

@@ -50,7 +50,7 @@ pub enum RayOrder {
 }
 
 /// How the bench kernel runs: the variants `bench trace` can compare.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TraceVariant {
     /// Which direction each thread of a probe traces.
     pub ray_order: RayOrder,
@@ -63,11 +63,34 @@ pub struct TraceVariant {
     /// top K entries of each thread's stack in workgroup memory, older ones moved to function
     /// memory (`RT_SHARED_STACK_ENTRIES` in `ray_tracing.inc.wgsl`).
     pub shared_stack_entries: u32,
+    /// `Some(share)`: postponed triangle tests (Ylitie, Karras and Laine 2017): a thread tests the
+    /// triangles a node hit only when at least `share` (0 to 1) of its subgroup's active threads
+    /// want to test theirs, and otherwise walks its next nodes first. Needs subgroup operations
+    /// ([`GpuContext::subgroups`]): the kernels of `bench_trace_subgroup.wgsl`. `None`: tests at once.
+    pub postpone_triangles: Option<f32>,
+    /// Dynamic fetch in the persistent kernel (Aila and Laine 2009): the threads of a subgroup whose
+    /// rays ended in the same step take their next rays with one atomic add on the workgroup's
+    /// counter, not one each. Needs subgroup operations, like `postpone_triangles`.
+    pub subgroup_fetch: bool,
+}
+
+impl TraceVariant {
+    /// Whether the variant's kernel uses subgroup operations (`bench_trace_subgroup.wgsl`).
+    pub fn uses_subgroups(&self) -> bool {
+        self.postpone_triangles.is_some() || self.subgroup_fetch
+    }
 }
 
 impl Default for TraceVariant {
     fn default() -> Self {
-        Self { ray_order: RayOrder::Fibonacci, workgroup_size: 64, persistent_groups: None, shared_stack_entries: 0 }
+        Self {
+            ray_order: RayOrder::Fibonacci,
+            workgroup_size: 64,
+            persistent_groups: None,
+            shared_stack_entries: 0,
+            postpone_triangles: None,
+            subgroup_fetch: false,
+        }
     }
 }
 
@@ -79,8 +102,8 @@ pub const RT_STACK_SIZE: u32 = 48;
 /// words) and `bench_next` (one).
 const BENCH_WORKGROUP_BYTES: u32 = 1024 * 4 + 4;
 
-/// Words of `bench_work` (see `bench_trace.wgsl`).
-const BENCH_WORK_WORDS: usize = 8;
+/// Words of `bench_work` (see `bench_trace.inc.wgsl`).
+const BENCH_WORK_WORDS: usize = 10;
 
 /// Direction i of n spherical Fibonacci points (the bench shader's formula).
 fn spherical_fibonacci(i: u32, n: u32) -> Vec3 {
@@ -147,32 +170,59 @@ pub fn prepared_app(gpu: &GpuContext, scene: SceneDescription) -> App {
     app
 }
 
-/// The bench's WGSL (`lab/shaders/`): a kernel that traces probe-like rays and nothing else.
-pub const SHADERS: &[engine::shader::ShaderModule] = &[("bench_trace.wgsl", include_str!("../shaders/bench_trace.wgsl"))];
+/// The bench's WGSL (`lab/shaders/`): kernels that trace probe-like rays and nothing else, for any
+/// device (`bench_trace.wgsl`) and with subgroup operations (`bench_trace_subgroup.wgsl`).
+pub const SHADERS: &[engine::shader::ShaderModule] = &[
+    ("bench_trace.inc.wgsl", include_str!("../shaders/bench_trace.inc.wgsl")),
+    ("bench_trace.wgsl", include_str!("../shaders/bench_trace.wgsl")),
+    ("bench_trace_subgroup.wgsl", include_str!("../shaders/bench_trace_subgroup.wgsl")),
+];
 
-/// The bench kernel's entry point and `override` values for `variant` (the RT_COUNT_WORK variant
-/// when `count_work`: work is counted by the thread-a-ray kernel only).
-fn kernel_pipeline(variant: TraceVariant, count_work: bool) -> (&'static str, Vec<(&'static str, f64)>) {
+/// What a bench kernel is built for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum KernelUse {
+    /// Timing: the hit distances only.
+    Time,
+    /// The RT_COUNT_WORK variant: traversal work counted (by the thread-a-ray kernel only).
+    CountWork,
+    /// The hits' instances and triangles written too (BENCH_HIT_IDS), for tests.
+    HitIds,
+}
+
+/// The bench kernel's module, entry point and `override` values for `variant`.
+fn kernel_pipeline(variant: TraceVariant, usage: KernelUse) -> (&'static str, &'static str, Vec<(&'static str, f64)>) {
+    let count_work = usage == KernelUse::CountWork;
     let mut constants = vec![("BENCH_GROUP", f64::from(variant.workgroup_size))];
     if count_work {
         constants.push(("RT_COUNT_WORK", 1.0));
     }
+    if usage == KernelUse::HitIds {
+        constants.push(("BENCH_HIT_IDS", 1.0));
+    }
+    if let Some(share) = variant.postpone_triangles {
+        constants.push(("BENCH_POSTPONE_SHARE", f64::from(share)));
+    }
     let persistent_groups = variant.persistent_groups.filter(|_| !count_work);
     if let Some(n) = persistent_groups {
         constants.push(("BENCH_PERSISTENT_GROUPS", f64::from(n)));
+        if variant.subgroup_fetch {
+            constants.push(("BENCH_SUBGROUP_FETCH", 1.0));
+        }
     }
     if variant.shared_stack_entries > 0 {
         constants.push(("RT_SHARED_STACK_ENTRIES", f64::from(variant.shared_stack_entries)));
         constants.push(("RT_SHARED_STACK_LANES", f64::from(variant.workgroup_size)));
     }
-    (if persistent_groups.is_some() { "persistent" } else { "main" }, constants)
+    let file = if variant.uses_subgroups() { "bench_trace_subgroup.wgsl" } else { "bench_trace.wgsl" };
+    (file, if persistent_groups.is_some() { "persistent" } else { "main" }, constants)
 }
 
-/// The bench kernel with its buffers; `count_work` builds the diagnostic variant that counts
-/// traversal steps (RT_COUNT_WORK).
+/// The bench kernel with its buffers, built for `usage` ([`KernelUse`]).
 struct TraceKernel {
     program: engine::shader::Program<wgpu::ComputePipeline>,
     hits: wgpu::Buffer,
+    /// Each ray's hit instance and triangle ([`KernelUse::HitIds`]; one unused entry otherwise).
+    hit_ids: wgpu::Buffer,
     groups: [wgpu::BindGroup; 2],
     /// Where each ray count's coherent order starts in `bench_order`.
     order_offsets: Vec<(u32, u32)>,
@@ -186,8 +236,23 @@ struct TraceKernel {
 }
 
 impl TraceKernel {
-    fn new(gpu: &GpuContext, app: &App, count_work: bool, variant: TraceVariant) -> Result<Self, String> {
-        let TraceVariant { ray_order, workgroup_size, persistent_groups, shared_stack_entries } = variant;
+    fn new(gpu: &GpuContext, app: &App, usage: KernelUse, variant: TraceVariant) -> Result<Self, String> {
+        let count_work = usage == KernelUse::CountWork;
+        let TraceVariant { ray_order, workgroup_size, persistent_groups, shared_stack_entries, postpone_triangles, subgroup_fetch: _ } =
+            variant;
+        if let Some(share) = postpone_triangles
+            && !(share > 0.0 && share <= 1.0)
+        {
+            return Err(format!("postponed triangle tests at a share of {share} of the lanes: more than 0, at most 1"));
+        }
+        if variant.uses_subgroups() && !gpu.subgroups {
+            let why = if gpu.adapter.features().contains(wgpu::Features::SUBGROUP) {
+                "the context did not ask for them (GpuOptions::subgroups)".to_string()
+            } else {
+                format!("{} does not offer them", gpu.adapter_name())
+            };
+            return Err(format!("{variant:?} needs subgroup operations (wgpu::Features::SUBGROUP): {why}"));
+        }
         // Work is counted by the thread-a-ray kernel only.
         let persistent_groups = persistent_groups.filter(|_| !count_work);
         if persistent_groups.is_some_and(|n| n == 0 || n > 65535) {
@@ -210,10 +275,10 @@ impl TraceKernel {
                 gpu.adapter_name()
             ));
         }
-        let (entry, constants) = kernel_pipeline(variant, count_work);
+        let (file, entry, constants) = kernel_pipeline(variant, usage);
         let constants = constants.as_slice();
         let program = engine::shader::register(SHADERS)
-            .and_then(|()| compute_program_with_constants(&gpu.device, "bench_trace.wgsl", entry, "trace", constants))
+            .and_then(|()| compute_program_with_constants(&gpu.device, file, entry, "trace", constants))
             .map_err(|e| e.to_string())?;
         let scene = app.world().resource::<GpuScene>();
         let rt = app.world().resource::<RayTracingScene>();
@@ -223,6 +288,8 @@ impl TraceKernel {
         };
         use wgpu::BufferUsages as U;
         let hits = buffer("bench_hits", u64::from(max_rays) * 4, U::STORAGE | U::COPY_SRC);
+        let id_entries = if usage == KernelUse::HitIds { u64::from(max_rays) } else { 1 };
+        let hit_ids = buffer("bench_hit_ids", id_entries * 8, U::STORAGE | U::COPY_SRC);
         let params = buffer("bench_params", size_of::<BenchParams>() as u64, U::UNIFORM | U::COPY_DST);
         let work = buffer("bench_work", (BENCH_WORK_WORDS * 4) as u64, U::STORAGE | U::COPY_SRC | U::COPY_DST);
         let (mut orders, mut order_offsets) = (Vec::new(), Vec::new());
@@ -242,12 +309,14 @@ impl TraceKernel {
                     ("bench_hits", hits.as_entire_binding()),
                     ("bench_work", work.as_entire_binding()),
                     ("bench_order", order.as_entire_binding()),
+                    ("bench_hit_ids", hit_ids.as_entire_binding()),
                 ],
             ),
         ];
         Ok(Self {
             program,
             hits,
+            hit_ids,
             groups,
             order_offsets,
             ray_order,
@@ -361,7 +430,7 @@ pub fn trace_throughput_compared(
     if !gpu.timestamps {
         return Err(format!("{} has no timestamp queries: GPU times cannot be measured", gpu.adapter_name()));
     }
-    let kernels = variants.iter().map(|&v| TraceKernel::new(gpu, app, false, v)).collect::<Result<Vec<_>, _>>()?;
+    let kernels = variants.iter().map(|&v| TraceKernel::new(gpu, app, KernelUse::Time, v)).collect::<Result<Vec<_>, _>>()?;
     let bounds = render_space(app, bounds);
     let mut rng = SplitMix64::new(0x5EED_1234_ABCD);
     let mut tables = vec![Vec::new(); kernels.len()];
@@ -399,9 +468,9 @@ fn run_cell(
     grid: [u32; 3],
     rays_per_probe: u32,
     variant: TraceVariant,
-    count_work: bool,
+    usage: KernelUse,
 ) -> Result<(TraceKernel, BenchParams), String> {
-    let kernel = TraceKernel::new(gpu, app, count_work, variant)?;
+    let kernel = TraceKernel::new(gpu, app, usage, variant)?;
     let p = params_for(&mut SplitMix64::new(0xD1A6), render_space(app, bounds), grid, rays_per_probe);
     kernel.run(gpu, &p)?;
     Ok((kernel, p))
@@ -417,10 +486,37 @@ pub fn hit_distances(
     rays_per_probe: u32,
     variant: TraceVariant,
 ) -> Result<Vec<f32>, String> {
-    let (kernel, p) = run_cell(gpu, app, bounds, grid, rays_per_probe, variant, false)?;
+    let (kernel, p) = run_cell(gpu, app, bounds, grid, rays_per_probe, variant, KernelUse::Time)?;
     let mut t: Vec<f32> = bytemuck::pod_collect_to_vec(&engine::render::readback::read_buffer(gpu, &kernel.hits));
     t.truncate(p.ray_count as usize);
     Ok(t)
+}
+
+/// A ray's closest hit as the bench kernel finds it ([`closest_hits`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BenchHit {
+    /// The hit distance (the ray's tmax, 1e30, for a miss).
+    pub t: f32,
+    /// The instance slot hit, or u32::MAX for a miss.
+    pub instance: u32,
+    /// The triangle of the instance's mesh hit (0 for a miss).
+    pub primitive: u32,
+}
+
+/// The closest hit (distance, instance, triangle) of every ray of one grid × rays cell (the rays
+/// [`hit_distances`] traces), traced by `variant`'s kernel.
+pub fn closest_hits(
+    gpu: &GpuContext,
+    app: &App,
+    bounds: (DVec3, DVec3),
+    grid: [u32; 3],
+    rays_per_probe: u32,
+    variant: TraceVariant,
+) -> Result<Vec<BenchHit>, String> {
+    let (kernel, p) = run_cell(gpu, app, bounds, grid, rays_per_probe, variant, KernelUse::HitIds)?;
+    let t: Vec<f32> = bytemuck::pod_collect_to_vec(&engine::render::readback::read_buffer(gpu, &kernel.hits));
+    let ids: Vec<[u32; 2]> = bytemuck::pod_collect_to_vec(&engine::render::readback::read_buffer(gpu, &kernel.hit_ids));
+    Ok(t.iter().zip(&ids).take(p.ray_count as usize).map(|(&t, &[instance, primitive])| BenchHit { t, instance, primitive }).collect())
 }
 
 /// Traversal work per ray of one grid × rays cell (the kernel's RT_COUNT_WORK variant).
@@ -438,7 +534,13 @@ pub struct TraversalWork {
     pub steps: f64,
     /// The steps of all lanes over 32 × each warp's most (warps of 32 consecutive threads of a
     /// workgroup): the share of a warp's lanes busy while it walks, if lanes stepped in lockstep.
+    /// Steps in which a lane only waited with its postponed triangles count as idle.
     pub simt_efficiency: f64,
+    /// Steps in which a lane put off its triangle tests, per ray ([`TraceVariant::postpone_triangles`]
+    /// only).
+    pub postponed: f64,
+    /// Of those, steps in which it did nothing but wait with them, per ray.
+    pub waits: f64,
     /// Stack entries moved from workgroup memory to function memory, per ray (a shared stack
     /// only: [`TraceVariant::shared_stack_entries`]).
     pub stack_spills: f64,
@@ -462,7 +564,7 @@ pub fn traversal_work(
     rays_per_probe: u32,
     variant: TraceVariant,
 ) -> Result<TraversalWork, String> {
-    let (kernel, p) = run_cell(gpu, app, bounds, grid, rays_per_probe, variant, true)?;
+    let (kernel, p) = run_cell(gpu, app, bounds, grid, rays_per_probe, variant, KernelUse::CountWork)?;
     let words = kernel.work(gpu)?;
     let w = words.map(f64::from);
     let per_ray = |v: f64| v / f64::from(p.ray_count);
@@ -472,7 +574,9 @@ pub fn traversal_work(
         blas_nodes: per_ray(w[2]),
         triangles: per_ray(w[3]),
         steps: per_ray(w[4]),
-        simt_efficiency: if w[5] > 0.0 { w[4] / w[5] } else { 1.0 },
+        simt_efficiency: if w[5] > 0.0 { (w[4] - w[9]) / w[5] } else { 1.0 },
+        postponed: per_ray(w[8]),
+        waits: per_ray(w[9]),
         stack_spills: per_ray(w[6]),
         deepest_stack: words[7],
     })
@@ -932,29 +1036,50 @@ mod tests {
     }
 
     /// naga resolves and validates every variant of the bench kernel that `bench trace` can build:
-    /// both kernels, counting work or not, each stack, several workgroup sizes.
+    /// both kernels, counting work or not, each stack, several workgroup sizes, triangle tests at
+    /// once or postponed (the subgroup module, validated as on a device with subgroups; the other
+    /// as on any device).
     #[test]
     fn every_bench_kernel_variant_validates() {
+        use engine::naga::valid::Capabilities;
         engine::shader::register(SHADERS).expect("register");
-        let parsed = engine::shader::parse("bench_trace.wgsl").unwrap_or_else(|e| panic!("{e}"));
+        let plain = engine::shader::parse("bench_trace.wgsl").unwrap_or_else(|e| panic!("{e}"));
+        let subgroup = engine::shader::parse_with("bench_trace_subgroup.wgsl", Capabilities::default() | Capabilities::SUBGROUP)
+            .unwrap_or_else(|e| panic!("{e}"));
         let mut entries = std::collections::BTreeSet::new();
         for persistent_groups in [None, Some(4224)] {
             for workgroup_size in [32, 64, 128, 256] {
                 for shared_stack_entries in [0, 1, 8, 16, RT_STACK_SIZE] {
-                    for count_work in [false, true] {
-                        let variant = TraceVariant { workgroup_size, persistent_groups, shared_stack_entries, ..Default::default() };
-                        let (entry, constants) = kernel_pipeline(variant, count_work);
-                        entries.insert(entry);
-                        parsed.validate_compute_variant(entry, &constants).unwrap_or_else(|e| panic!("{e}"));
+                    for (postpone_triangles, subgroup_fetch) in
+                        [(None, false), (Some(0.2), false), (Some(1.0), false), (None, true), (Some(0.2), true)]
+                    {
+                        for usage in [KernelUse::Time, KernelUse::CountWork, KernelUse::HitIds] {
+                            let variant = TraceVariant {
+                                workgroup_size,
+                                persistent_groups,
+                                shared_stack_entries,
+                                postpone_triangles,
+                                subgroup_fetch,
+                                ..Default::default()
+                            };
+                            let (file, entry, constants) = kernel_pipeline(variant, usage);
+                            entries.insert((file, entry));
+                            let parsed = if file == subgroup.name { &subgroup } else { &plain };
+                            assert_eq!(file, parsed.name);
+                            parsed.validate_compute_variant(entry, &constants).unwrap_or_else(|e| panic!("{e}"));
+                        }
                     }
                 }
             }
         }
-        assert_eq!(entries.len(), 2, "both kernels: {entries:?}");
+        assert_eq!(entries.len(), 4, "both kernels of both modules: {entries:?}");
         // The check refuses what wgpu would: a value for an override the shader does not have.
         let misspelt = [("BENCH_GROUP", 64.0), ("RT_SHARED_STACK", 8.0)];
-        assert!(parsed.validate_compute_variant("main", &misspelt).is_err(), "a misspelt override must be refused");
-        assert_eq!(parsed.u32_constant("RT_STACK_SIZE"), Some(RT_STACK_SIZE));
+        assert!(plain.validate_compute_variant("main", &misspelt).is_err(), "a misspelt override must be refused");
+        assert_eq!(plain.u32_constant("RT_STACK_SIZE"), Some(RT_STACK_SIZE));
+        // Validated as for a device without subgroups, the subgroup module is refused (so wgpu
+        // would refuse it there too), and the plain one has no subgroup operation.
+        assert!(engine::shader::parse("bench_trace_subgroup.wgsl").is_err(), "subgroup operations need Capabilities::SUBGROUP");
     }
 
     #[test]
