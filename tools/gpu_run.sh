@@ -78,6 +78,15 @@ for step in "$@"; do
     # tracerb_SCENE-BUDGET: the TLAS partially re-braided at BUDGET primitives an instance (TRACE_ARGS as above).
     tracerb_*) IFS=- read -r scene budget <<< "${step#tracerb_}"; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild --rebraid "$budget" ${TRACE_ARGS:-} ;;
     tracecpu_*) scene=${step#tracecpu_}; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild --cpu-only ;;
+    # tracegpurefit_SCENE: the CPU cost of the TLAS refit on the CPU and on the GPU (TlasRefit::Gpu),
+    # then the whole bench with the GPU refit's GPU ms.
+    tracegpurefit_*) scene=${step#tracegpurefit_}; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild --cpu-only --gpu-refit --json "$R/$step.json" ;;
+    tracegpurefitgpu_*) scene=${step#tracegpurefitgpu_}; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild --gpu-refit --json "$R/$step.json" ;;
+    # tracesg_SCENE: postponed triangle tests (subgroup ballots) at three shares, with and without
+    # the dynamic fetch, in the best persistent kernel (4,224 workgroups of 128, coherent order),
+    # against tests at once in the same run; tracesgt_SCENE: the same thread a ray.
+    tracesg_*) scene=${step#tracesg_}; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild --persistent-groups 4224 --ray-order coherent --workgroup-size 128 --subgroup-postpone 0.2,0.35,0.5 --subgroup-fetch --json "$R/$step.json" ;;
+    tracesgt_*) scene=${step#tracesgt_}; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild --ray-order coherent --workgroup-size 128 --subgroup-postpone 0.2,0.35,0.5 --json "$R/$step.json" ;;
     classify_*) scene=${step#classify_}; run "$step" $B bench classify --scene "$scene" ;;
     classifyfine_*) scene=${step#classifyfine_}; run "$step" $B bench classify --scene "$scene" --probes 32,16,32 ;;
     reference_*) scene=${step#reference_}; run "$step" $B render --scene "$scene" --mode pathtrace --spp 4096 --width 96 --height 96 --out "$R/$step" ;;
