@@ -1120,7 +1120,7 @@ fn bench_walk(
 }
 
 fn bench(command: BenchCommand) -> Result<(), String> {
-    let (name, iterations, no_flat_rebuild, cpu_only, work_only, gpu_refit, rebraid, variant, (shared_stack, postpone, fetch), json) = match command {
+    let (name, iterations, no_flat_rebuild, cpu_only, work_only, gpu_refit, rebraid, variant, stack_and_subgroups, json) = match command {
         BenchCommand::Trace {
             scene,
             iterations,
@@ -1224,6 +1224,7 @@ fn bench(command: BenchCommand) -> Result<(), String> {
             return write_json(json.as_deref(), report);
         }
     };
+    let (shared_stack, postpone, fetch) = stack_and_subgroups;
     let scene = load(&name)?;
     let bounds = bench::world_bounds(&scene).ok_or("the scene has no geometry")?;
     let triangles = scene.instanced_triangle_count();
