@@ -860,7 +860,7 @@ fn the_budget_pass_packs_the_rays_as_a_cpu_prefix_sum() {
     // 9 × 8 × 8 probes: three blocks, the last one partial.
     let counts = UVec3::new(9, 8, 8);
     let probe_count = counts.x * counts.y * counts.z;
-    assert!(probe_count > 2 * BUDGET_BLOCK && probe_count % BUDGET_BLOCK != 0);
+    assert!(probe_count > 2 * BUDGET_BLOCK && !probe_count.is_multiple_of(BUDGET_BLOCK));
     for frame_budget in [None, Some(4000)] {
         let what = format!("frame budget {frame_budget:?}");
         let volume = DdgiVolume {
