@@ -1263,7 +1263,7 @@ fn bench(command: BenchCommand) -> Result<(), String> {
         let unfetched: Vec<_> = variants.iter().filter(|v| v.shared_stack_entries == 0).copied().collect();
         variants.extend(unfetched.into_iter().map(|v| bench::TraceVariant { subgroup_fetch: true, ..v }));
     }
-    let stack_name = |v: &bench::TraceVariant| {
+    let variant_name = |v: &bench::TraceVariant| {
         let mut parts = Vec::new();
         if shared_stack.is_some() {
             parts.push(match v.shared_stack_entries {
@@ -1311,13 +1311,13 @@ fn bench(command: BenchCommand) -> Result<(), String> {
             });
         };
         for (v, cells) in variants.iter().zip(&tables) {
-            let which = if variants.len() > 1 { format!(", {}", stack_name(v)) } else { String::new() };
+            let which = if variants.len() > 1 { format!(", {}", variant_name(v)) } else { String::new() };
             println!("\n## Closest-hit probe rays, MRays/s (median of {iterations} dispatches, trace pass GPU time{which})\n");
             print_table(cells, &|c| format!("{:.0} ({:.3} ms)", c.mrays_per_second(), c.median_ms));
         }
         if let [default, others @ ..] = tables.as_slice() {
             for (v, other) in variants[1..].iter().zip(others) {
-                println!("\n## {} against {}, same run: throughput ratio\n", stack_name(v), stack_name(&variants[0]));
+                println!("\n## {} against {}, same run: throughput ratio\n", variant_name(v), variant_name(&variants[0]));
                 print_table(other, &|c| {
                     default
                         .iter()
@@ -1363,7 +1363,7 @@ fn bench(command: BenchCommand) -> Result<(), String> {
                 Some(_) if v.postpone_triangles.is_some() => println!(
                     "{}: {:.1} TLAS nodes, {:.1} BLAS nodes, {:.1} triangles tested; {:.1} loop steps, {:.1} of which put triangle tests off \
                      and {:.1} only waited, SIMT efficiency {:.0}% (waits idle); deepest stack {} entries",
-                    stack_name(v),
+                    variant_name(v),
                     w.tlas_nodes,
                     w.blas_nodes,
                     w.triangles,
@@ -1375,7 +1375,7 @@ fn bench(command: BenchCommand) -> Result<(), String> {
                 ),
                 Some(f) => println!(
                     "{}: {:.3} stack entries moved to function memory per ray; {}",
-                    stack_name(v),
+                    variant_name(v),
                     w.stack_spills,
                     if w.counts() == f.counts() && w.steps == f.steps { "the same walk" } else { "A DIFFERENT WALK (a bug)" }
                 ),
