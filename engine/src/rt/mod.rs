@@ -569,15 +569,9 @@ impl RayTracingScene {
         self.stale_leaves.clear();
         self.marked.clear();
         self.marked.resize(bvh.nodes.len(), false);
-        let part = TlasPart { nodes: &mut bvh.nodes, marks: &mut self.marked, base: 0, stop: NONE as usize, scan_marks: true };
-        let mut out = SubtreeRefit::default();
-        part.refit(&bvh.parents, &leaves, &[], &mut out);
+        let out = self.refit_leaves_on_this_thread(&mut bvh, &leaves);
         self.inner_area += out.area;
-        for &i in &out.dirty {
-            if let Some(&w) = self.wide_owner.get(i as usize).filter(|&&w| w != NONE) {
-                self.wide_stale[w as usize] = true;
-            }
-        }
+        mark_wide_owners(&self.wide_owner, &out.dirty, &mut self.wide_stale);
         self.tlas = Some(bvh);
     }
 
@@ -1012,11 +1006,7 @@ impl RayTracingScene {
         // The wide nodes over changed Bvh2 nodes, each once, in order (a mark per wide node, no sort).
         self.wide_marked.clear();
         self.wide_marked.resize(self.gpu_tlas.len(), false);
-        for &i in dirty.iter().flatten() {
-            if let Some(&w) = self.wide_owner.get(i as usize).filter(|&&w| w != NONE) {
-                self.wide_marked[w as usize] = true;
-            }
-        }
+        mark_wide_owners(&self.wide_owner, dirty.iter().flatten(), &mut self.wide_marked);
         let (sources, children, marked) = (&self.wide_source, &self.wide_children, &self.wide_marked);
         let encode = |(w, node): (usize, &mut CwBvhNode)| {
             if marked[w] {
@@ -1127,10 +1117,17 @@ impl RayTracingScene {
             let aabb = world_aabb(self.tlas_prims.get(prim)?.local, &world)?;
             leaves.push((self.prim_leaf[prim], aabb));
         }
+        let out = self.refit_leaves_on_this_thread(bvh, &leaves);
+        Some(RefitOutput { dirty: vec![out.dirty], area: out.area })
+    }
+
+    /// Sets the bounds of `leaves` (Bvh2 leaf, world box) and refits every inner node above them
+    /// once, on this thread (the refit marks cleared beforehand).
+    fn refit_leaves_on_this_thread(&mut self, bvh: &mut Bvh2, leaves: &[(u32, Aabb)]) -> SubtreeRefit {
         let part = TlasPart { nodes: &mut bvh.nodes, marks: &mut self.marked, base: 0, stop: NONE as usize, scan_marks: true };
         let mut out = SubtreeRefit::default();
-        part.refit(&bvh.parents, &leaves, &[], &mut out);
-        Some(RefitOutput { dirty: vec![out.dirty], area: out.area })
+        part.refit(&bvh.parents, leaves, &[], &mut out);
+        out
     }
 
     /// The refit on rayon's pool: the movers sorted into the plan's subtrees, each subtree with
@@ -1211,6 +1208,16 @@ impl RayTracingScene {
             uploads.write(gpu, &self.tlas_nodes.buffer, offset, bytemuck::cast_slice(&self.gpu_tlas[a..b]));
         }
         self.stats.tlas_upload_copies += runs.len();
+    }
+}
+
+/// Marks in `marks` (one per wide node) the wide node that holds each of the `dirty` Bvh2 nodes as a
+/// child (inner nodes collapsed away have none: `NONE` in `wide_owner`).
+fn mark_wide_owners<'a>(wide_owner: &[u32], dirty: impl IntoIterator<Item = &'a u32>, marks: &mut [bool]) {
+    for &i in dirty {
+        if let Some(&w) = wide_owner.get(i as usize).filter(|&&w| w != NONE) {
+            marks[w as usize] = true;
+        }
     }
 }
 
