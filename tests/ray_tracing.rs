@@ -459,6 +459,7 @@ fn thousands_of_movers_refitted_in_parallel_hit_what_a_fresh_build_hits() {
     let count = 3000;
     let start = field_transforms(count, 120.0, 31);
     let mut app = app_for(&gpu, cube_field(&start));
+    app.world_mut().resource_mut::<RayTracingScene>().tlas_refit = engine::rt::TlasRefit::Cpu;
     app.world_mut().resource_mut::<RayTracingScene>().parallel_refit_from = 0;
     let mut rng = SplitMix64::new(5);
     for frame in 0..4 {
@@ -496,6 +497,9 @@ fn a_parallel_refit_gives_the_tlas_a_refit_on_one_thread_gives() {
     let Some(gpu) = testkit::gpu("a_parallel_refit_gives_the_tlas_a_refit_on_one_thread_gives") else { return };
     let start = field_transforms(2000, 80.0, 8);
     let mut apps = [app_for(&gpu, cube_field(&start)), app_for(&gpu, cube_field(&start))];
+    for app in &mut apps {
+        app.world_mut().resource_mut::<RayTracingScene>().tlas_refit = engine::rt::TlasRefit::Cpu;
+    }
     apps[0].world_mut().resource_mut::<RayTracingScene>().parallel_refit_from = usize::MAX;
     apps[1].world_mut().resource_mut::<RayTracingScene>().parallel_refit_from = 0;
     for frame in 0..3 {
@@ -521,6 +525,7 @@ fn tlas_refit_cost_on_one_thread_and_in_parallel() {
     let world = app.world_mut();
     let entities: Vec<bevy_ecs::entity::Entity> =
         world.query_filtered::<bevy_ecs::entity::Entity, bevy_ecs::query::With<engine::scene::MeshInstance>>().iter(world).collect();
+    app.world_mut().resource_mut::<RayTracingScene>().tlas_refit = engine::rt::TlasRefit::Cpu;
     let mut rng = SplitMix64::new(1);
     for movers in [1000, 10_000] {
         let mut times = [Vec::new(), Vec::new()];
@@ -836,12 +841,24 @@ fn assert_gpu_nodes_are_the_cpu_copy(app: &mut App, gpu: &engine::gpu::GpuContex
     }
 }
 
+/// The SAH cost the last GPU refit summed (in fixed point), read back, against the CPU copy's summed
+/// anew after [`RayTracingScene::sync_cpu_tlas`]: equal within the fixed point's rounding.
+fn assert_gpu_cost_is_the_cpu_copys(app: &mut App, gpu: &engine::gpu::GpuContext, what: &str) {
+    let on_gpu = app.world().resource::<RayTracingScene>().read_gpu_tlas_cost(gpu).expect("a GPU refit ran");
+    let mut rt = app.world_mut().resource_mut::<RayTracingScene>();
+    rt.sync_cpu_tlas();
+    let (built, cpu) = rt.tlas_cost().expect("a TLAS");
+    assert!(cpu >= 1.0 && built >= 1.0, "{what}: costs {cpu}, built {built}: the root counts 1");
+    assert!((on_gpu - cpu).abs() <= 1e-5 * cpu, "{what}: the GPU measured the SAH cost {on_gpu}, the CPU copy has {cpu}");
+}
+
 #[test]
 fn a_gpu_refit_writes_the_wide_nodes_a_cpu_refit_encodes_bit_for_bit() {
     use engine::rt::TlasRefit;
     let Some(gpu) = testkit::gpu("a_gpu_refit_writes_the_wide_nodes_a_cpu_refit_encodes_bit_for_bit") else { return };
     let start = field_transforms(2000, 80.0, 12);
     let mut apps = [app_for(&gpu, cube_field(&start)), app_for(&gpu, cube_field(&start))];
+    apps[0].world_mut().resource_mut::<RayTracingScene>().tlas_refit = TlasRefit::Cpu;
     apps[1].world_mut().resource_mut::<RayTracingScene>().tlas_refit = TlasRefit::Gpu;
     let (mut gpu_refits, mut compared) = (0, 0);
     // Frames 9 and 10 refit on the CPU (the GPU's copy is then reloaded), the others on the GPU; from
@@ -857,6 +874,9 @@ fn a_gpu_refit_writes_the_wide_nodes_a_cpu_refit_encodes_bit_for_bit() {
         let stats = apps.each_ref().map(|app| app.world().resource::<RayTracingScene>().stats);
         assert_eq!(stats[1].tlas_refit_on_gpu, mode == TlasRefit::Gpu && !stats[1].tlas_rebuilt, "frame {frame}: {stats:?}");
         gpu_refits += usize::from(stats[1].tlas_refit_on_gpu);
+        if stats[1].tlas_refit_on_gpu {
+            assert_gpu_cost_is_the_cpu_copys(&mut apps[1], &gpu, &format!("frame {frame}"));
+        }
         assert_gpu_nodes_are_the_cpu_copy(&mut apps[1], &gpu, &format!("frame {frame}"));
         // While neither has rebuilt its TLAS (each decides on its own schedule), both apps' TLASes are one.
         if !stats.iter().any(|s| s.tlas_rebuilt) && compared == frame {
@@ -872,20 +892,93 @@ fn a_gpu_refit_writes_the_wide_nodes_a_cpu_refit_encodes_bit_for_bit() {
     assert!(gpu_refits >= 8 && compared >= 4, "{gpu_refits} GPU refits, {compared} frames compared: the test would prove little");
 }
 
+/// With the refit on the GPU the CPU decides on rebuilds from the SAH cost the GPU measures, read
+/// back a frame or two late: cubes that jitter keep their TLAS (readings arrive, below the rebuild
+/// ratio), and cubes thrown all over the field get a new one within a few frames, as the CPU refit
+/// rebuilds at once; refits on the GPU go on after it.
+#[test]
+fn a_gpu_refit_rebuilds_a_tlas_whose_quality_decayed() {
+    use engine::rt::{TLAS_REBUILD_COST_RATIO, TlasRefit};
+    let Some(gpu) = testkit::gpu("a_gpu_refit_rebuilds_a_tlas_whose_quality_decayed") else { return };
+    let start = field_transforms(2000, 80.0, 17);
+    let mut apps = [app_for(&gpu, cube_field(&start)), app_for(&gpu, cube_field(&start))];
+    apps[0].world_mut().resource_mut::<RayTracingScene>().tlas_refit = TlasRefit::Cpu;
+    apps[1].world_mut().resource_mut::<RayTracingScene>().tlas_refit = TlasRefit::Gpu;
+    let mut readings = Vec::new();
+    for frame in 0..10u64 {
+        for app in &mut apps {
+            move_cubes(app, &mut SplitMix64::new(70 + frame), 1.0, false);
+            run_headless(app, 1);
+        }
+        let stats = apps.each_ref().map(|app| app.world().resource::<RayTracingScene>().stats);
+        assert!(!stats[0].tlas_rebuilt && stats[1].tlas_refit_on_gpu && !stats[1].tlas_rebuilt, "jitter, frame {frame}: {stats:?}");
+        readings.extend(stats[1].tlas_gpu_cost);
+    }
+    let (built, _) = apps[1].world().resource::<RayTracingScene>().tlas_cost().expect("a TLAS");
+    assert!(readings.len() >= 5, "{} readings of the GPU's cost in 10 frames: {readings:?}", readings.len());
+    assert!(readings.iter().all(|&c| c >= built * 0.9 && c <= built * TLAS_REBUILD_COST_RATIO), "built {built}, read {readings:?}");
+    // Every cube thrown somewhere else in the field: the refitted tree's boxes span it.
+    let throw = |app: &mut App, seed: u64| {
+        let mut rng = SplitMix64::new(seed);
+        let world = app.world_mut();
+        let mut q = world.query::<(&engine::scene::Name, &mut Transform)>();
+        for (_, mut t) in q.iter_mut(world).filter(|(name, _)| is_cube_node(&name.0)) {
+            t.translation = Vec3::new(rng.range(-40.0, 40.0), rng.range(0.0, 4.0), rng.range(-40.0, 40.0));
+        }
+    };
+    let mut rebuilt_at = None;
+    for frame in 0..8u64 {
+        for app in &mut apps {
+            // Thrown once, then jittering.
+            if frame == 0 {
+                throw(app, 99);
+            } else {
+                move_cubes(app, &mut SplitMix64::new(170 + frame), 1.0, false);
+            }
+            run_headless(app, 1);
+        }
+        let stats = apps.each_ref().map(|app| app.world().resource::<RayTracingScene>().stats);
+        if frame == 0 {
+            assert!(stats[0].tlas_rebuilt, "the CPU refit rebuilds a TLAS thrown apart at once: {stats:?}");
+            assert!(stats[1].tlas_refit_on_gpu, "the GPU refit has no reading of the new cost yet: {stats:?}");
+        }
+        if stats[1].tlas_rebuilt {
+            rebuilt_at = Some(frame);
+            break;
+        }
+    }
+    let rebuilt_at = rebuilt_at.expect("the GPU refit never rebuilt a TLAS thrown apart");
+    assert!(rebuilt_at <= 4, "rebuilt {rebuilt_at} frames after the throw");
+    for app in &mut apps {
+        move_cubes(app, &mut SplitMix64::new(400), 1.0, false);
+        run_headless(app, 1);
+    }
+    let stats = apps[1].world().resource::<RayTracingScene>().stats;
+    assert!(stats.tlas_refit_on_gpu && !stats.tlas_rebuilt, "after the rebuild: {stats:?}");
+    assert_gpu_cost_is_the_cpu_copys(&mut apps[1], &gpu, "after the rebuild");
+    assert_gpu_nodes_are_the_cpu_copy(&mut apps[1], &gpu, "after the rebuild");
+}
+
 #[test]
 fn rays_after_a_gpu_refit_hit_what_rays_after_a_cpu_refit_hit() {
     use engine::rt::TlasRefit;
     let Some(gpu) = testkit::gpu("rays_after_a_gpu_refit_hit_what_rays_after_a_cpu_refit_hit") else { return };
     let start = field_transforms(3000, 120.0, 41);
     let mut apps = [app_for(&gpu, cube_field(&start)), app_for(&gpu, cube_field(&start))];
+    apps[0].world_mut().resource_mut::<RayTracingScene>().tlas_refit = TlasRefit::Cpu;
     apps[1].world_mut().resource_mut::<RayTracingScene>().tlas_refit = TlasRefit::Gpu;
-    for frame in 0..5u64 {
+    // Wild moves, then small ones: the last two refitted on the GPU (the cost readings of the wild
+    // moves, a frame or two late, may ask for rebuilds before).
+    for frame in 0..9u64 {
         for app in &mut apps {
-            move_cubes(app, &mut SplitMix64::new(900 + frame), 0.5, true);
+            move_cubes(app, &mut SplitMix64::new(900 + frame), 0.5, frame < 5);
             run_headless(app, 1);
         }
         let stats = apps[1].world().resource::<RayTracingScene>().stats;
-        assert!(stats.tlas_refit_on_gpu && !stats.tlas_rebuilt, "frame {frame}: {stats:?}");
+        assert!(stats.tlas_refit_on_gpu || stats.tlas_rebuilt, "frame {frame}: {stats:?}");
+        if frame >= 7 {
+            assert!(stats.tlas_refit_on_gpu && !stats.tlas_rebuilt, "frame {frame}: {stats:?}");
+        }
     }
     let bounds = (Vec3::new(-60.0, 0.0, -60.0), Vec3::new(60.0, 8.0, 60.0));
     let mut rays = random_rays(bounds, 4000, 7);
@@ -932,6 +1025,7 @@ fn a_gpu_refit_of_far_flat_and_tiny_instances_is_the_cpu_refit() {
         })
         .collect();
     let mut apps = [app_for(&gpu, cube_field(&start)), app_for(&gpu, cube_field(&start))];
+    apps[0].world_mut().resource_mut::<RayTracingScene>().tlas_refit = TlasRefit::Cpu;
     apps[1].world_mut().resource_mut::<RayTracingScene>().tlas_refit = TlasRefit::Gpu;
     for frame in 0..4u64 {
         for app in &mut apps {
@@ -947,6 +1041,7 @@ fn a_gpu_refit_of_far_flat_and_tiny_instances_is_the_cpu_refit() {
         assert!(stats[1].tlas_refit_on_gpu && !stats[0].tlas_rebuilt && !stats[1].tlas_rebuilt, "frame {frame}: {stats:?}");
         let [cpu, on_gpu] = apps.each_ref().map(|app| app.world().resource::<RayTracingScene>().read_tlas_nodes(&gpu));
         assert_eq!(bytemuck::cast_slice::<_, u8>(&cpu), bytemuck::cast_slice::<_, u8>(&on_gpu), "frame {frame}: the TLASes differ");
+        assert_gpu_cost_is_the_cpu_copys(&mut apps[1], &gpu, &format!("frame {frame}"));
         assert_gpu_nodes_are_the_cpu_copy(&mut apps[1], &gpu, &format!("frame {frame}"));
     }
     // Rays at each cube from a few metres off, and random ones through the far cluster: the same

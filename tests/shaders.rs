@@ -87,6 +87,7 @@ fn constants_shared_with_the_host_read_back_from_the_parsed_shader() {
     let refit = shader::parse("tlas_refit.wgsl").expect("parse");
     assert_eq!(refit.u32_constant("ENCODE_INV_255_BITS"), Some(engine::rt::TLAS_ENCODE_INV_255.to_bits()));
     assert_eq!(refit.u32_constant("ENCODE_MIN_EXTENT_BITS"), Some(engine::rt::TLAS_ENCODE_MIN_EXTENT.to_bits()));
+    assert_eq!(refit.u32_constant("COST_SCALE"), Some(engine::rt::TLAS_REFIT_COST_SCALE));
 }
 
 #[test]

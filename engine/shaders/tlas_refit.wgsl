@@ -1,16 +1,20 @@
 // The TLAS refit on the GPU (`RayTracingScene::tlas_refit` = `TlasRefit::Gpu`, engine/src/rt/mod.rs):
-// three dispatches in one compute pass labelled `tlas_refit`, recorded after the frame's uploads and
+// four dispatches in one compute pass labelled `tlas_refit`, recorded after the frame's uploads and
 // before anything traces.
 //
-// 1. `clear_and_scatter`: every inner node of the binary TLAS (obvhs `Bvh2`) is emptied, and the moved
+// 1. `clear_and_scatter`: every inner node of the binary TLAS (obvhs `Bvh2`) is emptied, the moved
 //    leaves' world boxes (computed on the CPU, which keeps them in its own copy) are written into
-//    their leaves.
+//    their leaves, and the SAH cost's sum is zeroed.
 // 2. `propagate`: one thread per leaf walks up to the root, merging its box into each ancestor with
 //    atomicMin/atomicMax, and stops at the first ancestor its box does not grow. Sound with WGSL's
 //    relaxed atomics (no fence needed): each bound is one word whose updates are totally ordered,
 //    and the thread that last lowers (or raises) a word carries that value on up. Min and max are
 //    exact, so the boxes are the CPU refit's bit for bit.
-// 3. `encode`: every wide node (CWBVH, 80 bytes) gets its origin, exponents and quantized child boxes
+// 3. `measure`: the TLAS's normalized SAH cost, the half areas of its inner nodes over the root's
+//    (the CPU's rebuild test, `TLAS_REBUILD_COST_RATIO`): each node's ratio in fixed point
+//    (`COST_SCALE` a unit), summed per workgroup, then into a 64-bit sum (low word, high word) that
+//    the CPU reads back a frame or two later. Integer sums: the same total in any order.
+// 4. `encode`: every wide node (CWBVH, 80 bytes) gets its origin, exponents and quantized child boxes
 //    from its source node's and its children's boxes, with `encode_bounds`'s arithmetic (a power-of-two
 //    step from the float's bits, its exact reciprocal, floor/ceil, clamp to 0..255): the CPU's bytes.
 //
@@ -21,6 +25,9 @@ const NONE: u32 = 0xffffffffu;
 // Bits of `1.0f32 / 255.0` and `1e-20f32` (`encode_bounds`'s constants; a test compares them).
 const ENCODE_INV_255_BITS: u32 = 0x3b808081u;
 const ENCODE_MIN_EXTENT_BITS: u32 = 0x1e3ce508u;
+// Fixed-point units in one of `measure`'s ratios (a ratio is at most 1: a child's box is inside its
+// parent's). Mirrors `engine::rt::gpu_refit::TLAS_REFIT_COST_SCALE`.
+const COST_SCALE: u32 = 1048576u;
 // Wide node: 20 words; words 8..19 hold the child boxes (min x, max x, min y, max y, min z, max z, 8 bytes each).
 const WIDE_NODE_WORDS: u32 = 20u;
 // The wide map: the source node, then the node in each of the 8 slots (NONE: empty).
@@ -50,6 +57,10 @@ struct TlasRefitLeaf {
 @group(0) @binding(5) var<storage, read> tlas_refit_wide: array<u32>;
 @group(0) @binding(6) var<storage, read_write> tlas_refit_boxes: array<atomic<u32>>;
 @group(0) @binding(7) var<storage, read_write> tlas_nodes: array<u32>;
+// The SAH cost's fixed-point sum: low word, high word.
+@group(0) @binding(8) var<storage, read_write> tlas_refit_cost: array<atomic<u32>, 2>;
+
+var<workgroup> measure_sum: atomic<u32>;
 
 fn thread_index(id: vec3<u32>) -> u32 {
     return id.x + id.y * 65535u * 64u;
@@ -80,6 +91,10 @@ fn box_max(node: u32) -> vec3<f32> {
 @compute @workgroup_size(64)
 fn clear_and_scatter(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = thread_index(id);
+    if i == 0u {
+        atomicStore(&tlas_refit_cost[0], 0u);
+        atomicStore(&tlas_refit_cost[1], 0u);
+    }
     if i < tlas_refit_params.inner {
         let b = 8u * tlas_refit_inner[i];
         for (var k = 0u; k < 3u; k++) {
@@ -125,6 +140,32 @@ fn propagate(@builtin(global_invocation_id) id: vec3<u32>) {
             break;
         }
         node = tlas_refit_parents[node];
+    }
+}
+
+// obvhs `Aabb::half_area`'s arithmetic.
+fn half_area(node: u32) -> f32 {
+    let d = box_max(node) - box_min(node);
+    return (d.x + d.y) * d.z + d.x * d.y;
+}
+
+@compute @workgroup_size(64)
+fn measure(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_index) local: u32) {
+    let i = thread_index(id);
+    if i < tlas_refit_params.inner {
+        // Node 0 is the root. A root of no area (every instance a point): each ratio counts 1.
+        let root = half_area(0u);
+        let ratio = select(1.0, half_area(tlas_refit_inner[i]) / root, root > 0.0);
+        atomicAdd(&measure_sum, u32(round(clamp(ratio, 0.0, 1.0) * f32(COST_SCALE))));
+    }
+    workgroupBarrier();
+    if local == 0u {
+        // At most 64 * COST_SCALE a workgroup; a carry out of the low word goes to the high one.
+        let part = atomicLoad(&measure_sum);
+        let old = atomicAdd(&tlas_refit_cost[0], part);
+        if old + part < old {
+            atomicAdd(&tlas_refit_cost[1], 1u);
+        }
     }
 }
 

@@ -486,7 +486,7 @@ enum BenchCommand {
         /// Also time the TLAS refit on the GPU (engine::rt::TlasRefit::Gpu) for each count of moving
         /// instances: its CPU ms (median, and the slowest frame, which refits the CPU's copy for the
         /// rebuild test) beside the CPU refit's, and without --cpu-only the refit's GPU ms
-        /// (timestamps around its three dispatches, median of --iterations).
+        /// (timestamps around its four dispatches, median of --iterations).
         #[arg(long)]
         gpu_refit: bool,
         /// Also write the results as JSON to this file (the same figures as the Markdown).
@@ -1416,7 +1416,7 @@ fn bench(command: BenchCommand) -> Result<(), String> {
                 let mut gpu_cells = String::new();
                 if gpu_refit {
                     let timed = if cpu_only { 0 } else { iterations.max(1) };
-                    if let Some(g) = bench::tlas_gpu_refit_cost(&mut app, count, 9, timed) {
+                    if let Some(g) = bench::tlas_gpu_refit_cost(&mut app, count, 30, timed) {
                         rebuilt |= g.rebuilt;
                         let gpu_ms = g.gpu.map(ms);
                         let [boxes, staging] = g.steps.map(ms);

@@ -611,8 +611,9 @@ pub fn tlas_build(app: &mut App, budget: Option<f32>) -> TlasBuild {
 
 /// CPU cost of one frame's TLAS update when some instances move: medians over the frames of each way.
 pub struct TlasUpdateCost {
-    /// Instance slots, TLAS refit or rebuild, uploads, as the engine does it by default (in
-    /// parallel from [`engine::rt::TLAS_PARALLEL_REFIT_MOVERS`] movers on, on 4 threads or more).
+    /// Instance slots, TLAS refit or rebuild, uploads, with the refit on the CPU
+    /// ([`engine::rt::TlasRefit::Cpu`]) as the engine does it there by default (in parallel from
+    /// [`engine::rt::default_parallel_refit_from`] movers on).
     pub total: Duration,
     /// Of which the TLAS refit or rebuild and its upload.
     pub tlas: Duration,
@@ -626,8 +627,9 @@ pub struct TlasUpdateCost {
 }
 
 /// CPU time of one frame's TLAS update (instance slots, refit or rebuild, uploads) when `count`
-/// instances move, median over `frames` frames the engine's default way and `frames` frames with
-/// the refit on one thread, alternated; `None` when the scene has fewer instances.
+/// instances move, with the refit on the CPU: median over `frames` frames its default way and
+/// `frames` frames on one thread, alternated; `None` when the scene has fewer instances. The refit
+/// goes back to the engine's default ([`engine::rt::TlasRefit`]) afterwards.
 pub fn tlas_update_cost(app: &mut App, count: usize, frames: usize) -> Option<TlasUpdateCost> {
     let world = app.world_mut();
     let mut query = world.query_filtered::<Entity, With<MeshInstance>>();
@@ -635,6 +637,7 @@ pub fn tlas_update_cost(app: &mut App, count: usize, frames: usize) -> Option<Tl
     if entities.len() < count {
         return None;
     }
+    world.resource_mut::<RayTracingScene>().tlas_refit = engine::rt::TlasRefit::Cpu;
     let mut rng = SplitMix64::new(0xC0FF_EE00 + count as u64);
     let (mut times, mut one_thread) = (Vec::new(), Vec::new());
     let mut steps: [Vec<Duration>; 3] = Default::default();
@@ -671,7 +674,9 @@ pub fn tlas_update_cost(app: &mut App, count: usize, frames: usize) -> Option<Tl
             }
         }
     }
-    app.world_mut().resource_mut::<RayTracingScene>().parallel_refit_from = engine::rt::default_parallel_refit_from();
+    let mut rt = app.world_mut().resource_mut::<RayTracingScene>();
+    rt.parallel_refit_from = engine::rt::default_parallel_refit_from();
+    rt.tlas_refit = engine::rt::TlasRefit::default();
     times.sort();
     one_thread.sort();
     let (total, tlas) = times[times.len() / 2];
@@ -688,13 +693,12 @@ pub struct TlasGpuRefitCost {
     /// Median CPU time of the frames' TLAS work (the moved leaves' world boxes, their staging and the
     /// dispatches' recording).
     pub tlas: Duration,
-    /// The slowest frame's: the one that also refits the CPU's copy of the binary TLAS to decide on a
-    /// rebuild (every [`engine::rt::TLAS_GPU_REFIT_CHECK_FRAMES`] refits).
+    /// The slowest frame's.
     pub tlas_slowest: Duration,
-    /// Medians of its steps: the moved leaves' world boxes (with the CPU copy's refit on a check
-    /// frame), and their staging with the dispatches' recording ([`engine::rt::BvhFrameStats`]).
+    /// Medians of its steps: the moved leaves' world boxes with the reading of the GPU's SAH cost,
+    /// and their staging with the dispatches' recording ([`engine::rt::BvhFrameStats`]).
     pub steps: [Duration; 2],
-    /// Median GPU time of the refit's three dispatches (`None` without timestamp queries, or not asked).
+    /// Median GPU time of the refit's four dispatches (`None` without timestamp queries, or not asked).
     pub gpu: Option<Duration>,
     /// Whether any of the frames rebuilt the TLAS.
     pub rebuilt: bool,
@@ -703,7 +707,7 @@ pub struct TlasGpuRefitCost {
 /// [`tlas_update_cost`]'s frames with the refit on the GPU: `frames` frames (after one untimed, which
 /// uploads the binary TLAS to the GPU once) in which `count` instances move; with `gpu_iterations`
 /// above 0, the last refit's dispatches are then timed that many times (GPU timestamps). The refit
-/// goes back to the CPU afterwards. `None` when the scene has fewer instances.
+/// goes back to the engine's default afterwards, with the CPU's copy of the TLAS brought up to date. `None` when the scene has fewer instances.
 pub fn tlas_gpu_refit_cost(app: &mut App, count: usize, frames: usize, gpu_iterations: u32) -> Option<TlasGpuRefitCost> {
     let world = app.world_mut();
     let mut query = world.query_filtered::<Entity, With<MeshInstance>>();
@@ -737,7 +741,7 @@ pub fn tlas_gpu_refit_cost(app: &mut App, count: usize, frames: usize, gpu_itera
     let mut gpu_times: Vec<Duration> = (0..gpu_iterations).filter_map(|_| rt.time_gpu_refit(gpu)).collect();
     gpu_times.sort();
     let mut rt = app.world_mut().resource_mut::<RayTracingScene>();
-    rt.tlas_refit = engine::rt::TlasRefit::Cpu;
+    rt.tlas_refit = engine::rt::TlasRefit::default();
     rt.sync_cpu_tlas();
     times.sort();
     Some(TlasGpuRefitCost {

@@ -1,7 +1,9 @@
 //! The TLAS refit on the GPU ([`super::TlasRefit::Gpu`]): the buffers and dispatches of
 //! `engine/shaders/tlas_refit.wgsl`. The binary TLAS's topology (inner nodes, leaves, parents) and
 //! the wide nodes' sources and children are uploaded once per TLAS build, with every node's box;
-//! a refit then uploads only the moved leaves' boxes (32 bytes each) and a 16-byte count.
+//! a refit then uploads only the moved leaves' boxes (32 bytes each) and a 16-byte count. The
+//! refit also sums the TLAS's SAH cost, which the CPU reads back a frame or two late
+//! ([`GpuRefit::poll_cost`]) to decide on a rebuild without refitting its own copy.
 
 use std::time::Duration;
 
@@ -13,10 +15,15 @@ use wgpu::util::DeviceExt;
 use super::{NONE, ray_workgroups};
 use crate::gpu::GpuContext;
 use crate::render::gpu_scene::Uploads;
+use crate::render::readback::ReadbackRing;
 use crate::shader::{Program, ShaderError, compute_program};
 
 /// The label of the refit's compute pass (and its pipelines').
 pub const TLAS_REFIT_PASS: &str = "tlas_refit";
+
+/// Fixed-point units in one node's share of the SAH cost that the refit sums (its half area over
+/// the root's, at most 1). Mirrors WGSL `COST_SCALE`.
+pub const TLAS_REFIT_COST_SCALE: u32 = 1 << 20;
 
 /// The GPU refit's counts for this frame. Mirrors WGSL `TlasRefitParams`.
 #[repr(C)]
@@ -61,15 +68,29 @@ pub fn to_ordered(f: f32) -> u32 {
     if b & 0x8000_0000 != 0 { !b } else { b | 0x8000_0000 }
 }
 
+/// The cost's fixed-point sum (low word, high word) as a number.
+fn cost_from_bytes(bytes: &[u8]) -> Option<f64> {
+    let [low, high]: [u32; 2] = bytemuck::pod_read_unaligned(bytes.get(..8)?);
+    Some(((u64::from(high) << 32) | u64::from(low)) as f64 / f64::from(TLAS_REFIT_COST_SCALE))
+}
+
 fn node_box(aabb: &Aabb) -> ([u32; 3], [u32; 3]) {
     (aabb.min.to_array().map(to_ordered), aabb.max.to_array().map(to_ordered))
 }
 
 /// The refit's pipelines and buffers.
 pub(super) struct GpuRefit {
-    /// `clear_and_scatter`, `propagate`, `encode`.
-    programs: [Program<wgpu::ComputePipeline>; 3],
+    /// `clear_and_scatter`, `propagate`, `measure`, `encode`.
+    programs: [Program<wgpu::ComputePipeline>; 4],
     params: wgpu::Buffer,
+    /// The SAH cost's fixed-point sum (two words), and its copies on their way to the CPU, each
+    /// tagged with the TLAS it measured ([`GpuRefit::poll_cost`]).
+    cost: wgpu::Buffer,
+    cost_readback: ReadbackRing,
+    /// Counts the TLASes loaded; the one whose refit was last recorded (`None`: none since the
+    /// cost was last requested).
+    generation: u64,
+    unrequested: Option<u64>,
     /// The moved leaves of a frame; grown (by doubling) when a frame has more.
     moved: wgpu::Buffer,
     /// Everything else, sized for the TLAS at [`GpuRefit::load`].
@@ -84,14 +105,14 @@ struct TlasBuffers {
     parents: wgpu::Buffer,
     wide: wgpu::Buffer,
     boxes: wgpu::Buffer,
-    groups: Option<[wgpu::BindGroup; 3]>,
+    groups: Option<[wgpu::BindGroup; 4]>,
 }
 
 impl GpuRefit {
-    /// Builds the three pipelines of `tlas_refit.wgsl`.
+    /// Builds the four pipelines of `tlas_refit.wgsl`.
     pub fn new(gpu: &GpuContext) -> Result<Self, ShaderError> {
         let program = |entry: &str| compute_program(&gpu.device, "tlas_refit.wgsl", entry, TLAS_REFIT_PASS);
-        let programs = [program("clear_and_scatter")?, program("propagate")?, program("encode")?];
+        let programs = [program("clear_and_scatter")?, program("propagate")?, program("measure")?, program("encode")?];
         let buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
             gpu.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
@@ -103,6 +124,10 @@ impl GpuRefit {
         Ok(Self {
             programs,
             params: buffer("tlas_refit_params", size_of::<TlasRefitParams>() as u64, wgpu::BufferUsages::UNIFORM),
+            cost: buffer("tlas_refit_cost", 8, wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC),
+            cost_readback: ReadbackRing::new("tlas_refit_cost_readback", 2),
+            generation: 0,
+            unrequested: None,
             moved: buffer("tlas_refit_moved", 1024 * size_of::<TlasRefitLeaf>() as u64, wgpu::BufferUsages::STORAGE),
             tlas: None,
             counts: TlasRefitParams::zeroed(),
@@ -130,6 +155,7 @@ impl GpuRefit {
                 usage: wgpu::BufferUsages::STORAGE,
             })
         };
+        self.generation += 1;
         self.counts = TlasRefitParams { moved: 0, inner: inner.len() as u32, leaves: leaves.len() as u32, wide: wide_source.len() as u32 };
         let mut tlas = TlasBuffers {
             inner: storage("tlas_refit_inner", &inner),
@@ -143,7 +169,7 @@ impl GpuRefit {
         self.tlas = Some(tlas);
     }
 
-    fn bind_groups(&self, gpu: &GpuContext, tlas: &TlasBuffers, tlas_nodes: &wgpu::Buffer) -> [wgpu::BindGroup; 3] {
+    fn bind_groups(&self, gpu: &GpuContext, tlas: &TlasBuffers, tlas_nodes: &wgpu::Buffer) -> [wgpu::BindGroup; 4] {
         let resources = [
             ("tlas_refit_params", self.params.as_entire_binding()),
             ("tlas_refit_moved", self.moved.as_entire_binding()),
@@ -153,6 +179,7 @@ impl GpuRefit {
             ("tlas_refit_wide", tlas.wide.as_entire_binding()),
             ("tlas_refit_boxes", tlas.boxes.as_entire_binding()),
             ("tlas_nodes", tlas_nodes.as_entire_binding()),
+            ("tlas_refit_cost", self.cost.as_entire_binding()),
         ];
         self.programs.each_ref().map(|p| p.bind_group(&gpu.device, 0, &resources))
     }
@@ -176,13 +203,33 @@ impl GpuRefit {
         uploads.write(gpu, &self.moved, 0, bytes);
         uploads.write(gpu, &self.params, 0, bytemuck::bytes_of(&self.counts));
         self.dispatch(uploads.encoder(gpu));
+        self.unrequested = Some(self.generation);
     }
 
-    /// The three dispatches, in one compute pass (wgpu orders their storage accesses).
+    /// The SAH cost (the summed half areas of the binary TLAS's inner nodes over its root's) that
+    /// the GPU's last refit of this TLAS measured, when a reading of it has arrived since the last
+    /// call (readings of an earlier TLAS are dropped). Then asks for the next: a copy of the sum the
+    /// last submitted refit left, if a refit was recorded since the last request. Nothing waits: a
+    /// reading is a frame or two old.
+    pub fn poll_cost(&mut self, gpu: &GpuContext) -> Option<f64> {
+        let reading = self.cost_readback.poll(gpu).into_iter().rev().find(|(generation, _)| *generation == self.generation);
+        if let Some(generation) = self.unrequested.take() {
+            self.cost_readback.request(gpu, &self.cost, generation);
+        }
+        cost_from_bytes(&reading?.1)
+    }
+
+    /// The SAH cost the GPU's last refit measured, read now. Blocks until the GPU is idle. For tests.
+    pub fn read_cost_now(&self, gpu: &GpuContext) -> Option<f64> {
+        cost_from_bytes(&crate::render::readback::read_buffer(gpu, &self.cost))
+    }
+
+    /// The four dispatches, in one compute pass (wgpu orders their storage accesses).
     fn dispatch(&self, encoder: &mut wgpu::CommandEncoder) {
         let Some(groups) = self.tlas.as_ref().and_then(|t| t.groups.as_ref()) else { return };
         let c = self.counts;
-        let threads = [c.inner.max(c.moved), c.leaves, c.wide];
+        // At least one thread: the first clears the cost's sum.
+        let threads = [c.inner.max(c.moved).max(1), c.leaves, c.inner, c.wide];
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(TLAS_REFIT_PASS), timestamp_writes: None });
         for ((program, group), threads) in self.programs.iter().zip(groups).zip(threads) {
             let (x, y) = ray_workgroups(threads);
