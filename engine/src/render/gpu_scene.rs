@@ -593,12 +593,14 @@ const MERGE_GAP_BYTES: usize = 1024;
 pub struct Uploads {
     belt: wgpu::util::StagingBelt,
     encoder: Option<wgpu::CommandEncoder>,
+    /// Encoders submitted so far ([`Uploads::submissions`]).
+    submitted: u64,
 }
 
 impl Uploads {
     /// An empty queue of uploads with a 1 MiB staging belt.
     pub fn new(gpu: &GpuContext) -> Self {
-        Self { belt: wgpu::util::StagingBelt::new(gpu.device.clone(), 1 << 20), encoder: None }
+        Self { belt: wgpu::util::StagingBelt::new(gpu.device.clone(), 1 << 20), encoder: None, submitted: 0 }
     }
 
     /// Copies `bytes` (a multiple of 4 long) to `buffer` at `offset` before this frame's passes run.
@@ -647,7 +649,15 @@ impl Uploads {
             self.belt.finish();
             gpu.queue.submit([encoder.finish()]);
             self.belt.recall();
+            self.submitted += 1;
         }
+    }
+
+    /// How many encoders [`Uploads::flush`] has submitted: what was recorded in
+    /// [`Uploads::encoder`] while this read `n` has been submitted once it reads more than `n`
+    /// (a buffer copied into there may then be mapped).
+    pub fn submissions(&self) -> u64 {
+        self.submitted
     }
 }
 

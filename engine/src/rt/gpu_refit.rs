@@ -2,9 +2,12 @@
 //! `engine/shaders/tlas_refit.wgsl`. The binary TLAS's topology (inner nodes, leaves, parents) and
 //! the wide nodes' sources and children are uploaded once per TLAS build, with every node's box;
 //! a refit then uploads only the moved leaves' boxes (32 bytes each) and a 16-byte count. The
-//! refit also sums the TLAS's SAH cost, which the CPU reads back a frame or two late
-//! ([`GpuRefit::poll_cost`]) to decide on a rebuild without refitting its own copy.
+//! refit also sums the TLAS's SAH cost; every [`TLAS_GPU_COST_READ_EVERY`] refits a copy of the sum
+//! rides in the uploads' encoder and the CPU maps it a frame or two later
+//! ([`GpuRefit::poll_cost`]), to decide on a rebuild without refitting its own copy.
 
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU8, Ordering};
 use std::time::Duration;
 
 use bytemuck::{Pod, Zeroable};
@@ -15,7 +18,6 @@ use wgpu::util::DeviceExt;
 use super::{NONE, ray_workgroups};
 use crate::gpu::GpuContext;
 use crate::render::gpu_scene::Uploads;
-use crate::render::readback::ReadbackRing;
 use crate::shader::{Program, ShaderError, compute_program};
 
 /// The label of the refit's compute pass (and its pipelines').
@@ -24,6 +26,28 @@ pub const TLAS_REFIT_PASS: &str = "tlas_refit";
 /// Fixed-point units in one node's share of the SAH cost that the refit sums (its half area over
 /// the root's, at most 1). Mirrors WGSL `COST_SCALE`.
 pub const TLAS_REFIT_COST_SCALE: u32 = 1 << 20;
+
+/// The GPU refit's SAH cost is read back once every this many refits: often enough that a TLAS whose
+/// quality decayed is rebuilt a few frames late (its bounds exact meanwhile: no hit is missed), and
+/// rarely enough that mapping the copy costs the CPU little per frame.
+pub const TLAS_GPU_COST_READ_EVERY: u32 = 4;
+
+/// States of a [`CostSlot`].
+const SLOT_IDLE: u8 = 0;
+const SLOT_COPIED: u8 = 1;
+const SLOT_MAPPING: u8 = 2;
+const SLOT_READY: u8 = 3;
+
+/// A mappable copy of the SAH cost's sum on its way to the CPU.
+struct CostSlot {
+    buffer: wgpu::Buffer,
+    /// `SLOT_*`; the map callback sets it to ready (or idle on failure).
+    state: Arc<AtomicU8>,
+    /// The TLAS measured ([`GpuRefit::load`]'s count).
+    generation: u64,
+    /// [`Uploads::submissions`] when the copy was recorded: mapped once more have been submitted.
+    recorded_at: u64,
+}
 
 /// The GPU refit's counts for this frame. Mirrors WGSL `TlasRefitParams`.
 #[repr(C)]
@@ -83,14 +107,14 @@ pub(super) struct GpuRefit {
     /// `clear_and_scatter`, `propagate`, `measure`, `encode`.
     programs: [Program<wgpu::ComputePipeline>; 4],
     params: wgpu::Buffer,
-    /// The SAH cost's fixed-point sum (two words), and its copies on their way to the CPU, each
-    /// tagged with the TLAS it measured ([`GpuRefit::poll_cost`]).
+    /// The SAH cost's fixed-point sum (two words), and two copies of it for the CPU
+    /// ([`GpuRefit::poll_cost`]).
     cost: wgpu::Buffer,
-    cost_readback: ReadbackRing,
-    /// Counts the TLASes loaded; the one whose refit was last recorded (`None`: none since the
-    /// cost was last requested).
+    cost_slots: [CostSlot; 2],
+    /// Counts the TLASes loaded.
     generation: u64,
-    unrequested: Option<u64>,
+    /// Refits recorded since a copy of the cost was last recorded.
+    refits_since_copy: u32,
     /// The moved leaves of a frame; grown (by doubling) when a frame has more.
     moved: wgpu::Buffer,
     /// Everything else, sized for the TLAS at [`GpuRefit::load`].
@@ -125,9 +149,19 @@ impl GpuRefit {
             programs,
             params: buffer("tlas_refit_params", size_of::<TlasRefitParams>() as u64, wgpu::BufferUsages::UNIFORM),
             cost: buffer("tlas_refit_cost", 8, wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC),
-            cost_readback: ReadbackRing::new("tlas_refit_cost_readback", 2),
+            cost_slots: [(); 2].map(|_| CostSlot {
+                buffer: gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("tlas_refit_cost_readback"),
+                    size: 8,
+                    usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                }),
+                state: Arc::new(AtomicU8::new(SLOT_IDLE)),
+                generation: 0,
+                recorded_at: 0,
+            }),
             generation: 0,
-            unrequested: None,
+            refits_since_copy: 0,
             moved: buffer("tlas_refit_moved", 1024 * size_of::<TlasRefitLeaf>() as u64, wgpu::BufferUsages::STORAGE),
             tlas: None,
             counts: TlasRefitParams::zeroed(),
@@ -202,21 +236,53 @@ impl GpuRefit {
         self.counts.moved = leaves.len() as u32;
         uploads.write(gpu, &self.moved, 0, bytes);
         uploads.write(gpu, &self.params, 0, bytemuck::bytes_of(&self.counts));
-        self.dispatch(uploads.encoder(gpu));
-        self.unrequested = Some(self.generation);
+        let submissions = uploads.submissions();
+        let encoder = uploads.encoder(gpu);
+        self.dispatch(encoder);
+        // Every few refits, a copy of the cost for the CPU after the dispatches (no submit of its own).
+        self.refits_since_copy += 1;
+        if self.refits_since_copy >= TLAS_GPU_COST_READ_EVERY
+            && let Some(slot) = self.cost_slots.iter_mut().find(|s| s.state.load(Ordering::Acquire) == SLOT_IDLE)
+        {
+            encoder.copy_buffer_to_buffer(&self.cost, 0, &slot.buffer, 0, 8);
+            slot.generation = self.generation;
+            slot.recorded_at = submissions;
+            slot.state.store(SLOT_COPIED, Ordering::Release);
+            self.refits_since_copy = 0;
+        }
     }
 
-    /// The SAH cost (the summed half areas of the binary TLAS's inner nodes over its root's) that
-    /// the GPU's last refit of this TLAS measured, when a reading of it has arrived since the last
-    /// call (readings of an earlier TLAS are dropped). Then asks for the next: a copy of the sum the
-    /// last submitted refit left, if a refit was recorded since the last request. Nothing waits: a
-    /// reading is a frame or two old.
-    pub fn poll_cost(&mut self, gpu: &GpuContext) -> Option<f64> {
-        let reading = self.cost_readback.poll(gpu).into_iter().rev().find(|(generation, _)| *generation == self.generation);
-        if let Some(generation) = self.unrequested.take() {
-            self.cost_readback.request(gpu, &self.cost, generation);
+    /// The SAH cost (the summed half areas of the binary TLAS's inner nodes over its root's) that an
+    /// earlier GPU refit of this TLAS measured, when a reading of it has arrived since the last call
+    /// (readings of an earlier TLAS are dropped). Maps the copies whose encoder has been submitted.
+    /// Nothing waits: a reading is a frame or two old.
+    pub fn poll_cost(&mut self, gpu: &GpuContext, uploads: &Uploads) -> Option<f64> {
+        // Callbacks of maps asked for on an earlier frame (something else may have polled already).
+        if self.cost_slots.iter().any(|s| s.state.load(Ordering::Acquire) == SLOT_MAPPING) {
+            let _ = gpu.device.poll(wgpu::PollType::Poll);
         }
-        cost_from_bytes(&reading?.1)
+        let mut reading = None;
+        for slot in &mut self.cost_slots {
+            match slot.state.load(Ordering::Acquire) {
+                SLOT_COPIED if uploads.submissions() > slot.recorded_at => {
+                    slot.state.store(SLOT_MAPPING, Ordering::Release);
+                    let flag = slot.state.clone();
+                    slot.buffer.slice(..).map_async(wgpu::MapMode::Read, move |r| {
+                        flag.store(if r.is_ok() { SLOT_READY } else { SLOT_IDLE }, Ordering::Release);
+                    });
+                }
+                SLOT_READY => {
+                    let cost = slot.buffer.slice(..).get_mapped_range().ok().and_then(|view| cost_from_bytes(&view));
+                    slot.buffer.unmap();
+                    slot.state.store(SLOT_IDLE, Ordering::Release);
+                    if slot.generation == self.generation {
+                        reading = cost.or(reading);
+                    }
+                }
+                _ => {}
+            }
+        }
+        reading
     }
 
     /// The SAH cost the GPU's last refit measured, read now. Blocks until the GPU is idle. For tests.

@@ -33,7 +33,7 @@
 
 pub mod cpu;
 pub(crate) mod gpu_refit;
-pub use gpu_refit::TLAS_REFIT_COST_SCALE;
+pub use gpu_refit::{TLAS_GPU_COST_READ_EVERY, TLAS_REFIT_COST_SCALE};
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, Sender, channel};
@@ -102,9 +102,10 @@ pub enum TlasRefit {
     /// On the GPU (`engine/shaders/tlas_refit.wgsl`): the CPU computes the moved leaves' world boxes
     /// and uploads them (32 bytes a mover); four dispatches before anything traces refit every inner
     /// node, sum the TLAS's SAH cost and re-encode every wide node in place. The CPU reads the cost
-    /// back a frame or two late (nothing waits) for the rebuild test ([`TLAS_REBUILD_COST_RATIO`]): a
-    /// TLAS whose quality decayed is rebuilt that much later than with [`TlasRefit::Cpu`], its
-    /// refitted bounds exact meanwhile (no hit is missed). The CPU's copy of the binary TLAS keeps
+    /// back every [`TLAS_GPU_COST_READ_EVERY`] refits, a frame or two late (nothing waits), for the
+    /// rebuild test ([`TLAS_REBUILD_COST_RATIO`]): a TLAS whose quality decayed is rebuilt a few
+    /// frames later than with [`TlasRefit::Cpu`], its refitted bounds exact meanwhile (no hit is
+    /// missed). The CPU's copy of the binary TLAS keeps
     /// its leaves current and refits its inner nodes only when asked
     /// ([`RayTracingScene::sync_cpu_tlas`]) or when the refit goes back to the CPU.
     #[default]
@@ -1044,7 +1045,7 @@ impl RayTracingScene {
         }
         // The rebuild test, on the cost an earlier refit of this TLAS measured (one from before a CPU
         // refit, which has run the test itself since, is dropped).
-        let cost = self.gpu_refit.as_mut().and_then(|r| r.poll_cost(gpu)).filter(|_| self.gpu_refit_ready);
+        let cost = self.gpu_refit.as_mut().and_then(|r| r.poll_cost(gpu, uploads)).filter(|_| self.gpu_refit_ready);
         self.stats.tlas_gpu_cost = cost;
         if cost.is_some_and(|cost| cost > TLAS_REBUILD_COST_RATIO * self.built_cost) {
             return false;
