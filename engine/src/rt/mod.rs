@@ -19,12 +19,14 @@
 //!   that move stay one leaf (opened ones are rebuilt at their root when they first move). When
 //!   entities move only their leaves are updated, the binary BVH is refitted and the wide nodes over
 //!   changed children are re-encoded; it is rebuilt when instances are added or removed, or when
-//!   refitting has let its quality decay. Many movers are refitted in parallel on rayon's pool: the binary BVH is cut into
-//!   subtrees whose nodes are contiguous, each refitted through its own slice, then the few nodes
-//!   above them (the same TLAS as on one thread). Only changed nodes are uploaded, those near each
-//!   other in one copy. Or, with [`TlasRefit::Gpu`], the GPU refits (`engine/shaders/tlas_refit.wgsl`,
-//!   the same nodes bit for bit): the CPU only computes and uploads the moved leaves' world boxes.
-//!   A static scene does no BVH work per frame.
+//!   refitting has let its quality decay (its SAH cost grew [`TLAS_REBUILD_COST_RATIO`] times). By
+//!   default the GPU refits ([`TlasRefit::Gpu`], `engine/shaders/tlas_refit.wgsl`): the CPU only
+//!   computes and uploads the moved leaves' world boxes, and reads back the SAH cost the GPU
+//!   measures every few refits. With [`TlasRefit::Cpu`] the CPU refits, many movers in parallel on
+//!   rayon's pool: the binary BVH is cut into subtrees whose nodes are contiguous, each refitted
+//!   through its own slice, then the few nodes above them; only changed nodes are uploaded, those
+//!   near each other in one copy. Every way gives the same nodes, bit for bit. A static scene does
+//!   no BVH work per frame.
 //!
 //! Traversal lives in `engine/shaders/ray_tracing.inc.wgsl`: closest hit and any hit in one loop over both
 //! levels (a warp's lanes test TLAS and BLAS nodes with the same code in the same step), the ray
@@ -106,9 +108,9 @@ pub enum TlasRefit {
     /// back every [`TLAS_GPU_COST_READ_EVERY`] refits, a frame or two late (nothing waits), for the
     /// rebuild test ([`TLAS_REBUILD_COST_RATIO`]): a TLAS whose quality decayed is rebuilt a few
     /// frames later than with [`TlasRefit::Cpu`], its refitted bounds exact meanwhile (no hit is
-    /// missed). The CPU's copy of the binary TLAS keeps
-    /// its leaves current and refits its inner nodes only when asked
-    /// ([`RayTracingScene::sync_cpu_tlas`]) or when the refit goes back to the CPU.
+    /// missed). The CPU's copy of the binary TLAS keeps its leaves current and refits its inner
+    /// nodes only when asked ([`RayTracingScene::sync_cpu_tlas`]) or when the refit goes back to
+    /// the CPU.
     #[default]
     Gpu,
 }
@@ -411,8 +413,9 @@ pub struct RayTracingScene {
     built_cost: f64,
     /// The binary TLAS cut into subtrees for a parallel refit (`None`: no TLAS, or too small to cut).
     refit_plan: Option<RefitPlan>,
-    /// With [`TlasRefit::Cpu`]: moving instances from which the TLAS refit runs on rayon's thread pool (default
-    /// [`default_parallel_refit_from`]; `usize::MAX`: never, 0: always). Both ways give the same TLAS.
+    /// With [`TlasRefit::Cpu`]: moving instances from which the TLAS refit runs on rayon's thread
+    /// pool (default [`default_parallel_refit_from`]; `usize::MAX`: never, 0: always). Both ways
+    /// give the same TLAS.
     pub parallel_refit_from: usize,
     /// Where the TLAS is refitted when instances move (default [`TlasRefit::Gpu`]). Either way gives
     /// the same TLAS; it can change from one frame to the next.
