@@ -962,6 +962,41 @@ fn a_gpu_refit_rebuilds_a_tlas_whose_quality_decayed() {
     assert_gpu_nodes_are_the_cpu_copy(&mut apps[1], &gpu, "after the rebuild");
 }
 
+/// The GPU refit of the smallest TLASes: one instance (the root is a leaf: no inner node, a cost of
+/// 0 to measure), two, and nine (the first with a wide node below the root) give the CPU refit's
+/// nodes bit for bit, frame after frame, with no rebuild; the cost they measure is the CPU copy's.
+#[test]
+fn a_gpu_refit_of_one_two_and_nine_instances_is_the_cpu_refit() {
+    use engine::rt::TlasRefit;
+    let Some(gpu) = testkit::gpu("a_gpu_refit_of_one_two_and_nine_instances_is_the_cpu_refit") else { return };
+    for count in [1, 2, 9] {
+        let start = field_transforms(count, 10.0, 60 + count as u64);
+        let mut apps = [app_for(&gpu, cube_field(&start)), app_for(&gpu, cube_field(&start))];
+        apps[0].world_mut().resource_mut::<RayTracingScene>().tlas_refit = TlasRefit::Cpu;
+        apps[1].world_mut().resource_mut::<RayTracingScene>().tlas_refit = TlasRefit::Gpu;
+        for frame in 0..2 * engine::rt::TLAS_GPU_COST_READ_EVERY as u64 + 2 {
+            for app in &mut apps {
+                move_cubes(app, &mut SplitMix64::new(500 + frame), 1.0, false);
+                run_headless(app, 1);
+            }
+            let what = format!("{count} instances, frame {frame}");
+            let stats = apps.each_ref().map(|app| app.world().resource::<RayTracingScene>().stats);
+            assert!(stats[1].tlas_refit_on_gpu && !stats[0].tlas_rebuilt && !stats[1].tlas_rebuilt, "{what}: {stats:?}");
+            let [cpu, on_gpu] = apps.each_ref().map(|app| app.world().resource::<RayTracingScene>().read_tlas_nodes(&gpu));
+            assert_eq!(bytemuck::cast_slice::<_, u8>(&cpu), bytemuck::cast_slice::<_, u8>(&on_gpu), "{what}: the TLASes differ");
+            let measured = apps[1].world().resource::<RayTracingScene>().read_gpu_tlas_cost(&gpu).expect("a GPU refit ran");
+            let mut rt = apps[1].world_mut().resource_mut::<RayTracingScene>();
+            rt.sync_cpu_tlas();
+            let (built, now) = rt.tlas_cost().expect("a TLAS");
+            if count == 1 {
+                assert!(measured == 0.0 && now == 0.0 && built == 0.0, "{what}: no inner node, yet costs {measured}, {now}, {built}");
+            } else {
+                assert!((measured - now).abs() <= 1e-5 * now && now >= 1.0, "{what}: the GPU measured {measured}, the CPU copy has {now}");
+            }
+        }
+    }
+}
+
 #[test]
 fn rays_after_a_gpu_refit_hit_what_rays_after_a_cpu_refit_hit() {
     use engine::rt::TlasRefit;
