@@ -63,6 +63,11 @@ struct Args {
     /// Also write the table and every frame's times as JSON here.
     #[arg(long)]
     json: Option<PathBuf>,
+    /// Rows of ours with adaptive budgets capped at these shares of the rays sgl-3d traced per
+    /// update, `S[,S…]` (1: at its count). Below 1 they compare the two at equal or lower error
+    /// with fewer rays than sgl-3d's.
+    #[arg(long, value_delimiter = ',', default_value = "1")]
+    ours_at_shares: Vec<f64>,
     /// Leave out the sgl-3d row whose volume is kept awake (a light changed by one part in a
     /// million every other frame, so it never pauses).
     #[arg(long)]
@@ -133,6 +138,9 @@ fn median(mut v: Vec<f64>) -> Option<f64> {
 }
 
 fn run(args: &Args) -> Result<(), String> {
+    if let Some(bad) = args.ours_at_shares.iter().find(|s| !(s.is_finite() && **s > 0.0 && **s <= 1.0)) {
+        return Err(format!("--ours-at-shares: each share must be in (0, 1], got {bad}"));
+    }
     let quality = match args.rays {
         128 => DynamicGiQuality::Low,
         256 => DynamicGiQuality::High,
@@ -247,9 +255,12 @@ fn run(args: &Args) -> Result<(), String> {
     // Ours at sgl-3d's ray count: adaptive budgets capped at the rays sgl-3d traced per update
     // (its own frame cap and update periods), so that both are compared per update at one count.
     if let Some(rays) = counted_rays.first().copied().flatten().filter(|r| r.is_finite() && *r >= 1.0) {
-        let budget = rays.round() as u32;
-        let adaptive = ddgi::DdgiAdaptive { enabled: true, frame_budget: Some(budget), ..Default::default() };
-        ours.push((format!("ours, adaptive, {budget} rays a frame (sgl-3d's)"), ddgi::DdgiVolume { adaptive, ..base.clone() }));
+        for &share in &args.ours_at_shares {
+            let budget = (rays * share).round().max(1.0) as u32;
+            let adaptive = ddgi::DdgiAdaptive { enabled: true, frame_budget: Some(budget), ..Default::default() };
+            let whose = if share == 1.0 { "sgl-3d's".to_string() } else { format!("{share} × sgl-3d's") };
+            ours.push((format!("ours, adaptive, {budget} rays a frame ({whose})"), ddgi::DdgiVolume { adaptive, ..base.clone() }));
+        }
     }
 
     // The timed runs, interleaved: every row renders its frame 0, then every row its frame 1, and
