@@ -828,6 +828,43 @@ fn move_cubes(app: &mut App, rng: &mut SplitMix64, share: f32, wild: bool) {
     }
 }
 
+/// Each instance's previous-frame transform (what motion vectors use) through frames in which
+/// different sets of cubes move, stay still, or move again: the old transform in a frame it moved,
+/// its current one after a still frame; for a thousand instances, every frame.
+#[test]
+fn every_instance_keeps_its_previous_frames_transform_for_the_motion_vectors() {
+    let Some(gpu) = testkit::gpu("every_instance_keeps_its_previous_frames_transform_for_the_motion_vectors") else { return };
+    let start = field_transforms(1000, 60.0, 23);
+    let mut app = app_for(&gpu, cube_field(&start));
+    let slots = |app: &App| {
+        let scene = app.world().resource::<engine::render::gpu_scene::GpuScene>();
+        (0..scene.instance_slot_count() as u32).filter_map(|s| Some((s, scene.instance_placement(s)?.1))).collect::<Vec<_>>()
+    };
+    let mut before = slots(&app);
+    assert_eq!(before.len(), 1000);
+    for frame in 0..6u64 {
+        // Every cube in frames 0 and 3, none in frame 2, a third in the others.
+        let share = match frame {
+            0 | 3 => 1.0,
+            2 => 0.0,
+            _ => 0.33,
+        };
+        move_cubes(&mut app, &mut SplitMix64::new(800 + frame), share, false);
+        run_headless(&mut app, 1);
+        let now = slots(&app);
+        let scene = app.world().resource::<engine::render::gpu_scene::GpuScene>();
+        let mut moved = 0;
+        for ((slot, was), (_, is)) in before.iter().zip(&now) {
+            moved += usize::from(was != is);
+            let previous = scene.previous_world_from_local(*slot).expect("a live slot");
+            assert_eq!(previous, glam::Mat4::from(*was), "frame {frame}, slot {slot}: the previous frame's transform");
+        }
+        let expected = if share == 0.0 { 0 } else { 1 };
+        assert!((moved > 0) as usize == expected, "frame {frame}: {moved} moved");
+        before = now;
+    }
+}
+
 /// The wide nodes the GPU refit wrote, read back, against the CPU copy refitted and re-encoded from
 /// the same leaves ([`RayTracingScene::sync_cpu_tlas`]): the same bytes.
 fn assert_gpu_nodes_are_the_cpu_copy(app: &mut App, gpu: &engine::gpu::GpuContext, what: &str) {

@@ -1009,9 +1009,15 @@ pub fn validate_light(
     Ok(())
 }
 
+/// Whether every number of `a` is finite: what [`validate_affine`] checks, without naming the
+/// item (for a check on every frame's movers, which names it only when it fails).
+pub fn affine_is_finite(a: &Affine3A) -> bool {
+    a.matrix3.is_finite() && a.translation.is_finite()
+}
+
 /// Checks that a transform (local or world) is finite.
 pub fn validate_affine(item: &str, field: &str, a: &Affine3A) -> Result<(), SceneDataError> {
-    if !(a.matrix3.is_finite() && a.translation.is_finite()) {
+    if !affine_is_finite(a) {
         return Err(non_finite(item, field, a));
     }
     Ok(())

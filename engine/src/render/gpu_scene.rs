@@ -258,6 +258,14 @@ impl GpuScene {
         self.slots.placement.get(slot as usize).copied().flatten()
     }
 
+    /// The world transform the instance in `slot` had in the previous frame, as the motion vectors
+    /// use it (WGSL `instance_history`): its old one in a frame it moved, its current one once it
+    /// has been still for a frame. `None` for a slot that is not live.
+    pub fn previous_world_from_local(&self, slot: u32) -> Option<Mat4> {
+        self.instance_placement(slot)?;
+        self.slots.history.get(slot as usize).map(Mat4::from_cols_array_2d)
+    }
+
     /// Number of instance slots (live or free); instance indices in shaders are below this.
     pub fn instance_slot_count(&self) -> usize {
         self.slots.data.len()
@@ -493,6 +501,8 @@ struct InstanceSlots {
     /// Slots that moved in the previous frame: their history catches up this frame.
     moved_last_frame: Vec<u32>,
     placement: Vec<Option<(u32, Affine3A)>>,
+    /// Scratch, false between frames: the slots written this frame (a mark per slot, no set).
+    written: Vec<bool>,
 }
 
 impl InstanceSlots {
@@ -554,15 +564,21 @@ impl GpuScene {
     /// are still now, so their history becomes their transform.
     fn upload_instance_history(&mut self, gpu: &GpuContext, uploads: &mut Uploads) {
         let slots = &mut self.slots;
-        let written: std::collections::HashSet<u32> = self.changes.dirty.iter().copied().collect();
+        slots.written.resize(slots.data.len(), false);
+        for &d in &self.changes.dirty {
+            slots.written[d as usize] = true;
+        }
         let mut changed: Vec<usize> = self.changes.dirty.iter().map(|&d| d as usize).collect();
         for &slot in &slots.moved_last_frame {
-            if !written.contains(&slot) && (slot as usize) < slots.data.len() {
+            if (slot as usize) < slots.data.len() && !slots.written[slot as usize] {
                 slots.history[slot as usize] = slots.data[slot as usize].world_from_local;
                 changed.push(slot as usize);
             }
         }
-        slots.moved_last_frame = self.changes.dirty.clone();
+        for &d in &self.changes.dirty {
+            slots.written[d as usize] = false;
+        }
+        slots.moved_last_frame.clone_from(&self.changes.dirty);
         let needed = (slots.history.len() * size_of::<[[f32; 4]; 4]>()) as u64;
         if needed > self.instance_history.buffer.size() {
             self.instance_history.write(gpu, bytemuck::cast_slice(&slots.history));
@@ -721,17 +737,23 @@ pub fn prepare_gpu_scene(
     }
     let geometry_changed = seen.map(|s| s.0) != Some(generations.0);
     for (entity, instance, transform, name) in &instances {
-        let item = format!("instance entity {entity}{}", name.map_or(String::new(), |n| format!(" '{}'", n.0)));
-        if let Err(error) = validate_affine(&item, "world transform", &transform.0) {
-            // Not drawn (and not traced) until its transform is finite again.
-            scene.instance_errors.insert(entity, error);
-            if let Some(slot) = scene.slots.release(entity) {
-                scene.changes.structure_changed = true;
-                scene.changes.dirty.push(slot);
+        // The error's text only for a transform that fails (formatting it for every mover cost
+        // more than the rest of its update).
+        if !crate::scene::affine_is_finite(&transform.0) {
+            let item = format!("instance entity {entity}{}", name.map_or(String::new(), |n| format!(" '{}'", n.0)));
+            if let Err(error) = validate_affine(&item, "world transform", &transform.0) {
+                // Not drawn (and not traced) until its transform is finite again.
+                scene.instance_errors.insert(entity, error);
+                if let Some(slot) = scene.slots.release(entity) {
+                    scene.changes.structure_changed = true;
+                    scene.changes.dirty.push(slot);
+                }
+                continue;
             }
-            continue;
         }
-        scene.instance_errors.remove(&entity);
+        if !scene.instance_errors.is_empty() {
+            scene.instance_errors.remove(&entity);
+        }
         if scene.mesh_ranges.get(instance.mesh.index() as usize).is_none() || materials.get(instance.material).is_none() {
             log::warn!("{entity}: mesh instance refers to a missing {:?} or {:?}; not drawn", instance.mesh, instance.material);
             continue;
