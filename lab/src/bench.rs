@@ -690,6 +690,10 @@ pub fn tlas_update_cost(app: &mut App, count: usize, frames: usize) -> Option<Tl
 /// CPU cost of one frame's TLAS update with the refit on the GPU ([`engine::rt::TlasRefit::Gpu`]),
 /// and the refit's GPU time.
 pub struct TlasGpuRefitCost {
+    /// Median CPU time of the frames' instance updates and TLAS work (as [`TlasUpdateCost::total`]),
+    /// and the slowest frame's.
+    pub total: Duration,
+    pub total_slowest: Duration,
     /// Median CPU time of the frames' TLAS work (the moved leaves' world boxes, their staging and the
     /// dispatches' recording).
     pub tlas: Duration,
@@ -718,6 +722,7 @@ pub fn tlas_gpu_refit_cost(app: &mut App, count: usize, frames: usize, gpu_itera
     world.resource_mut::<RayTracingScene>().tlas_refit = engine::rt::TlasRefit::Gpu;
     let mut rng = SplitMix64::new(0x6B0F_17E0 + count as u64);
     let mut times = Vec::new();
+    let mut totals = Vec::new();
     let mut steps: [Vec<Duration>; 2] = Default::default();
     let mut rebuilt = false;
     for frame in 0..=frames {
@@ -732,6 +737,7 @@ pub fn tlas_gpu_refit_cost(app: &mut App, count: usize, frames: usize, gpu_itera
         if frame > 0 {
             rebuilt |= rt.stats.tlas_rebuilt;
             times.push(rt.stats.cpu_time);
+            totals.push(app.world().resource::<GpuScene>().instance_changes().cpu_time + rt.stats.cpu_time);
             steps[0].push(rt.stats.tlas_refit_time);
             steps[1].push(rt.stats.tlas_upload_time);
         }
@@ -744,7 +750,10 @@ pub fn tlas_gpu_refit_cost(app: &mut App, count: usize, frames: usize, gpu_itera
     rt.tlas_refit = engine::rt::TlasRefit::default();
     rt.sync_cpu_tlas();
     times.sort();
+    totals.sort();
     Some(TlasGpuRefitCost {
+        total: totals[totals.len() / 2],
+        total_slowest: *totals.last()?,
         tlas: times[times.len() / 2],
         tlas_slowest: *times.last()?,
         steps: steps.map(|mut v| {
