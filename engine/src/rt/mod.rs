@@ -92,8 +92,8 @@ const TLAS_REFIT_SUBTREES: usize = 128;
 
 /// How the TLAS is refitted when instances move ([`RayTracingScene::tlas_refit`]). Both give the same
 /// wide nodes, bit for bit. The GPU is the default: its CPU cost is computing and staging 32 bytes a
-/// mover (1,000 movers of the forest: 0.12–0.13 ms a frame, 0.24 at most, on the H200's host, where
-/// the CPU refit took 0.55–0.77 ms in the same runs), and its GPU time, a pass over every TLAS node,
+/// mover (1,000 movers of the forest: 0.11–0.13 ms a frame, 0.28 at most, on the H200's host, where
+/// the CPU refit took 0.48–0.77 ms in the same runs), and its GPU time, a pass over every TLAS node,
 /// is small (0.06 ms for the forest's 11,400 instances).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum TlasRefit {
