@@ -56,11 +56,16 @@ fn read_now(gpu: &GpuContext, label: &'static str, size: u64, copy: impl FnOnce(
 const SLOT_IDLE: u8 = 0;
 const SLOT_PENDING: u8 = 1;
 const SLOT_READY: u8 = 2;
+/// Its copy is recorded in a caller's encoder ([`ReadbackRing::record`]), not yet submitted.
+const SLOT_RECORDED: u8 = 3;
 
 struct ReadbackSlot {
     buffer: wgpu::Buffer,
     state: Arc<AtomicU8>,
     frame: u64,
+    /// With [`SLOT_RECORDED`]: the caller's submission count when the copy was recorded; the slot
+    /// is mapped once a later count is seen ([`ReadbackRing::poll_recorded`]).
+    recorded_at: u64,
 }
 
 /// A ring of mappable copies of a buffer, for state the CPU mirrors a few frames late (DDGI's probe
@@ -88,6 +93,54 @@ impl ReadbackRing {
     /// Fills a free slot of `size` bytes with the commands `copy` records (a buffer or texture
     /// copy into the slot's buffer), tagged with `frame`.
     pub fn request_with(&mut self, gpu: &GpuContext, size: u64, frame: u64, copy: impl FnOnce(&mut wgpu::CommandEncoder, &wgpu::Buffer)) {
+        let label = self.label;
+        let Some(slot) = self.idle_slot(gpu, size) else { return };
+        let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
+        copy(&mut encoder, &slot.buffer);
+        gpu.queue.submit([encoder.finish()]);
+        slot.frame = frame;
+        map_slot(slot);
+    }
+
+    /// Records a copy of `source` (which needs `COPY_SRC`) into a free slot, tagged with `frame`, in
+    /// the caller's `encoder` (no submit of its own), whose submissions the caller counts: the
+    /// count is `submissions` now. The slot is mapped by [`ReadbackRing::poll_recorded`] once the
+    /// count has moved on. Returns whether a slot was free.
+    pub fn record(
+        &mut self,
+        gpu: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        source: &wgpu::Buffer,
+        frame: u64,
+        submissions: u64,
+    ) -> bool {
+        let size = source.size();
+        let Some(slot) = self.idle_slot(gpu, size) else { return false };
+        encoder.copy_buffer_to_buffer(source, 0, &slot.buffer, 0, size);
+        slot.frame = frame;
+        slot.recorded_at = submissions;
+        slot.state.store(SLOT_RECORDED, Ordering::Release);
+        true
+    }
+
+    /// [`ReadbackRing::record`]'s counterpart of [`ReadbackRing::poll`]: maps the recorded copies
+    /// whose encoder has been submitted (the caller's count is now `submissions`) and returns
+    /// every copy that has arrived, oldest first. Polls the device only while a map asked for
+    /// earlier is outstanding.
+    pub fn poll_recorded(&mut self, gpu: &GpuContext, submissions: u64) -> Vec<(u64, Vec<u8>)> {
+        if self.slots.iter().any(|s| s.state.load(Ordering::Acquire) == SLOT_PENDING) {
+            let _ = gpu.device.poll(wgpu::PollType::Poll);
+        }
+        let out = self.take_arrived();
+        for slot in self.slots.iter_mut().filter(|s| s.state.load(Ordering::Acquire) == SLOT_RECORDED && submissions > s.recorded_at) {
+            map_slot(slot);
+        }
+        out
+    }
+
+    /// A free slot of `size` bytes (the ring made at the first request, and made anew when the
+    /// size changes).
+    fn idle_slot(&mut self, gpu: &GpuContext, size: u64) -> Option<&mut ReadbackSlot> {
         if self.slots.first().is_some_and(|s| s.buffer.size() != size) {
             // The source changed size: copies of the old size still in flight are dropped.
             self.slots.clear();
@@ -103,24 +156,21 @@ impl ReadbackRing {
                     }),
                     state: Arc::new(AtomicU8::new(SLOT_IDLE)),
                     frame: 0,
+                    recorded_at: 0,
                 })
                 .collect();
         }
-        let Some(slot) = self.slots.iter_mut().find(|s| s.state.load(Ordering::Acquire) == SLOT_IDLE) else { return };
-        let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(self.label) });
-        copy(&mut encoder, &slot.buffer);
-        gpu.queue.submit([encoder.finish()]);
-        slot.frame = frame;
-        slot.state.store(SLOT_PENDING, Ordering::Release);
-        let flag = slot.state.clone();
-        slot.buffer.slice(..).map_async(wgpu::MapMode::Read, move |r| {
-            flag.store(if r.is_ok() { SLOT_READY } else { SLOT_IDLE }, Ordering::Release);
-        });
+        self.slots.iter_mut().find(|s| s.state.load(Ordering::Acquire) == SLOT_IDLE)
     }
 
     /// Every copy that has arrived, as (frame, bytes), oldest first.
     pub fn poll(&mut self, gpu: &GpuContext) -> Vec<(u64, Vec<u8>)> {
         let _ = gpu.device.poll(wgpu::PollType::Poll);
+        self.take_arrived()
+    }
+
+    /// The copies mapped since the last look, as (frame, bytes), oldest first; their slots freed.
+    fn take_arrived(&mut self) -> Vec<(u64, Vec<u8>)> {
         let mut out = Vec::new();
         for slot in &mut self.slots {
             if slot.state.load(Ordering::Acquire) != SLOT_READY {
@@ -135,4 +185,14 @@ impl ReadbackRing {
         out.sort_by_key(|(f, _)| *f);
         out
     }
+}
+
+/// Asks for `slot`'s buffer to be mapped (its copy submitted); the callback marks it ready, or idle
+/// when the map failed.
+fn map_slot(slot: &mut ReadbackSlot) {
+    slot.state.store(SLOT_PENDING, Ordering::Release);
+    let flag = slot.state.clone();
+    slot.buffer.slice(..).map_async(wgpu::MapMode::Read, move |r| {
+        flag.store(if r.is_ok() { SLOT_READY } else { SLOT_IDLE }, Ordering::Release);
+    });
 }

@@ -6,8 +6,6 @@
 //! rides in the uploads' encoder and the CPU maps it a frame or two later
 //! ([`GpuRefit::poll_cost`]), to decide on a rebuild without refitting its own copy.
 
-use std::sync::Arc;
-use std::sync::atomic::{AtomicU8, Ordering};
 use std::time::Duration;
 
 use bytemuck::{Pod, Zeroable};
@@ -18,6 +16,7 @@ use wgpu::util::DeviceExt;
 use super::{NONE, ray_workgroups};
 use crate::gpu::GpuContext;
 use crate::render::gpu_scene::Uploads;
+use crate::render::readback::ReadbackRing;
 use crate::shader::{Program, ShaderError, compute_program};
 
 /// The label of the refit's compute pass (and its pipelines').
@@ -31,23 +30,6 @@ pub const TLAS_REFIT_COST_SCALE: u32 = 1 << 20;
 /// quality decayed is rebuilt a few frames late (its bounds exact meanwhile: no hit is missed), and
 /// rarely enough that mapping the copy costs the CPU little per frame.
 pub const TLAS_GPU_COST_READ_EVERY: u32 = 4;
-
-/// States of a [`CostSlot`].
-const SLOT_IDLE: u8 = 0;
-const SLOT_COPIED: u8 = 1;
-const SLOT_MAPPING: u8 = 2;
-const SLOT_READY: u8 = 3;
-
-/// A mappable copy of the SAH cost's sum on its way to the CPU.
-struct CostSlot {
-    buffer: wgpu::Buffer,
-    /// `SLOT_*`; the map callback sets it to ready (or idle on failure).
-    state: Arc<AtomicU8>,
-    /// The TLAS measured ([`GpuRefit::load`]'s count).
-    generation: u64,
-    /// [`Uploads::submissions`] when the copy was recorded: mapped once more have been submitted.
-    recorded_at: u64,
-}
 
 /// The GPU refit's counts for this frame. Mirrors WGSL `TlasRefitParams`.
 #[repr(C)]
@@ -107,10 +89,10 @@ pub(super) struct GpuRefit {
     /// `clear_and_scatter`, `propagate`, `measure`, `encode`.
     programs: [Program<wgpu::ComputePipeline>; 4],
     params: wgpu::Buffer,
-    /// The SAH cost's fixed-point sum (two words), and two copies of it for the CPU
-    /// ([`GpuRefit::poll_cost`]).
+    /// The SAH cost's fixed-point sum (two words), and its copies for the CPU, each tagged with the
+    /// TLAS it measured ([`GpuRefit::poll_cost`]).
     cost: wgpu::Buffer,
-    cost_slots: [CostSlot; 2],
+    cost_readback: ReadbackRing,
     /// Counts the TLASes loaded.
     generation: u64,
     /// Refits recorded since a copy of the cost was last recorded.
@@ -149,17 +131,7 @@ impl GpuRefit {
             programs,
             params: buffer("tlas_refit_params", size_of::<TlasRefitParams>() as u64, wgpu::BufferUsages::UNIFORM),
             cost: buffer("tlas_refit_cost", 8, wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC),
-            cost_slots: [(); 2].map(|_| CostSlot {
-                buffer: gpu.device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some("tlas_refit_cost_readback"),
-                    size: 8,
-                    usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-                    mapped_at_creation: false,
-                }),
-                state: Arc::new(AtomicU8::new(SLOT_IDLE)),
-                generation: 0,
-                recorded_at: 0,
-            }),
+            cost_readback: ReadbackRing::new("tlas_refit_cost_readback", 2),
             generation: 0,
             refits_since_copy: 0,
             moved: buffer("tlas_refit_moved", 1024 * size_of::<TlasRefitLeaf>() as u64, wgpu::BufferUsages::STORAGE),
@@ -242,12 +214,8 @@ impl GpuRefit {
         // Every few refits, a copy of the cost for the CPU after the dispatches (no submit of its own).
         self.refits_since_copy += 1;
         if self.refits_since_copy >= TLAS_GPU_COST_READ_EVERY
-            && let Some(slot) = self.cost_slots.iter_mut().find(|s| s.state.load(Ordering::Acquire) == SLOT_IDLE)
+            && self.cost_readback.record(gpu, encoder, &self.cost, self.generation, submissions)
         {
-            encoder.copy_buffer_to_buffer(&self.cost, 0, &slot.buffer, 0, 8);
-            slot.generation = self.generation;
-            slot.recorded_at = submissions;
-            slot.state.store(SLOT_COPIED, Ordering::Release);
             self.refits_since_copy = 0;
         }
     }
@@ -257,32 +225,9 @@ impl GpuRefit {
     /// (readings of an earlier TLAS are dropped). Maps the copies whose encoder has been submitted.
     /// Nothing waits: a reading is a frame or two old.
     pub fn poll_cost(&mut self, gpu: &GpuContext, uploads: &Uploads) -> Option<f64> {
-        // Callbacks of maps asked for on an earlier frame (something else may have polled already).
-        if self.cost_slots.iter().any(|s| s.state.load(Ordering::Acquire) == SLOT_MAPPING) {
-            let _ = gpu.device.poll(wgpu::PollType::Poll);
-        }
-        let mut reading = None;
-        for slot in &mut self.cost_slots {
-            match slot.state.load(Ordering::Acquire) {
-                SLOT_COPIED if uploads.submissions() > slot.recorded_at => {
-                    slot.state.store(SLOT_MAPPING, Ordering::Release);
-                    let flag = slot.state.clone();
-                    slot.buffer.slice(..).map_async(wgpu::MapMode::Read, move |r| {
-                        flag.store(if r.is_ok() { SLOT_READY } else { SLOT_IDLE }, Ordering::Release);
-                    });
-                }
-                SLOT_READY => {
-                    let cost = slot.buffer.slice(..).get_mapped_range().ok().and_then(|view| cost_from_bytes(&view));
-                    slot.buffer.unmap();
-                    slot.state.store(SLOT_IDLE, Ordering::Release);
-                    if slot.generation == self.generation {
-                        reading = cost.or(reading);
-                    }
-                }
-                _ => {}
-            }
-        }
-        reading
+        let arrived = self.cost_readback.poll_recorded(gpu, uploads.submissions());
+        let (_, bytes) = arrived.into_iter().rev().find(|(generation, _)| *generation == self.generation)?;
+        cost_from_bytes(&bytes)
     }
 
     /// The SAH cost the GPU's last refit measured, read now. Blocks until the GPU is idle. For tests.
@@ -321,23 +266,13 @@ impl GpuRefit {
             usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        let readback = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("tlas_refit_timestamps_readback"),
-            size: 16,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
         let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(TLAS_REFIT_PASS) });
         encoder.write_timestamp(&queries, 0);
         self.dispatch(&mut encoder);
         encoder.write_timestamp(&queries, 1);
         encoder.resolve_query_set(&queries, 0..2, &resolve, 0);
-        encoder.copy_buffer_to_buffer(&resolve, 0, &readback, 0, 16);
         gpu.queue.submit([encoder.finish()]);
-        readback.slice(..).map_async(wgpu::MapMode::Read, |_| {});
-        gpu.wait_idle();
-        let ticks: [u64; 2] = bytemuck::pod_read_unaligned(&readback.slice(..).get_mapped_range().ok()?[..16]);
-        readback.unmap();
+        let ticks: [u64; 2] = bytemuck::pod_read_unaligned(crate::render::readback::read_buffer(gpu, &resolve).get(..16)?);
         Some(Duration::from_nanos((ticks[1].saturating_sub(ticks[0]) as f64 * f64::from(gpu.timestamp_period)) as u64))
     }
 }
