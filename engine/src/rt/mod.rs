@@ -578,7 +578,12 @@ impl RayTracingScene {
 
     /// The SAH cost of the TLAS over its cost when built exceeds [`TLAS_REBUILD_COST_RATIO`].
     fn decayed(&self, bvh: &Bvh2) -> bool {
-        let cost = self.inner_area / f64::from(bvh.nodes[0].aabb().half_area()).max(f64::MIN_POSITIVE);
+        self.decayed_at(over_root(bvh, self.inner_area))
+    }
+
+    /// A TLAS of normalized SAH cost `cost` has decayed past [`TLAS_REBUILD_COST_RATIO`] times its
+    /// cost when built.
+    fn decayed_at(&self, cost: f64) -> bool {
         cost > TLAS_REBUILD_COST_RATIO * self.built_cost
     }
 
@@ -788,8 +793,8 @@ impl RayTracingScene {
                     stack.extend([n.first_index as usize, n.first_index as usize + 1]);
                 }
             }
-            self.inner_area = bvh.nodes.iter().filter(|n| !n.is_leaf()).map(|n| f64::from(n.aabb().half_area())).sum();
-            self.built_cost = self.inner_area / f64::from(bvh.nodes[0].aabb().half_area()).max(f64::MIN_POSITIVE);
+            self.inner_area = inner_half_areas(&bvh);
+            self.built_cost = over_root(&bvh, self.inner_area);
             self.refit_plan = RefitPlan::new(&bvh, TLAS_REFIT_SUBTREES);
             self.leaf_stale = vec![false; bvh.nodes.len()];
             self.tlas = Some(bvh);
@@ -1051,7 +1056,7 @@ impl RayTracingScene {
         // refit, which has run the test itself since, is dropped).
         let cost = self.gpu_refit.as_mut().and_then(|r| r.poll_cost(gpu, uploads)).filter(|_| self.gpu_refit_ready);
         self.stats.tlas_gpu_cost = cost;
-        if cost.is_some_and(|cost| cost > TLAS_REBUILD_COST_RATIO * self.built_cost) {
+        if cost.is_some_and(|cost| self.decayed_at(cost)) {
             return false;
         }
         let refitted = Instant::now();
@@ -1096,8 +1101,7 @@ impl RayTracingScene {
     /// [`RayTracingScene::sync_cpu_tlas`]). `None` without a TLAS.
     pub fn tlas_cost(&self) -> Option<(f64, f64)> {
         let bvh = self.tlas.as_ref()?;
-        let inner: f64 = bvh.nodes.iter().filter(|n| !n.is_leaf()).map(|n| f64::from(n.aabb().half_area())).sum();
-        Some((self.built_cost, inner / f64::from(bvh.nodes[0].aabb().half_area()).max(f64::MIN_POSITIVE)))
+        Some((self.built_cost, over_root(bvh, inner_half_areas(bvh))))
     }
 
     /// The SAH cost the last GPU refit measured (see [`RayTracingScene::tlas_cost`]), read now;
@@ -1222,6 +1226,16 @@ impl RayTracingScene {
         }
         self.stats.tlas_upload_copies += runs.len();
     }
+}
+
+/// The summed half areas of the binary TLAS's inner nodes (its root's included).
+fn inner_half_areas(bvh: &Bvh2) -> f64 {
+    bvh.nodes.iter().filter(|n| !n.is_leaf()).map(|n| f64::from(n.aabb().half_area())).sum()
+}
+
+/// `area` over the root's half area: with [`inner_half_areas`], the normalized SAH cost.
+fn over_root(bvh: &Bvh2, area: f64) -> f64 {
+    area / f64::from(bvh.nodes[0].aabb().half_area()).max(f64::MIN_POSITIVE)
 }
 
 /// Marks in `marks` (one per wide node) the wide node that holds each of the `dirty` Bvh2 nodes as a
