@@ -79,8 +79,9 @@ fn ddgi_workgroup_max(value: f32, local: u32) -> f32 {
 // so it rests — keeps its maps, traces nothing, costs no per-probe pass — for a period
 // that doubles at each quiet update (up to max_rest_frames) and falls back to every frame at the
 // first update that is not quiet. A resting probe wakes at once when one of its six neighbours
-// sees its lighting change (error over the target): a change anywhere in the scene is caught
-// within a frame or two by the probes that are awake or due. Returns (rays, new rest word).
+// sees its lighting change (error over the target), when an instance moved near it (wake boxes),
+// and on a frame whose light the CPU saw change everywhere (wake_resting): a change anywhere in the
+// scene is caught within a frame or two by the probes that are awake or due. Returns (rays, new rest word).
 fn ddgi_rest(p: u32, data: DdgiProbeData, rays: u32) -> vec2<u32> {
     let v = ddgi_volume;
     let quiet_allowed = ddgi_has(DDGI_ADAPTIVE) && v.max_rest_frames > 1u && rays > 0u
@@ -91,7 +92,7 @@ fn ddgi_rest(p: u32, data: DdgiProbeData, rays: u32) -> vec2<u32> {
     let period = clamp(data.rest & 0xffffu, 1u, v.max_rest_frames);
     let left = data.rest >> 16u;
     if left > 0u {
-        if !ddgi_neighbour_changing(p) && !(v.wake_boxes > 0u && ddgi_near_mover(ddgi_probe_position(p))) {
+        if v.wake_resting == 0u && !ddgi_neighbour_changing(p) && !(v.wake_boxes > 0u && ddgi_near_mover(ddgi_probe_position(p))) {
             return vec2<u32>(0u, period | ((left - 1u) << 16u));
         }
         return vec2<u32>(rays, 1u);
@@ -100,9 +101,10 @@ fn ddgi_rest(p: u32, data: DdgiProbeData, rays: u32) -> vec2<u32> {
     // whose slower average keeps little of the noise, whether the maps have converged, and the
     // other that the lighting is not changing now).
     let quiet_level = v.rest_error * v.error_target;
-    var quiet = data.error < quiet_level;
+    let error = ddgi_change_error(data);
+    var quiet = error < quiet_level;
     if v.rest_smoothing >= 0.0 {
-        quiet = data.settled_error < quiet_level && data.error < v.error_target;
+        quiet = data.settled_error < quiet_level && error < v.error_target;
     }
     if !quiet {
         return vec2<u32>(rays, 1u);
@@ -117,13 +119,20 @@ fn ddgi_rest(p: u32, data: DdgiProbeData, rays: u32) -> vec2<u32> {
     return vec2<u32>(rays, next | (wait << 16u));
 }
 
+// The error that decides whether a probe's lighting is changing (resting, waking its neighbours):
+// its signal error with noise_allowance on (the change less the noise its rays explain), else its
+// error.
+fn ddgi_change_error(data: DdgiProbeData) -> f32 {
+    return select(data.error, data.signal_error, ddgi_volume.noise_allowance > 0.0);
+}
+
 // Whether one of probe p's six neighbours (active, updated at some point) is over the error target.
 fn ddgi_neighbour_changing(p: u32) -> bool {
     for (var k = 0u; k < 6u; k++) {
         let q = ddgi_neighbour(p, ddgi_face_step(k));
         if q != DDGI_NO_PROBE {
             let n = ddgi_probes[q];
-            if (n.state & (DDGI_PROBE_INACTIVE | DDGI_PROBE_FRESH)) == 0u && n.error > ddgi_volume.error_target {
+            if (n.state & (DDGI_PROBE_INACTIVE | DDGI_PROBE_FRESH)) == 0u && ddgi_change_error(n) > ddgi_volume.error_target {
                 return true;
             }
         }

@@ -574,7 +574,11 @@ pub fn prepare_ddgi_volumes(
         v.recheck_pending |= structure_changed || wake_all || (interval > 0 && v.frames % interval == 0);
         let recheck = v.recheck_pending;
         let rotation = random_rotation(&mut v.rng);
-        let uniform = DdgiVolumeGpu::new(volume, &v.layout, rotation, volume.sky_radiance, recheck, v.cascade_blend, wake_boxes);
+        let mut uniform = DdgiVolumeGpu::new(volume, &v.layout, rotation, volume.sky_radiance, recheck, v.cascade_blend, wake_boxes);
+        // Light that changed everywhere (a light, the sky, a material or mesh, instances added or
+        // removed, the volume's settings) wakes every resting probe this frame: a volume whose
+        // probes all rest would otherwise see the change only as each one's rest ends.
+        uniform.wake_resting = u32::from(lighting_changed || structure_changed || settings_changed || rebuild);
         gpu.queue.write_buffer(&v.uniform, 0, bytemuck::bytes_of(&uniform));
     }
     state.volumes.sort_by_key(|(_, v)| v.order);
