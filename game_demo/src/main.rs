@@ -125,11 +125,6 @@ enum Command {
         /// calm (DdgiAdaptive::calm_error).
         #[arg(long)]
         calm_error: Option<f32>,
-        /// Adaptive configuration: the standard deviations of noise a texel's change may hold
-        /// before it counts as a change, for resting and calm phases (DdgiAdaptive::noise_allowance;
-        /// 0: off).
-        #[arg(long)]
-        noise_allowance: Option<f32>,
         /// Also DDGI's experiments: quality for probe densities 8×4×8, 16×8×16, 32×16×32 × irradiance
         /// maps of 4, 8, 16 texels, and the ablation of the visibility weights (none → back-face →
         /// Chebyshev → normal bias → contact occlusion).
@@ -1507,7 +1502,6 @@ fn main() -> ExitCode {
             rest_smoothing,
             max_update_period,
             calm_error,
-            noise_allowance,
             experiments,
             out,
             cache,
@@ -1553,7 +1547,6 @@ fn main() -> ExitCode {
                 rest_smoothing: rest_smoothing.or(defaults.rest_smoothing),
                 max_update_period: max_update_period.unwrap_or(defaults.max_update_period),
                 calm_error: calm_error.unwrap_or(defaults.calm_error),
-                noise_allowance: noise_allowance.unwrap_or(defaults.noise_allowance),
                 ..defaults
             };
             let options = eval::EvalOptions {

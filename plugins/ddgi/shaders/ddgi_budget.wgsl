@@ -101,10 +101,9 @@ fn ddgi_rest(p: u32, data: DdgiProbeData, rays: u32) -> vec2<u32> {
     // whose slower average keeps little of the noise, whether the maps have converged, and the
     // other that the lighting is not changing now).
     let quiet_level = v.rest_error * v.error_target;
-    let error = ddgi_change_error(data);
-    var quiet = error < quiet_level;
+    var quiet = data.error < quiet_level;
     if v.rest_smoothing >= 0.0 {
-        quiet = data.settled_error < quiet_level && error < v.error_target;
+        quiet = data.settled_error < quiet_level && data.error < v.error_target;
     }
     if !quiet {
         return vec2<u32>(rays, 1u);
@@ -119,20 +118,13 @@ fn ddgi_rest(p: u32, data: DdgiProbeData, rays: u32) -> vec2<u32> {
     return vec2<u32>(rays, next | (wait << 16u));
 }
 
-// The error that decides whether a probe's lighting is changing (resting, waking its neighbours):
-// its signal error with noise_allowance on (the change less the noise its rays explain), else its
-// error.
-fn ddgi_change_error(data: DdgiProbeData) -> f32 {
-    return select(data.error, data.signal_error, ddgi_volume.noise_allowance > 0.0);
-}
-
 // Whether one of probe p's six neighbours (active, updated at some point) is over the error target.
 fn ddgi_neighbour_changing(p: u32) -> bool {
     for (var k = 0u; k < 6u; k++) {
         let q = ddgi_neighbour(p, ddgi_face_step(k));
         if q != DDGI_NO_PROBE {
             let n = ddgi_probes[q];
-            if (n.state & (DDGI_PROBE_INACTIVE | DDGI_PROBE_FRESH)) == 0u && ddgi_change_error(n) > ddgi_volume.error_target {
+            if (n.state & (DDGI_PROBE_INACTIVE | DDGI_PROBE_FRESH)) == 0u && n.error > ddgi_volume.error_target {
                 return true;
             }
         }

@@ -79,10 +79,9 @@ struct DdgiVolumeGpu {
     cascade_blend: f32,
     // Boxes in ddgi_wake this frame.
     wake_boxes: u32,
-    // DdgiAdaptive::noise_allowance (0: off).
-    noise_allowance: f32,
     // Non-zero: every resting probe updates this frame (light changed everywhere).
     wake_resting: u32,
+    _pad0: u32,
     _pad2: u32,
 }
 
@@ -115,10 +114,7 @@ struct DdgiProbeData {
     settled_error: f32,
     // Irradiance updates since the probe was last fresh (corrects the slow average's start).
     updates: u32,
-    // With noise_allowance > 0: the error of the lasting change only (each texel's smoothed
-    // change first reduced by the noise its rays' spread explains), which decides resting,
-    // waking and calm phases.
-    signal_error: f32,
+    _pad0: u32,
     _pad1: u32,
 }
 
@@ -185,9 +181,7 @@ struct DdgiHit {
 // One irradiance texel at full precision: the irradiance; the exponential moving average of each
 // frame's estimate minus the map (smoothing error_smoothing), from which the probe's temporal
 // error comes; and the same, slower (rest_smoothing), from which its settled error comes, as
-// bfloat16 (see ddgi_pack_bf16) in the two words the vec3s leave free (red and green, then blue),
-// with the texel's noise (the variance of its estimate's luma, smoothed; noise_allowance) in the
-// last half-word.
+// bfloat16 (see ddgi_pack_bf16) in the two words the vec3s leave free (red and green, then blue).
 struct DdgiTexel {
     irradiance: vec3<f32>,
     settle_rg: u32,

@@ -11,8 +11,7 @@ const DDGI_GROUP: u32 = 64u;
 var<workgroup> wg_direction: array<vec3<f32>, 64>;
 var<workgroup> wg_value: array<vec4<f32>, 64>;
 var<workgroup> wg_probe: DdgiProbeData;
-var<workgroup> wg_luma: array<f32, 64>;
-var<workgroup> wg_error: array<vec4<f32>, 64>;
+var<workgroup> wg_error: array<vec3<f32>, 64>;
 
 // The probe of a workgroup: the per-probe passes are dispatched indirectly, one workgroup for each
 // probe with rays this frame (listed by the budget pass; two-dimensional beyond 65,535). Past the
@@ -33,15 +32,14 @@ fn ddgi_uniform_probe(probe: u32, local: u32) -> DdgiProbeData {
     return workgroupUniformLoad(&wg_probe);
 }
 
-// Loads rays [base, base + 64) of the probe `data` into workgroup memory: direction,
-// (radiance, stored t) and the radiance's luma.
+// Loads rays [base, base + 64) of the probe `data` into workgroup memory: direction and
+// (radiance, stored t).
 fn ddgi_load_rays(data: DdgiProbeData, base: u32, local: u32) {
     let r = base + local;
     if r < data.ray_count {
         let i = data.ray_offset + r;
         wg_direction[local] = ddgi_rays[i].direction;
         wg_value[local] = ddgi_radiance[i];
-        wg_luma[local] = ddgi_luma(wg_value[local].rgb);
     }
 }
 
@@ -87,17 +85,8 @@ fn ddgi_update_irradiance(probe: u32, data: DdgiProbeData, local: u32) {
     let m = data.ray_count;
     let h = ddgi_hysteresis(data);
     let fresh = (state & DDGI_PROBE_FRESH) != 0u;
-    // (Σ SMAPE, texels measured, Σ settled SMAPE, Σ signal SMAPE) of this thread's texels.
-    var error = vec4<f32>(0.0);
-    // noise_allowance > 0: each texel's noise is measured too (the spread of its rays' luma), and
-    // its start corrected as the slow average's is.
-    let allowance = ddgi_volume.noise_allowance;
-    let noisy = allowance > 0.0;
-    let smoothing = clamp(ddgi_volume.error_smoothing, 0.0, 1.0);
-    let noise_correction = 1.0 / max(1.0 - pow(smoothing, f32(data.updates + 1u)), 1e-3);
-    // The standard deviation of an exponential moving average of independent noise, over the
-    // noise's own: √((1 − s) / (1 + s)).
-    let ema_noise = sqrt((1.0 - smoothing) / (1.0 + smoothing));
+    // (Σ SMAPE, texels measured, Σ settled SMAPE) of this thread's texels.
+    var error = vec3<f32>(0.0);
     // The slow average (opt-in: rest_smoothing ≥ 0; off, its words pass through untouched) and its
     // start correction (its first values are shrunk towards 0 by s^updates).
     let settling = ddgi_volume.rest_smoothing >= 0.0;
@@ -108,24 +97,13 @@ fn ddgi_update_irradiance(probe: u32, data: DdgiProbeData, local: u32) {
         let valid = texel < n * n;
         let direction = ddgi_texel_direction(ddgi_texel_coords(texel, n), n);
         var sum = vec4<f32>(0.0);
-        // (Σ w·luma², Σ w²), with noise_allowance on.
-        var spread = vec2<f32>(0.0);
         for (var base = 0u; base < m; base += DDGI_GROUP) {
             ddgi_load_rays(data, base, local);
             workgroupBarrier();
             let count = min(DDGI_GROUP, m - base);
-            if noisy {
-                for (var j = 0u; j < count; j++) {
-                    let w = max(dot(direction, wg_direction[j]), 0.0);
-                    sum += vec4<f32>(wg_value[j].rgb * w, w);
-                    let y = wg_luma[j];
-                    spread += vec2<f32>(w * y * y, w * w);
-                }
-            } else {
-                for (var j = 0u; j < count; j++) {
-                    let w = max(dot(direction, wg_direction[j]), 0.0);
-                    sum += vec4<f32>(wg_value[j].rgb * w, w);
-                }
+            for (var j = 0u; j < count; j++) {
+                let w = max(dot(direction, wg_direction[j]), 0.0);
+                sum += vec4<f32>(wg_value[j].rgb * w, w);
             }
             workgroupBarrier();
         }
@@ -147,6 +125,7 @@ fn ddgi_update_irradiance(probe: u32, data: DdgiProbeData, local: u32) {
                 } else {
                     // What this frame's estimate asks of the map, smoothed over frames so that
                     // noise averages out and a lasting change stands out.
+                    let smoothing = clamp(ddgi_volume.error_smoothing, 0.0, 1.0);
                     change = mix(sample - old, history.change, smoothing);
                     // The same, slower: noise averages out further, a map still converging keeps
                     // its full measure.
@@ -156,27 +135,9 @@ fn ddgi_update_irradiance(probe: u32, data: DdgiProbeData, local: u32) {
                         let slow = mix(sample - old, previous, slow_s);
                         settled = ddgi_smape_ycocg(old + slow * slow_correction, old, ddgi_volume.error_floor);
                         settle_rg = ddgi_pack_bf16(slow.rg);
-                        // (The high half: the noise, with noise_allowance on.)
-                        settle_b = ddgi_pack_bf16(vec2<f32>(slow.b, ddgi_unpack_bf16(settle_b).y));
+                        settle_b = ddgi_pack_bf16(vec2<f32>(slow.b, 0.0));
                     }
-                    // The signal: the change less `allowance` standard deviations of its noise
-                    // (the variance of the estimate's luma, π² · Σw²/(Σw)² · the rays' weighted
-                    // luma variance, smoothed as the change is; its start corrected, as it begins
-                    // at 0), shrunk in all channels alike.
-                    var signal = 0.0;
-                    if noisy {
-                        let mean_luma = ddgi_luma(sum.rgb) / sum.w;
-                        let luma_variance = max(spread.x / sum.w - mean_luma * mean_luma, 0.0);
-                        let estimate_variance = PI * PI * luma_variance * spread.y / (sum.w * sum.w);
-                        let previous = ddgi_unpack_bf16(settle_b);
-                        let noise = mix(estimate_variance, previous.y, smoothing);
-                        settle_b = ddgi_pack_bf16(vec2<f32>(previous.x, noise));
-                        let sigma = allowance * ema_noise * sqrt(max(noise * noise_correction, 0.0));
-                        let size = abs(ddgi_luma(change));
-                        let kept = max(size - sigma, 0.0) / max(size, 1e-30);
-                        signal = ddgi_smape_ycocg(old + change * kept, old, ddgi_volume.error_floor);
-                    }
-                    error += vec4<f32>(ddgi_smape_ycocg(old + change, old, ddgi_volume.error_floor), 1.0, settled, signal);
+                    error += vec3<f32>(ddgi_smape_ycocg(old + change, old, ddgi_volume.error_floor), 1.0, settled);
                     let threshold = ddgi_volume.firefly_threshold;
                     if threshold > 0.0 && luminance(old) > 0.0 && luminance(sample) > (1.0 + threshold) * luminance(old) {
                         sample = old + (sample - old) * 0.25;
@@ -202,15 +163,12 @@ fn ddgi_update_irradiance(probe: u32, data: DdgiProbeData, local: u32) {
         let total = wg_error[0];
         var e = ddgi_volume.error_target;
         var settled = ddgi_volume.error_target;
-        var signal = ddgi_volume.error_target;
         if !fresh {
             e = select(data.error, total.x / total.y, total.y > 0.0);
             settled = select(data.settled_error, total.z / total.y, total.y > 0.0);
-            signal = select(data.signal_error, total.w / total.y, total.y > 0.0);
         }
         ddgi_probes[probe].error = select(0.0, e, e == e);
         ddgi_probes[probe].settled_error = select(0.0, settled, settled == settled);
-        ddgi_probes[probe].signal_error = select(0.0, signal, signal == signal);
         ddgi_probes[probe].updates = select(min(data.updates + 1u, 0xffffu), 0u, fresh);
     }
 }

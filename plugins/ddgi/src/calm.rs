@@ -59,8 +59,7 @@ pub struct CalmJudgement {
     pub settled: u32,
     /// Active probes still fresh (their maps restart).
     pub fresh: u32,
-    /// Mean temporal error of the settled active probes (their signal error with
-    /// [`DdgiAdaptive::noise_allowance`] on).
+    /// Mean temporal error of the settled active probes.
     pub mean_error: f32,
     /// Whether the update was calm: at most [`CALM_FRESH`] of the active probes fresh, and the
     /// mean error of the others under `calm_error` × `error_target` ([`DdgiAdaptive::calm_error`]).
@@ -75,8 +74,7 @@ pub fn judge(probes: &[DdgiProbeData], adaptive: &DdgiAdaptive) -> CalmJudgement
             fresh += 1;
         } else {
             settled += 1;
-            let error = if adaptive.noise_allowance > 0.0 { p.signal_error } else { p.error };
-            sum += if error.is_finite() { f64::from(error.max(0.0)) } else { f64::INFINITY };
+            sum += if p.error.is_finite() { f64::from(p.error.max(0.0)) } else { f64::INFINITY };
         }
     }
     let mean_error = if settled > 0 { (sum / f64::from(settled)) as f32 } else { 0.0 };

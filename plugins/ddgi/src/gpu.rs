@@ -55,10 +55,9 @@ pub(crate) struct DdgiVolumeGpu {
     pub cascade_blend: f32,
     /// Boxes in `ddgi_wake` this frame (around the instances that moved).
     pub wake_boxes: u32,
-    /// [`crate::DdgiAdaptive::noise_allowance`]; 0: off.
-    pub noise_allowance: f32,
     /// Non-zero: every resting probe updates this frame (light changed everywhere).
     pub wake_resting: u32,
+    pub _pad0: u32,
     pub _pad2: u32,
 }
 
@@ -94,10 +93,8 @@ pub struct DdgiProbeData {
     pub settled_error: f32,
     /// Irradiance updates since the probe was last fresh.
     pub updates: u32,
-    /// With [`crate::DdgiAdaptive::noise_allowance`] on: the temporal error of the lasting change
-    /// only (each texel's smoothed change first reduced by the noise its rays' spread explains),
-    /// which decides resting, waking and calm phases; 0 when off.
-    pub signal_error: f32,
+    /// Padding to the WGSL layout.
+    pub _pad0: u32,
     /// Padding to the WGSL layout.
     pub _pad1: u32,
 }
@@ -117,7 +114,7 @@ impl DdgiProbeData {
         rest: 0,
         settled_error: 0.0,
         updates: 0,
-        signal_error: 0.0,
+        _pad0: 0,
         _pad1: 0,
     };
 }
@@ -451,8 +448,8 @@ impl DdgiVolumeGpu {
             scroll: layout.scroll.to_array(),
             cascade_blend,
             wake_boxes,
-            noise_allowance: if a.enabled { a.noise_allowance } else { 0.0 },
             wake_resting: 0,
+            _pad0: 0,
             _pad2: 0,
         }
     }
@@ -480,12 +477,12 @@ pub fn gpu_structs() -> Vec<engine::shader::HostStruct> {
             view_bias, distance_sharpness, max_ray_distance, distance_scale, irradiance_texels, distance_texels, tiles_per_row,
             firefly_threshold, backface_threshold, min_frontface_distance, recheck, irradiance_atlas_size, distance_atlas_size,
             min_rays, recheck_rays, error_target, error_decay, error_smoothing, error_floor, dark_fraction, frame_budget,
-            max_rest_frames, rest_error, hysteresis_exponent, rest_smoothing, scroll, cascade_blend, wake_boxes, noise_allowance, wake_resting,
+            max_rest_frames, rest_error, hysteresis_exponent, rest_smoothing, scroll, cascade_blend, wake_boxes, wake_resting, _pad0,
             _pad2,
         }),
         layout!(DdgiProbeData in "ddgi_common.inc.wgsl" {
             offset, state, error, ray_count, ray_offset, luma, pinned_rays, pinned_state, empty_rays, rest, settled_error, updates,
-            signal_error, _pad1,
+            _pad0, _pad1,
         }),
         layout!(DdgiTexel in "ddgi_common.inc.wgsl" { irradiance, settle_rg, change, settle_b }),
         layout!(DdgiRay in "ddgi_common.inc.wgsl" { direction, probe }),

@@ -88,7 +88,9 @@ pub struct DdgiAdaptive {
     /// frame; see `max_update_period`) (≤ 1: probes never rest). A probe whose error at
     /// an update is under `rest_error × error_target` has converged: it keeps its maps and skips
     /// its next updates (no rays, no per-probe pass), for a period that doubles at each quiet
-    /// update up to this. A neighbour's error over the target wakes it at once. Longer: fewer rays
+    /// update up to this. A neighbour's error over the target wakes it at once, as does an
+    /// instance moving within a spacing of it and any change of light the CPU sees (a light, the
+    /// sky, a material or mesh, instances added or removed, the volume's settings). Longer: fewer rays
     /// and less GPU time in static scenes; a change reaches a resting probe only through its
     /// neighbours or its next update.
     pub max_rest_frames: u32,
@@ -156,20 +158,6 @@ pub struct DdgiAdaptive {
     /// the fixed budget's): Cornell's box (8×8×8) +2.5% at 0.5 (15.9× fewer rays a frame), +6.6% at
     /// 1.0; `color_bleed` (2×2×2) never calm at 0.5 (1.5× fewer), −0.7% at 1.0 (5.3× fewer). No cost.
     pub calm_error: f32,
-    /// How many standard deviations of noise a texel's change may hold before it counts as a
-    /// change, for resting, waking a neighbour and calm phases (0: off, the error itself decides).
-    /// A probe's rays are few, so in a still scene each frame's estimate differs from the map by
-    /// noise, and noise alone keeps a probe that sees a small bright source (a sunlit patch, a
-    /// lamp) near the error target: it never rests, and its volume is never calm. On, the
-    /// irradiance update also measures each texel's noise — the spread of its rays' luma, as the
-    /// variance of their weighted mean (smoothed like the change) — and the probe's *signal
-    /// error* ([`crate::gpu::DdgiProbeData::signal_error`]) is the error of the change less this
-    /// many standard deviations of the smoothed change's noise: near 0 in a still scene, nearly
-    /// the error itself after a change that stands out of the noise. Rays while awake still
-    /// follow the error (noisier probes keep more rays, so what a resting probe keeps is no
-    /// noisier). Cost: two more sums per ray and texel in the irradiance update (only when on) and
-    /// no memory (bfloat16 in the texel's spare half-word).
-    pub noise_allowance: f32,
 }
 
 /// Calm updates in a row at one volume update period before it doubles
@@ -193,7 +181,6 @@ impl Default for DdgiAdaptive {
             rest_smoothing: None,
             max_update_period: 4,
             calm_error: 0.5,
-            noise_allowance: 0.0,
         }
     }
 }
@@ -495,9 +482,6 @@ impl DdgiVolume {
         }
         if !(a.calm_error.is_finite() && a.calm_error >= 0.0) {
             return Err(invalid("adaptive.calm_error", a.calm_error, "must be finite and not negative"));
-        }
-        if !(a.noise_allowance.is_finite() && a.noise_allowance >= 0.0) {
-            return Err(invalid("adaptive.noise_allowance", a.noise_allowance, "must be finite and not negative"));
         }
         if a.frame_budget == Some(0) {
             return Err(invalid("adaptive.frame_budget", 0, "must be positive (None: no limit)"));

@@ -743,6 +743,42 @@ fn switching_a_light_on_raises_the_rays_within_a_few_frames() {
     assert!(peak > 3.0 * settled, "the rays did not follow the light: settled {settled}, then {after:?}");
 }
 
+#[test]
+fn a_change_of_light_wakes_every_resting_probe_on_its_frame() {
+    let Some(gpu) = gpu("a_change_of_light_wakes_every_resting_probe") else { return };
+    // The lit Cornell box, still, with long rests (and no calm periods, so that every frame
+    // updates): most probes come to rest.
+    let volume = DdgiVolume {
+        bounds: scenes::find("cornell").expect("built-in scene").gi_box(),
+        probe_counts: Some(UVec3::new(6, 6, 6)),
+        adaptive: ddgi::DdgiAdaptive { max_rest_frames: 64, max_update_period: 1, ..ddgi::DdgiAdaptive::on() },
+        ..Default::default()
+    };
+    let (_, mut app) = run_ddgi(&gpu, (scenes::find("cornell").expect("cornell").build)(), volume, 16, 240);
+    let probes = |app: &bevy_app::App| -> Vec<ddgi::gpu::DdgiProbeData> {
+        let bytes = engine::render::readback::read_buffer(&gpu, &first_volume(app).probes);
+        bytemuck::pod_collect_to_vec(&bytes[..6 * 6 * 6 * size_of::<ddgi::gpu::DdgiProbeData>()])
+    };
+    let active = |p: &&ddgi::gpu::DdgiProbeData| p.state & ddgi::gpu::PROBE_INACTIVE == 0;
+    let before = probes(&app);
+    let resting = before.iter().filter(active).filter(|p| p.ray_count == 0).count();
+    assert!(resting > 0, "no active probe rested before the change");
+    // The lamp dims: light changes everywhere, and the frame that sees it traces every active
+    // probe, however long its rest had left to run.
+    {
+        let world = app.world_mut();
+        let mut lights = world.query::<&mut engine::scene::PointLight>();
+        for mut light in lights.iter_mut(world) {
+            light.intensity *= 0.5;
+        }
+    }
+    run_headless(&mut app, 1);
+    let after = probes(&app);
+    let asleep = after.iter().filter(active).filter(|p| p.ray_count == 0).count();
+    eprintln!("active probes without rays: {resting} before the change, {asleep} on its frame");
+    assert_eq!(asleep, 0, "{asleep} active probes slept through the change of light");
+}
+
 /// A closed room (interior −1.5…1.5 × 0…3 × −1.5…1.5) with a doorway in its +Z wall closed by a
 /// door of its own, and a sun outside shining in through the doorway when the door is open.
 fn room_with_door() -> SceneDescription {
