@@ -271,6 +271,8 @@ struct RtWalk {
     // in blas_triangles.
     best: RayHit,
     best_triangle: u32,
+    world_dir: vec3<f32>,
+    world_oct: u32,
     // The ray in the space of the level being walked: world for the TLAS, instance space in a BLAS
     // (`dir` nudged off zero for slab tests, `tri_dir` as given for triangle tests).
     origin: vec3<f32>,
@@ -300,6 +302,8 @@ fn rt_walk_start(ray: Ray) -> RtWalk {
         ray,
         rt_no_hit(ray.tmax),
         0u,
+        world_dir,
+        world_oct,
         ray.origin,
         world_dir,
         ray.direction,
@@ -449,10 +453,8 @@ fn rt_walk_prims(w: ptr<function, RtWalk>, stack: ptr<function, array<vec2<u32>,
         if (*w).in_blas && (*w).sp == (*w).tlas_sp {
             (*w).in_blas = false;
             (*w).origin = (*w).ray.origin;
-            // Recomputed rather than kept in the walk: four registers fewer a lane (the persistent
-            // bench kernel 1–2% faster at 32³ × 256 rays, up to 18% at 16×8×16; BENCHMARKS.md).
-            (*w).dir = rt_safe_direction((*w).ray.direction);
-            (*w).oct_inv4 = rt_octant_inv4((*w).dir);
+            (*w).dir = (*w).world_dir;
+            (*w).oct_inv4 = (*w).world_oct;
         }
         if (*w).sp == 0u {
             return true;
