@@ -80,8 +80,9 @@ fn ddgi_workgroup_max(value: f32, local: u32) -> f32 {
 // that doubles at each quiet update (up to max_rest_frames) and falls back to every frame at the
 // first update that is not quiet. A resting probe wakes at once when one of its six neighbours
 // sees its lighting change (error over the target), when an instance moved near it (wake boxes),
-// and on a frame whose light the CPU saw change everywhere (wake_resting): a change anywhere in the
-// scene is caught within a frame or two by the probes that are awake or due. Returns (rays, new rest word).
+// and on a frame whose light the CPU saw change everywhere (wake_resting): a change anywhere in
+// the scene is caught within a frame or two by the probes that are awake or due. Returns (rays,
+// new rest word).
 fn ddgi_rest(p: u32, data: DdgiProbeData, rays: u32) -> vec2<u32> {
     let v = ddgi_volume;
     let quiet_allowed = ddgi_has(DDGI_ADAPTIVE) && v.max_rest_frames > 1u && rays > 0u

@@ -563,8 +563,12 @@ pub fn prepare_ddgi_volumes(
         if wake_boxes > 0 {
             gpu.queue.write_buffer(&v.wake, 0, bytemuck::cast_slice(&wake));
         }
+        // Light that changed everywhere (a light, the sky, a material or mesh, instances added or
+        // removed, the volume's settings) wakes every resting probe this frame: a volume whose
+        // probes all rest would otherwise see the change only as each one's rest ends.
+        let changed_everywhere = rebuild || settings_changed || lighting_changed || structure_changed;
         // The calm update period: anything seen to change here updates this frame and drops it to 1.
-        let changed = rebuild || settings_changed || scrolled || origin_moved || lighting_changed || structure_changed || !wake.is_empty();
+        let changed = changed_everywhere || scrolled || origin_moved || !wake.is_empty();
         if changed || !crate::calm::DdgiCalm::applies(&volume.adaptive) {
             v.calm.reset(frame);
         }
@@ -575,10 +579,7 @@ pub fn prepare_ddgi_volumes(
         let recheck = v.recheck_pending;
         let rotation = random_rotation(&mut v.rng);
         let mut uniform = DdgiVolumeGpu::new(volume, &v.layout, rotation, volume.sky_radiance, recheck, v.cascade_blend, wake_boxes);
-        // Light that changed everywhere (a light, the sky, a material or mesh, instances added or
-        // removed, the volume's settings) wakes every resting probe this frame: a volume whose
-        // probes all rest would otherwise see the change only as each one's rest ends.
-        uniform.wake_resting = u32::from(lighting_changed || structure_changed || settings_changed || rebuild);
+        uniform.wake_resting = u32::from(changed_everywhere);
         gpu.queue.write_buffer(&v.uniform, 0, bytemuck::bytes_of(&uniform));
     }
     state.volumes.sort_by_key(|(_, v)| v.order);

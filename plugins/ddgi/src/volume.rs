@@ -90,9 +90,9 @@ pub struct DdgiAdaptive {
     /// its next updates (no rays, no per-probe pass), for a period that doubles at each quiet
     /// update up to this. A neighbour's error over the target wakes it at once, as does an
     /// instance moving within a spacing of it and any change of light the CPU sees (a light, the
-    /// sky, a material or mesh, instances added or removed, the volume's settings). Longer: fewer rays
-    /// and less GPU time in static scenes; a change reaches a resting probe only through its
-    /// neighbours or its next update.
+    /// sky, a material or mesh, instances added or removed, the volume's settings). Longer: fewer
+    /// rays and less GPU time in static scenes; a change the CPU cannot see reaches a resting
+    /// probe only through its neighbours or its next update.
     pub max_rest_frames: u32,
     /// Share of `error_target` under which a probe's error counts as quiet (lets it rest); with
     /// `rest_smoothing`, its settled error instead. Lower: only well-converged probes rest.

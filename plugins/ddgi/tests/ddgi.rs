@@ -748,16 +748,17 @@ fn a_change_of_light_wakes_every_resting_probe_on_its_frame() {
     let Some(gpu) = gpu("a_change_of_light_wakes_every_resting_probe") else { return };
     // The lit Cornell box, still, with long rests (and no calm periods, so that every frame
     // updates): most probes come to rest.
+    let counts = UVec3::new(6, 6, 6);
     let volume = DdgiVolume {
         bounds: scenes::find("cornell").expect("built-in scene").gi_box(),
-        probe_counts: Some(UVec3::new(6, 6, 6)),
+        probe_counts: Some(counts),
         adaptive: ddgi::DdgiAdaptive { max_rest_frames: 64, max_update_period: 1, ..ddgi::DdgiAdaptive::on() },
         ..Default::default()
     };
     let (_, mut app) = run_ddgi(&gpu, (scenes::find("cornell").expect("cornell").build)(), volume, 16, 240);
     let probes = |app: &bevy_app::App| -> Vec<ddgi::gpu::DdgiProbeData> {
         let bytes = engine::render::readback::read_buffer(&gpu, &first_volume(app).probes);
-        bytemuck::pod_collect_to_vec(&bytes[..6 * 6 * 6 * size_of::<ddgi::gpu::DdgiProbeData>()])
+        bytemuck::pod_collect_to_vec(&bytes[..counts.element_product() as usize * size_of::<ddgi::gpu::DdgiProbeData>()])
     };
     let active = |p: &&ddgi::gpu::DdgiProbeData| p.state & ddgi::gpu::PROBE_INACTIVE == 0;
     let before = probes(&app);
