@@ -27,12 +27,22 @@ nvidia-smi --query-gpu=name,driver_version --format=csv > "$R/gpu.txt" 2>&1
 date -u > "$R/date.txt"
 # Viewpoints along the open world's tour (scenes::open::tour_at at D metres, looking ahead and down).
 declare -A VIEWS=([20]="6.75,1.70,19.69 11.74,0.70,28.36" [80]="37.28,1.14,71.33 42.69,0.14,79.74" [300]="155.99,1.18,256.55 161.36,0.18,264.99")
+# Reports, tables and plots only (the per-configuration strips would pass the 16 MiB a file that
+# comes back).
+# STRIPS=1: the views' strips too (direct | method | reference | FLIP map, 256 px high), and the
+# peer steps' strips (its rows side by side, the reference last).
+# Packed after every step, so that a call cut off by its time limit still brings back the steps
+# that finished.
+pack() {
+    (cd "$OUT" && { find "r$TAG" -name '*.md' -o -name '*.txt' -o -name '*.csv' -o -name '*.json' -o -name 'error_vs_time.png' -o -name 'time_series.png' -o -name 'image.png'; [ -n "${STRIPS:-}" ] && find "r$TAG" -path '*view-*' -name 'ddgi*.png'; [ -n "${SHOTS:-}" ] && find "r$TAG" -path '*shots-*' -name 'frame_*.png'; [ -n "${STRIPS:-}" ] && find "r$TAG" -path '*peer_*' -name '*.png'; } | tar czf "results$TAG.tgz.part" -T - && mv "results$TAG.tgz.part" "results$TAG.tgz")
+}
 run() { # name, command...
     local name=$1
     shift
     local t0=$(date +%s)
     timeout 300 "$@" > "$R/$name.txt" 2>&1
     echo "$name: exit $? in $(( $(date +%s) - t0 )) s" | tee -a "$R/summary.txt"
+    pack
 }
 for step in "$@"; do
     case $step in
@@ -112,8 +122,4 @@ for step in "$@"; do
     peer_*) scene=${step#peer_}; size="--width 1280 --height 720"; [ "$scene" = cornell ] && size="--width 256 --height 256"; run "$step" ${P:-.peer/peer} --scene "$scene" $size --rays 128 --out "$R/$step" --json "$R/$step.json" --cache $CACHE ${PEER_ARGS:-} ;;
     esac
 done
-# Reports, tables and plots only (the per-configuration strips would pass the 16 MiB a file that
-# comes back).
-# STRIPS=1: the views' strips too (direct | method | reference | FLIP map, 256 px high), and the
-# peer steps' strips (its rows side by side, the reference last).
-(cd "$OUT" && { find "r$TAG" -name '*.md' -o -name '*.txt' -o -name '*.csv' -o -name '*.json' -o -name 'error_vs_time.png' -o -name 'time_series.png' -o -name 'image.png'; [ -n "${STRIPS:-}" ] && find "r$TAG" -path '*view-*' -name 'ddgi*.png'; [ -n "${SHOTS:-}" ] && find "r$TAG" -path '*shots-*' -name 'frame_*.png'; [ -n "${STRIPS:-}" ] && find "r$TAG" -path '*peer_*' -name '*.png'; } | tar czf "results$TAG.tgz" -T -) && rm -rf "$R"
+rm -rf "$R"
