@@ -114,9 +114,9 @@ enum Command {
         #[arg(long)]
         dark_fraction: Option<f32>,
         /// Adaptive configuration: the weight of the old value in the slow average that decides
-        /// resting (DdgiAdaptive::rest_smoothing).
-        #[arg(long)]
-        rest_smoothing: Option<f32>,
+        /// resting (DdgiAdaptive::rest_smoothing), or `off` (the error itself decides).
+        #[arg(long, value_parser = parse_rest_smoothing)]
+        rest_smoothing: Option<RestSmoothing>,
         /// Adaptive configuration: the longest volume update period of calm phases, in frames
         /// (DdgiAdaptive::max_update_period; 1: the volume updates every frame).
         #[arg(long, value_parser = clap::value_parser!(u32).range(1..=64))]
@@ -748,6 +748,21 @@ impl DdgiArgs {
 }
 
 /// `x,y,z`; also glam's display form `[x, y, z]` (how clap shows a default).
+/// `--rest-smoothing`: a weight, or `off`.
+#[derive(Clone, Copy, Debug)]
+struct RestSmoothing(Option<f32>);
+
+fn parse_rest_smoothing(text: &str) -> Result<RestSmoothing, String> {
+    if text.trim().eq_ignore_ascii_case("off") {
+        return Ok(RestSmoothing(None));
+    }
+    // The range is checked with the rest of the settings (DdgiVolume::validate).
+    text.trim()
+        .parse::<f32>()
+        .map(|s| RestSmoothing(Some(s)))
+        .map_err(|e| format!("expected a weight in [0, 1) or 'off', got '{text}': {e}"))
+}
+
 fn parse_dvec3(text: &str) -> Result<glam::DVec3, String> {
     let v: Vec<f64> = text.split(',').map(|p| p.trim().parse::<f64>().map_err(|e| format!("'{p}': {e}"))).collect::<Result<_, _>>()?;
     match v[..] {
@@ -1535,20 +1550,23 @@ fn main() -> ExitCode {
             if let Some(c) = &cascades {
                 c.validate().map_err(|e| e.to_string())?;
             }
-            let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
-            let default_out = PathBuf::from("out/eval").join(scene.replace(['/', '\\', '.'], "_"));
-            let out = out.unwrap_or_else(|| if time_series { default_out.join("time_series") } else { default_out });
             let defaults = ddgi::DdgiAdaptive::on();
             let adaptive = ddgi::DdgiAdaptive {
                 max_rest_frames: rest_frames.unwrap_or(defaults.max_rest_frames),
                 rest_error: rest_error.unwrap_or(defaults.rest_error),
                 hysteresis_exponent: hysteresis_exponent.unwrap_or(defaults.hysteresis_exponent),
                 dark_fraction: dark_fraction.unwrap_or(defaults.dark_fraction),
-                rest_smoothing: rest_smoothing.or(defaults.rest_smoothing),
+                rest_smoothing: rest_smoothing.map_or(defaults.rest_smoothing, |RestSmoothing(s)| s),
                 max_update_period: max_update_period.unwrap_or(defaults.max_update_period),
                 calm_error: calm_error.unwrap_or(defaults.calm_error),
                 ..defaults
             };
+            // Bad adaptive settings are named here, before any GPU work (the plugin would
+            // otherwise leave the volume off and the evaluation measure nothing).
+            ddgi::DdgiVolume { adaptive: adaptive.clone(), ..Default::default() }.validate().map_err(|e| e.to_string())?;
+            let gpu = GpuContext::new(GpuOptions::default()).map_err(|e| e.to_string())?;
+            let default_out = PathBuf::from("out/eval").join(scene.replace(['/', '\\', '.'], "_"));
+            let out = out.unwrap_or_else(|| if time_series { default_out.join("time_series") } else { default_out });
             let options = eval::EvalOptions {
                 width,
                 height,
@@ -1649,6 +1667,17 @@ mod tests {
             let cli = Cli::try_parse_from(args).unwrap_or_else(|e| panic!("{args:?}: {e}"));
             assert_eq!(cli.trace.as_deref(), Some(std::path::Path::new("t.json")), "{args:?}");
         }
+    }
+
+    /// `--rest-smoothing` takes a weight or `off` (the default is on, so off must be sayable).
+    #[test]
+    fn rest_smoothing_takes_a_weight_or_off() {
+        for value in ["0.9", "off", "OFF"] {
+            Cli::try_parse_from(["game_demo", "eval", "--rest-smoothing", value]).unwrap_or_else(|e| panic!("{value}: {e}"));
+        }
+        assert_eq!(super::parse_rest_smoothing("off").map(|s| s.0), Ok(None));
+        assert_eq!(super::parse_rest_smoothing(" 0.5 ").map(|s| s.0), Ok(Some(0.5)));
+        assert!(super::parse_rest_smoothing("often").is_err());
     }
 
     /// Each subcommand's long help carries examples.

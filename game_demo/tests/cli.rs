@@ -9,6 +9,8 @@ fn eval_rejects_bad_time_series_options_by_name() {
         (&["eval", "--time-series", "--frames", "0"][..], "--frames"),
         (&["eval", "--frames", "5"][..], "--time-series"),
         (&["eval", "--reference-spp", "0"][..], "--reference-spp"),
+        (&["eval", "--rest-smoothing", "often"][..], "--rest-smoothing"),
+        (&["eval", "--rest-smoothing", "1.5"][..], "adaptive.rest_smoothing"),
     ] {
         let output = Command::new(env!("CARGO_BIN_EXE_game_demo"))
             .args(args)
