@@ -87,8 +87,8 @@ fn ddgi_update_irradiance(probe: u32, data: DdgiProbeData, local: u32) {
     let fresh = (state & DDGI_PROBE_FRESH) != 0u;
     // (Σ SMAPE, texels measured, Σ settled SMAPE) of this thread's texels.
     var error = vec3<f32>(0.0);
-    // The slow average (opt-in: rest_smoothing ≥ 0; off, its words pass through untouched) and its
-    // start correction (its first values are shrunk towards 0 by s^updates).
+    // The slow average (rest_smoothing ≥ 0, the default; off, its words pass through untouched)
+    // and its start correction (its first values are shrunk towards 0 by s^updates).
     let settling = ddgi_volume.rest_smoothing >= 0.0;
     let slow_s = clamp(ddgi_volume.rest_smoothing, 0.0, 0.999);
     let slow_correction = 1.0 / max(1.0 - pow(slow_s, f32(data.updates + 1u)), 1e-3);

@@ -37,8 +37,8 @@
 //!
 //! Beyond the papers, [`DdgiAdaptive`] spends the rays where the lighting changes: each probe's
 //! temporal error (SMAPE in YCoCg between its maps and what each frame's rays ask of them, smoothed
-//! over frames) sets its ray count; a converged probe *rests*, updating only every few frames (or,
-//! opt-in, once a slower average of that error, which keeps less of the noise, has settled), and
+//! over frames) sets its ray count; a converged probe *rests*, updating only every few frames, once
+//! a slower average of that error, which keeps less of the noise, has settled; and
 //! the per-probe passes run only for the probes traced that frame; dark probes are switched off.
 //! A volume whose probes read back calm updates only every few frames
 //! ([`DdgiAdaptive::max_update_period`], the [`calm`] module), which also saves the passes' fixed

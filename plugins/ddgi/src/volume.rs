@@ -111,23 +111,24 @@ pub struct DdgiAdaptive {
     /// 232 with the fixed budget; static error and flicker at 0 stay within 3% and under the fixed
     /// budget's. No cost either way.
     pub hysteresis_exponent: f32,
-    /// `Some(s)`: resting is decided by a *settled* error — the same SMAPE over a slower moving
-    /// average of each texel's change (weight `s` of the old value, in [0, 1)) — under `rest_error
-    /// × error_target`, with the error itself under `error_target`. Noise is zero-mean, so the
-    /// slower average keeps less of it (√((1 − s) / (1 + s)) of one frame's: 0.12 at 0.97 against
-    /// 0.23 at the error's 0.9), while a map still converging changes the same way frame after
-    /// frame and keeps its full measure; a probe that sees a few bright hits can then rest once its
-    /// map has converged, where its noise alone keeps it awake. The average is corrected for its
-    /// start (as Adam's moments are), so a fresh probe does not look settled. The price: the slow
-    /// average needs about three times as many updates as the fast one to register a small lasting
-    /// change, and a resting probe updates only once every few frames. Measured (BENCHMARKS.md,
-    /// H200, 0.97 against `None`): 1.3–1.9× fewer rays again in the static phases of five of six
-    /// scenes, up to half the flicker, static error within 5% of the fixed budget's in all six (the
-    /// demo level 3.6× fewer rays than the fixed budget at 4.3% less error, where `None` gives
-    /// 1.96× at 3.4% more); but after the cathedral's sun turns, 392 frames to settle against 176
-    /// (fixed budget: 232). `None` (the default): the error itself decides, and none of this runs.
-    /// Cost when on: a few instructions per texel in the irradiance update (not timed apart), no
-    /// memory (bfloat16 in the texel's spare words).
+    /// `Some(s)` (the default, 0.97): resting is decided by a *settled* error — the same SMAPE
+    /// over a slower moving average of each texel's change (weight `s` of the old value, in
+    /// [0, 1)) — under `rest_error × error_target`, with the error itself under `error_target`.
+    /// Noise is zero-mean, so the slower average keeps less of it (√((1 − s) / (1 + s)) of one
+    /// frame's: 0.12 at 0.97 against 0.23 at the error's 0.9), while a map still converging
+    /// changes the same way frame after frame and keeps its full measure; a probe that sees a few
+    /// bright hits can then rest once its map has converged, where its noise alone keeps it awake.
+    /// The average is corrected for its start (as Adam's moments are), so a fresh probe does not
+    /// look settled. The price: the slow average needs about three times as many updates as the
+    /// fast one to register a small lasting change; a change of light the CPU sees wakes every
+    /// resting probe at once, which keeps the recovery fast. Measured (BENCHMARKS.md, H200,
+    /// 2026-12-04, static phases against the fixed budget at the evaluation scenes' published
+    /// grids): FLIP within 5% of the fixed budget's in all six (the default rule, `None`, +7.1% on
+    /// the dense cathedral grid), 1.8–15× fewer rays and 1.0–5.3× less probe-update time (`None`:
+    /// 1.7–14×, 1.0–4.7×), recovery after a change in fewer frames than the fixed budget in all
+    /// six. `None`: the error itself decides, and the slow average is not kept. Cost: a few
+    /// instructions per texel in the irradiance update (not timed apart), no memory (bfloat16 in
+    /// the texel's spare words).
     pub rest_smoothing: Option<f32>,
     /// Longest *volume* update period in calm phases, in frames (1: the volume updates every
     /// frame, as without it). While the volume is calm — its active probes past their first
@@ -178,7 +179,7 @@ impl Default for DdgiAdaptive {
             max_rest_frames: 8,
             rest_error: 0.35,
             hysteresis_exponent: 0.0,
-            rest_smoothing: None,
+            rest_smoothing: Some(0.97),
             max_update_period: 4,
             calm_error: 0.5,
         }

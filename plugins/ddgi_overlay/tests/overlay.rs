@@ -84,7 +84,7 @@ fn settings_round_trip_through_json() {
     };
     tuned.weights.crush = false;
     tuned.adaptive.min_rays = 9;
-    tuned.adaptive.rest_smoothing = Some(0.97);
+    tuned.adaptive.rest_smoothing = None;
     tuned.adaptive.frame_budget = Some(123_456);
     let cascades = ddgi::DdgiCascades { count: Some(3), spacing: 0.75, ..Default::default() };
     let file = DdgiSettingsFile { volumes: vec![tuned, DdgiVolume::default()], cascades: Some(cascades) };
