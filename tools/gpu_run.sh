@@ -122,4 +122,4 @@ for step in "$@"; do
     peer_*) scene=${step#peer_}; size="--width 1280 --height 720"; [ "$scene" = cornell ] && size="--width 256 --height 256"; run "$step" ${P:-.peer/peer} --scene "$scene" $size --rays 128 --out "$R/$step" --json "$R/$step.json" --cache $CACHE ${PEER_ARGS:-} ;;
     esac
 done
-rm -rf "$R"
+pack && rm -rf "$R"

@@ -747,7 +747,6 @@ impl DdgiArgs {
     }
 }
 
-/// `x,y,z`; also glam's display form `[x, y, z]` (how clap shows a default).
 /// `--rest-smoothing`: a weight, or `off`.
 #[derive(Clone, Copy, Debug)]
 struct RestSmoothing(Option<f32>);
@@ -763,6 +762,7 @@ fn parse_rest_smoothing(text: &str) -> Result<RestSmoothing, String> {
         .map_err(|e| format!("expected a weight in [0, 1) or 'off', got '{text}': {e}"))
 }
 
+/// `x,y,z`; also glam's display form `[x, y, z]` (how clap shows a default).
 fn parse_dvec3(text: &str) -> Result<glam::DVec3, String> {
     let v: Vec<f64> = text.split(',').map(|p| p.trim().parse::<f64>().map_err(|e| format!("'{p}': {e}"))).collect::<Result<_, _>>()?;
     match v[..] {
