@@ -122,11 +122,11 @@ pub struct DdgiAdaptive {
     /// look settled. The price: the slow average needs about three times as many updates as the
     /// fast one to register a small lasting change; a change of light the CPU sees wakes every
     /// resting probe at once, which keeps the recovery fast. Measured (BENCHMARKS.md, H200,
-    /// 2026-12-04, static phases against the fixed budget at the evaluation scenes' published
-    /// grids): FLIP within 5% of the fixed budget's in all six (the default rule, `None`, +7.1% on
-    /// the dense cathedral grid), 1.8–15× fewer rays and 1.0–5.3× less probe-update time (`None`:
-    /// 1.7–14×, 1.0–4.7×), recovery after a change in fewer frames than the fixed budget in all
-    /// six. `None`: the error itself decides, and the slow average is not kept. Cost: a few
+    /// 2026-12-04, static phases against the fixed budget in the five evaluation scenes at their
+    /// own grids and a denser cathedral grid): FLIP within 5% of the fixed budget's in all six
+    /// (the default rule, `None`, +7.1% on the denser grid), 1.8–15× fewer rays and 1.0–5.3× less
+    /// probe-update time (`None`: 1.7–14×, 1.0–4.7×), recovery after a change in fewer frames
+    /// than the fixed budget in all six. `None`: the error itself decides, and the slow average is not kept. Cost: a few
     /// instructions per texel in the irradiance update (not timed apart), no memory (bfloat16 in
     /// the texel's spare words).
     pub rest_smoothing: Option<f32>,
