@@ -8,7 +8,7 @@ ldconfig
 if ! ls /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json >/dev/null 2>&1; then
     export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
 fi
-export WGPU_BACKEND=vulkan RUST_LOG=warn
+export WGPU_BACKEND=vulkan RUST_LOG=${RUST_LOG:-warn}
 # Binaries built before the Kenney models were vendored look for them in ../shared beside the
 # checkout they were built from (/work/main or /tmp/base): put a copy there.
 for d in /work/shared/assets /shared/assets; do mkdir -p "$d" && cp -r assets/kenney_fps "$d/" 2>/dev/null; done

@@ -59,8 +59,13 @@ pub struct CalmJudgement {
     pub settled: u32,
     /// Active probes still fresh (their maps restart).
     pub fresh: u32,
-    /// Mean temporal error of the settled active probes.
+    /// Mean temporal error of the settled active probes: the smaller of the means of their
+    /// errors and, with `rest_smoothing`, of their settled errors.
     pub mean_error: f32,
+    /// Mean of the settled active probes' errors ([`DdgiProbeData::error`]).
+    pub mean_fast_error: f32,
+    /// Mean of their settled errors ([`DdgiProbeData::settled_error`]).
+    pub mean_settled_error: f32,
     /// Whether the update was calm: at most [`CALM_FRESH`] of the active probes fresh, and the
     /// mean error of the others under `calm_error` × `error_target` ([`DdgiAdaptive::calm_error`]).
     pub calm: bool,
@@ -68,18 +73,24 @@ pub struct CalmJudgement {
 
 /// Judges probe data read back after an update ([`DdgiCalm`]).
 pub fn judge(probes: &[DdgiProbeData], adaptive: &DdgiAdaptive) -> CalmJudgement {
-    let (mut settled, mut fresh, mut sum) = (0u32, 0u32, 0.0f64);
+    let finite = |e: f32| if e.is_finite() { f64::from(e.max(0.0)) } else { f64::INFINITY };
+    let (mut settled, mut fresh, mut sum, mut sum_settled) = (0u32, 0u32, 0.0f64, 0.0f64);
     for p in probes.iter().filter(|p| p.state & PROBE_INACTIVE == 0) {
         if p.state & PROBE_FRESH != 0 {
             fresh += 1;
         } else {
             settled += 1;
-            sum += if p.error.is_finite() { f64::from(p.error.max(0.0)) } else { f64::INFINITY };
+            sum += finite(p.error);
+            sum_settled += finite(p.settled_error);
         }
     }
-    let mean_error = if settled > 0 { (sum / f64::from(settled)) as f32 } else { 0.0 };
+    let mean = |sum: f64| if settled > 0 { (sum / f64::from(settled)) as f32 } else { 0.0 };
+    let (mean_fast_error, mean_settled_error) = (mean(sum), mean(sum_settled));
+    // With `rest_smoothing`, the slower settled error is a second, less noisy reading of the same
+    // change: the volume is as calm as the lower of the two means says.
+    let mean_error = if adaptive.rest_smoothing.is_some() { mean_fast_error.min(mean_settled_error) } else { mean_fast_error };
     let calm = f64::from(fresh) <= CALM_FRESH * f64::from(settled + fresh) && mean_error <= adaptive.calm_error * adaptive.error_target;
-    CalmJudgement { settled, fresh, mean_error, calm }
+    CalmJudgement { settled, fresh, mean_error, mean_fast_error, mean_settled_error, calm }
 }
 
 impl DdgiCalm {
@@ -164,7 +175,7 @@ mod tests {
     use super::*;
 
     fn probe(state: u32, error: f32) -> DdgiProbeData {
-        DdgiProbeData { state, error, ..DdgiProbeData::NEW }
+        DdgiProbeData { state, error, settled_error: error, ..DdgiProbeData::NEW }
     }
 
     #[test]
@@ -202,6 +213,30 @@ mod tests {
         assert!(!judge(&few, &adaptive).calm);
         assert!(judge(&[probe(PROBE_INACTIVE | PROBE_FRESH, 0.0)], &adaptive).calm);
         assert!(!judge(&[probe(0, f32::NAN)], &adaptive).calm);
+    }
+
+    #[test]
+    fn the_settled_error_can_make_a_noisy_volume_calm() {
+        // Noise keeps every probe's error over the calm level (0.5 × 0.1); the slower settled
+        // error of most of them is under it.
+        let noisy = |error: f32, settled_error: f32| DdgiProbeData { state: 0, error, settled_error, ..DdgiProbeData::NEW };
+        let probes = vec![noisy(0.07, 0.03), noisy(0.06, 0.04), noisy(0.08, 0.06)];
+        let with_settled = DdgiAdaptive::default();
+        let j = judge(&probes, &with_settled);
+        assert!(j.calm, "{j:?}");
+        assert!((j.mean_fast_error - 0.07).abs() < 1e-6 && (j.mean_settled_error - 0.043_333).abs() < 1e-5, "{j:?}");
+        assert_eq!(j.mean_error, j.mean_settled_error);
+        // Without rest_smoothing the settled error is not kept: the error alone decides.
+        let without = DdgiAdaptive { rest_smoothing: None, ..Default::default() };
+        let j = judge(&probes, &without);
+        assert!(!j.calm && j.mean_error == j.mean_fast_error, "{j:?}");
+        // The smaller mean decides either way: an error under the level is calm whatever the
+        // settled error, and a settled error that is not finite does not make a volume busy.
+        let quick = vec![noisy(0.02, 0.2), noisy(0.03, f32::INFINITY)];
+        assert!(judge(&quick, &with_settled).calm);
+        // A change the settled error has not caught up with yet: both means over the level.
+        let changed = vec![noisy(0.3, 0.06), noisy(0.2, 0.07)];
+        assert!(!judge(&changed, &with_settled).calm);
     }
 
     #[test]

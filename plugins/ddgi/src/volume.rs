@@ -121,12 +121,14 @@ pub struct DdgiAdaptive {
     /// The average is corrected for its start (as Adam's moments are), so a fresh probe does not
     /// look settled. The price: the slow average needs about three times as many updates as the
     /// fast one to register a small lasting change; a change of light the CPU sees wakes every
-    /// resting probe at once, which keeps the recovery fast. Measured (BENCHMARKS.md, H200,
-    /// 2026-12-04, static phases against the fixed budget in the five evaluation scenes at their
-    /// own grids and a denser cathedral grid): FLIP within 5% of the fixed budget's in all six
-    /// (the default rule, `None`, +7.1% on the denser grid), 1.8–15× fewer rays and 1.0–5.3× less
-    /// probe-update time (`None`: 1.7–14×, 1.0–4.7×), recovery after a change in fewer frames
-    /// than the fixed budget in all six. `None`: the error itself decides, and the slow average is not kept. Cost: a few
+    /// resting probe at once, which keeps the recovery fast. The settled error also judges calm
+    /// phases (see `calm_error`). Measured (BENCHMARKS.md, H200, 2026-12-04, static phases against
+    /// the fixed budget in the five evaluation scenes at their own grids and a denser cathedral
+    /// grid, calm phases still judged on the error alone): FLIP within 5% of the fixed budget's in
+    /// all six (the default rule, `None`, +7.1% on the denser grid), 1.8–15× fewer rays and
+    /// 1.0–5.3× less probe-update time (`None`: 1.7–14×, 1.0–4.7×), recovery after a change in
+    /// fewer frames than the fixed budget in all six. `None`: the error itself decides, and the
+    /// slow average is not kept. Cost: a few
     /// instructions per texel in the irradiance update (not timed apart), no memory (bfloat16 in
     /// the texel's spare words).
     pub rest_smoothing: Option<f32>,
@@ -151,7 +153,15 @@ pub struct DdgiAdaptive {
     /// region) comes back within as many. Cost: none (a few CPU instructions per frame).
     pub max_update_period: u32,
     /// Share of `error_target` under which the mean error of a volume's active probes counts as
-    /// calm (see `max_update_period`). Higher: the period grows in noisier volumes too (a few
+    /// calm (see `max_update_period`); with `rest_smoothing`, the smaller of the mean of their
+    /// errors and the mean of their settled errors, so that a volume whose maps have converged
+    /// goes calm though its probes' noise keeps their errors up. Measured with that reading
+    /// (BENCHMARKS.md, H200, 2026-12-04, static phases against the fixed budget, the error alone
+    /// in brackets): the demo level 9.98× fewer rays and 6.41× less probe-update time at 6.7% less
+    /// error (3.34×, 1.82×, 0.6% less: it was never calm), the cathedral 8.68× and 5.98× at +1.1%
+    /// (4.45×, 2.16×, +3.8%), the other scenes as before; on a denser cathedral grid (32×16×32),
+    /// which goes calm while its light still builds up, +5.6% (+3.9%) for 8.76× and 7.02× (7.68×,
+    /// 5.35×). Higher: the period grows in noisier volumes too (a few
     /// probes that see a small bright light keep their errors near the target whatever their
     /// rays: `color_bleed`'s 8 probes sit at 0.65–1.0 of it), but also sooner after a change,
     /// while light still builds up over bounces, which then converges that many times slower.
