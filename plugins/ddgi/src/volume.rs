@@ -128,9 +128,8 @@ pub struct DdgiAdaptive {
     /// all six (the default rule, `None`, +7.1% on the denser grid), 1.8–15× fewer rays and
     /// 1.0–5.3× less probe-update time (`None`: 1.7–14×, 1.0–4.7×), recovery after a change in
     /// fewer frames than the fixed budget in all six. `None`: the error itself decides, and the
-    /// slow average is not kept. Cost: a few
-    /// instructions per texel in the irradiance update (not timed apart), no memory (bfloat16 in
-    /// the texel's spare words).
+    /// slow average is not kept. Cost: a few instructions per texel in the irradiance update (not
+    /// timed apart), no memory (bfloat16 in the texel's spare words).
     pub rest_smoothing: Option<f32>,
     /// Longest *volume* update period in calm phases, in frames (1: the volume updates every
     /// frame, as without it). While the volume is calm — its active probes past their first
@@ -161,13 +160,14 @@ pub struct DdgiAdaptive {
     /// error (3.34×, 1.82×, 0.6% less: it was never calm), the cathedral 8.68× and 5.98× at +1.1%
     /// (4.45×, 2.16×, +3.8%), the other scenes as before; on a denser cathedral grid (32×16×32),
     /// which goes calm while its light still builds up, +5.6% (+3.9%) for 8.76× and 7.02× (7.68×,
-    /// 5.35×). Higher: the period grows in noisier volumes too (a few
-    /// probes that see a small bright light keep their errors near the target whatever their
-    /// rays: `color_bleed`'s 8 probes sit at 0.65–1.0 of it), but also sooner after a change,
-    /// while light still builds up over bounces, which then converges that many times slower.
-    /// Measured on lavapipe (`eval --time-series`, 128², 256-spp reference; static FLIP against
-    /// the fixed budget's): Cornell's box (8×8×8) +2.5% at 0.5 (15.9× fewer rays a frame), +6.6% at
-    /// 1.0; `color_bleed` (2×2×2) never calm at 0.5 (1.5× fewer), −0.7% at 1.0 (5.3× fewer). No cost.
+    /// 5.35×). Higher: the period grows in noisier volumes too (a few probes that see a small
+    /// bright light keep their errors near the target for a long time: `color_bleed`'s 8 probes
+    /// sit at 0.65–1.0 of it through their first 240 frames and go calm only after that), but
+    /// also sooner after a change, while light still builds up over bounces, which then converges
+    /// that many times slower. Measured on lavapipe (`eval --time-series`, 128², 256-spp
+    /// reference; static FLIP against the fixed budget's, the error alone judging): Cornell's box
+    /// (8×8×8) +2.5% at 0.5 (15.9× fewer rays a frame), +6.6% at 1.0; `color_bleed` (2×2×2) never
+    /// calm in 240 frames at 0.5 (1.5× fewer), −0.7% at 1.0 (5.3× fewer). No cost.
     pub calm_error: f32,
 }
 
