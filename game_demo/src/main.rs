@@ -125,6 +125,10 @@ enum Command {
         /// calm (DdgiAdaptive::calm_error).
         #[arg(long)]
         calm_error: Option<f32>,
+        /// Adaptive configuration: how much faster a drifting probe blends, ≥ 1
+        /// (DdgiAdaptive::drift_rate; 1: off).
+        #[arg(long)]
+        drift_rate: Option<f32>,
         /// Also DDGI's experiments: quality for probe densities 8×4×8, 16×8×16, 32×16×32 × irradiance
         /// maps of 4, 8, 16 texels, and the ablation of the visibility weights (none → back-face →
         /// Chebyshev → normal bias → contact occlusion).
@@ -1517,6 +1521,7 @@ fn main() -> ExitCode {
             rest_smoothing,
             max_update_period,
             calm_error,
+            drift_rate,
             experiments,
             out,
             cache,
@@ -1559,6 +1564,7 @@ fn main() -> ExitCode {
                 rest_smoothing: rest_smoothing.map_or(defaults.rest_smoothing, |RestSmoothing(s)| s),
                 max_update_period: max_update_period.unwrap_or(defaults.max_update_period),
                 calm_error: calm_error.unwrap_or(defaults.calm_error),
+                drift_rate: drift_rate.unwrap_or(defaults.drift_rate),
                 ..defaults
             };
             // Bad adaptive settings are named here, before any GPU work (the plugin would

@@ -81,7 +81,8 @@ struct DdgiVolumeGpu {
     wake_boxes: u32,
     // Non-zero: every resting probe updates this frame (light changed everywhere).
     wake_resting: u32,
-    _pad0: u32,
+    // With adaptive budgets, the most a drifting probe's 1 − hysteresis is multiplied by (≤ 1: off).
+    drift_rate: f32,
     _pad2: u32,
 }
 

@@ -44,8 +44,9 @@ fn ddgi_load_rays(data: DdgiProbeData, base: u32, local: u32) {
 }
 
 // The hysteresis of a probe this frame: with adaptive budgets a probe over the error target at its
-// full budget follows the change faster, and (hysteresis_exponent > 0) a probe with fewer rays than
-// the full budget weighs its noisier estimate less.
+// full budget follows the change faster, so does a drifting one (drift_rate), and
+// (hysteresis_exponent > 0) a probe with fewer rays than the full budget weighs its noisier
+// estimate less.
 fn ddgi_hysteresis(data: DdgiProbeData) -> f32 {
     if (data.state & DDGI_PROBE_FRESH) != 0u {
         return 0.0;
@@ -68,7 +69,17 @@ fn ddgi_hysteresis(data: DdgiProbeData) -> f32 {
     let share = clamp(f32(data.ray_count) / f32(max(ddgi_volume.rays_per_probe, 1u)), 0.0, 1.0);
     // A probe whose lighting is changing (its error over the target, its budget full) follows the
     // change at twice the rate, and settles back once the error falls.
-    let rate = select(1.0, 2.0, data.error > ddgi_volume.error_target && share >= 1.0);
+    var rate = select(1.0, 2.0, data.error > ddgi_volume.error_target && share >= 1.0);
+    // A drifting probe (drift_rate > 1, with the settled error kept): its settled error, over the
+    // slow average of the change, is nearly its whole error when the map moves the same way frame
+    // after frame (light still building up over bounces), a small share when the change is noise
+    // (about √((1 − 0.97) / (1 + 0.97)) / √((1 − 0.9) / (1 + 0.9)) ≈ 0.54 of it at the defaults).
+    // From DDGI_DRIFT_SHARE_LOW to DDGI_DRIFT_SHARE_FULL of it, the rate rises to drift_rate.
+    if ddgi_volume.drift_rate > 1.0 && ddgi_volume.rest_smoothing >= 0.0 && data.error > 0.0 {
+        let share_settled = data.settled_error / data.error;
+        let drift = clamp((share_settled - DDGI_DRIFT_SHARE_LOW) / (DDGI_DRIFT_SHARE_FULL - DDGI_DRIFT_SHARE_LOW), 0.0, 1.0);
+        rate = max(rate, 1.0 + (ddgi_volume.drift_rate - 1.0) * drift);
+    }
     let slowing = pow(max(share, 1e-6), clamp(ddgi_volume.hysteresis_exponent, 0.0, 1.0));
     return 1.0 - min((1.0 - h) * slowing * rate, 1.0);
 }

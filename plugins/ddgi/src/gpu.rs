@@ -57,7 +57,8 @@ pub(crate) struct DdgiVolumeGpu {
     pub wake_boxes: u32,
     /// Non-zero: every resting probe updates this frame (light changed everywhere).
     pub wake_resting: u32,
-    pub _pad0: u32,
+    /// [`crate::DdgiAdaptive::drift_rate`] (1 with the fixed budget: off).
+    pub drift_rate: f32,
     pub _pad2: u32,
 }
 
@@ -303,6 +304,14 @@ pub const PERSISTENT_TRACE_GROUPS: u32 = 4224;
 /// a volume wake it all (a re-check of every switched-off probe, as for added or removed instances).
 pub const MAX_WAKE_BOXES: u32 = 256;
 
+/// A probe's settled error as a share of its error ([`crate::DdgiAdaptive::drift_rate`]): at or
+/// under this it is noise (its slow average keeps about 0.54 of the fast one's noise at the default
+/// smoothings), and the probe blends at its usual rate.
+pub const DRIFT_SHARE_LOW: f32 = 0.6;
+/// From this share on the probe is drifting (its map moves the same way update after update) and
+/// blends at the full `drift_rate`; between the two, the rate rises linearly.
+pub const DRIFT_SHARE_FULL: f32 = 0.9;
+
 /// Hit distance of a miss in the shaded-ray buffer.
 pub const MISS: f32 = 3.0e38;
 /// Back-face hits are stored as `-BACKFACE_SCALE · t`: the distance maps see the wall closer, so
@@ -345,6 +354,8 @@ const SHARED_CONSTANTS: &[(&str, WgslValue)] = &[
     ("DDGI_PERSISTENT_TRACE_GROUP", WgslValue::U32(PERSISTENT_TRACE_GROUP)),
     ("DDGI_PERSISTENT_TRACE_GROUPS", WgslValue::U32(PERSISTENT_TRACE_GROUPS)),
     ("DDGI_MAX_WAKE_BOXES", WgslValue::U32(MAX_WAKE_BOXES)),
+    ("DDGI_DRIFT_SHARE_LOW", WgslValue::F32(DRIFT_SHARE_LOW)),
+    ("DDGI_DRIFT_SHARE_FULL", WgslValue::F32(DRIFT_SHARE_FULL)),
     ("DDGI_MISS", WgslValue::F32(MISS)),
     ("DDGI_BACKFACE_SCALE", WgslValue::F32(BACKFACE_SCALE)),
     ("DDGI_IRRADIANCE_GAMMA", WgslValue::F32(IRRADIANCE_GAMMA)),
@@ -449,7 +460,7 @@ impl DdgiVolumeGpu {
             cascade_blend,
             wake_boxes,
             wake_resting: 0,
-            _pad0: 0,
+            drift_rate: if a.enabled { a.drift_rate } else { 1.0 },
             _pad2: 0,
         }
     }
@@ -477,7 +488,7 @@ pub fn gpu_structs() -> Vec<engine::shader::HostStruct> {
             view_bias, distance_sharpness, max_ray_distance, distance_scale, irradiance_texels, distance_texels, tiles_per_row,
             firefly_threshold, backface_threshold, min_frontface_distance, recheck, irradiance_atlas_size, distance_atlas_size,
             min_rays, recheck_rays, error_target, error_decay, error_smoothing, error_floor, dark_fraction, frame_budget,
-            max_rest_frames, rest_error, hysteresis_exponent, rest_smoothing, scroll, cascade_blend, wake_boxes, wake_resting, _pad0,
+            max_rest_frames, rest_error, hysteresis_exponent, rest_smoothing, scroll, cascade_blend, wake_boxes, wake_resting, drift_rate,
             _pad2,
         }),
         layout!(DdgiProbeData in "ddgi_common.inc.wgsl" {

@@ -169,6 +169,27 @@ pub struct DdgiAdaptive {
     /// (8×8×8) +2.5% at 0.5 (15.9× fewer rays a frame), +6.6% at 1.0; `color_bleed` (2×2×2) never
     /// calm in 240 frames at 0.5 (1.5× fewer), −0.7% at 1.0 (5.3× fewer). No cost.
     pub calm_error: f32,
+    /// How much faster a *drifting* probe blends, in [1, 64] (1: off, the default). With
+    /// `rest_smoothing`, a probe whose settled error is most of its error — its map moves the same
+    /// way update after update, as while light still builds up over many bounces; noise leaves the
+    /// slow average about half of the fast one's — multiplies its 1 − hysteresis by up to this
+    /// (fully from a share of 0.9, none under 0.6: [`crate::gpu::DRIFT_SHARE_FULL`],
+    /// [`crate::gpu::DRIFT_SHARE_LOW`]), so multi-bounce light converges that many times sooner
+    /// while noise keeps the usual blending (tested: 4.5× closer after 60 frames at 4, the
+    /// converged maps' flicker 1.33× the usual, 4.2× if every probe blended at 4×).
+    ///
+    /// Off by default because converging sooner is not always closer to the truth: where DDGI's
+    /// own converged answer carries more indirect light than a path tracer finds, a volume that
+    /// gets there sooner is further off earlier. Measured (BENCHMARKS.md, H200, 2026-12-04, static
+    /// FLIP after 240 frames against the fixed budget's, rays and probe-update time fewer): at 4,
+    /// `color_bleed` (8 probes in a closed box, light building up for hundreds of frames) −3.2%,
+    /// 12.5× and 4.1× (off: −3.8%, 2.0×, 1.05×) and Cornell's box −0.9%, 27×, 4.2× (off: +1.5%,
+    /// 15×, 4.1×), but the cathedral +17% (off: +1.1%), the demo level +21% (off: −6.7%) and
+    /// `door_room` +7.5% (off: +4.1%), whose fixed budgets are still on their way to a worse
+    /// answer at 240 frames (the cathedral's FLIP 0.0549 then, 0.0722 at 720); at 2, the level
+    /// +4.3% but the cathedral +14%. Recovery after a change was faster in all five. Cost: a few
+    /// instructions per probe update.
+    pub drift_rate: f32,
 }
 
 /// Calm updates in a row at one volume update period before it doubles
@@ -192,6 +213,7 @@ impl Default for DdgiAdaptive {
             rest_smoothing: Some(0.97),
             max_update_period: 4,
             calm_error: 0.5,
+            drift_rate: 1.0,
         }
     }
 }
@@ -490,6 +512,9 @@ impl DdgiVolume {
         }
         if !(1..=64).contains(&a.max_update_period) {
             return Err(invalid("adaptive.max_update_period", a.max_update_period, "must be between 1 and 64 frames"));
+        }
+        if !(a.drift_rate.is_finite() && (1.0..=64.0).contains(&a.drift_rate)) {
+            return Err(invalid("adaptive.drift_rate", a.drift_rate, "must be between 1 and 64"));
         }
         if !(a.calm_error.is_finite() && a.calm_error >= 0.0) {
             return Err(invalid("adaptive.calm_error", a.calm_error, "must be finite and not negative"));

@@ -211,6 +211,7 @@ pub const ADAPTIVE_FIELDS: &[Field<DdgiAdaptive>] = &[
     Field { name: "rest_smoothing", edit: |ui, a| optional(ui, &mut a.rest_smoothing, 0.97, |ui, s| f32_range(ui, s, 0.0, 0.999, 0.001)) },
     Field { name: "max_update_period", edit: |ui, a| u32_range(ui, &mut a.max_update_period, 1, 64) },
     Field { name: "calm_error", edit: |ui, a| f32_range(ui, &mut a.calm_error, 0.0, 10.0, 0.005) },
+    Field { name: "drift_rate", edit: |ui, a| f32_range(ui, &mut a.drift_rate, 1.0, 64.0, 0.05) },
 ];
 
 /// The editors of every [`DdgiWeights`] field, in the struct's order.
