@@ -129,6 +129,10 @@ enum Command {
         /// (DdgiAdaptive::drift_rate; 1: off).
         #[arg(long)]
         drift_rate: Option<f32>,
+        /// Hit occlusion rays of every DDGI configuration's probe rays (DdgiVolume::hit_occlusion_rays;
+        /// 0: off).
+        #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=64))]
+        hit_occlusion: u32,
         /// Also DDGI's experiments: quality for probe densities 8×4×8, 16×8×16, 32×16×32 × irradiance
         /// maps of 4, 8, 16 texels, and the ablation of the visibility weights (none → back-face →
         /// Chebyshev → normal bias → contact occlusion).
@@ -716,6 +720,12 @@ struct DdgiArgs {
     /// (DdgiAdaptive::max_update_period; 1: the volume updates every frame).
     #[arg(long, default_value_t = ddgi::DdgiAdaptive::default().max_update_period, value_parser = clap::value_parser!(u32).range(1..=64))]
     max_update_period: u32,
+    /// Near-field occlusion rays at each probe ray's hit (DdgiVolume::hit_occlusion_rays; 0: off).
+    #[arg(long, default_value_t = ddgi::DdgiVolume::default().hit_occlusion_rays, value_parser = clap::value_parser!(u32).range(0..=64))]
+    hit_occlusion: u32,
+    /// Reach of those rays, a share of the smallest probe spacing (DdgiVolume::hit_occlusion_reach).
+    #[arg(long, default_value_t = ddgi::DdgiVolume::default().hit_occlusion_reach)]
+    hit_occlusion_reach: f32,
     /// Camera-following cascades instead of one volume over the scene (0: today's fixed volume):
     /// N nested volumes of --cascade-probes probes each, centred on the camera, each with twice the
     /// spacing of the one inside it, the coarsest as wide as the scene.
@@ -740,6 +750,8 @@ impl DdgiArgs {
             irradiance_texels: self.irradiance_texels,
             distance_texels: self.distance_texels,
             hysteresis: self.hysteresis,
+            hit_occlusion_rays: self.hit_occlusion,
+            hit_occlusion_reach: self.hit_occlusion_reach,
             adaptive: ddgi::DdgiAdaptive {
                 enabled: !self.no_adaptive,
                 min_rays: ddgi::DdgiAdaptive::default().min_rays.min(self.rays.max(1)),
@@ -1522,6 +1534,7 @@ fn main() -> ExitCode {
             max_update_period,
             calm_error,
             drift_rate,
+            hit_occlusion,
             experiments,
             out,
             cache,
@@ -1585,6 +1598,7 @@ fn main() -> ExitCode {
                 grid: probes.map(|g| g.to_array()),
                 cascades,
                 timing_size: (!no_display_timing && [width, height] != eval::DISPLAY_SIZE).then_some(eval::DISPLAY_SIZE),
+                hit_occlusion_rays: hit_occlusion,
             };
             if walk {
                 let series = eval::walk_series::WalkSeries { start: walk_from, speed: walk_speed, sky: sky.unwrap_or_default() };

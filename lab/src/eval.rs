@@ -568,6 +568,9 @@ pub struct EvalOptions {
     /// ([`TIMING_SPP`]) and each DDGI configuration, for their GPU-time ratio at equal FLIP at a
     /// display's size ([`DISPLAY_SIZE`] in `game_demo eval`); `None`: only at `width × height`.
     pub timing_size: Option<[u32; 2]>,
+    /// Hit occlusion rays of every DDGI configuration's probe rays
+    /// ([`ddgi::DdgiVolume::hit_occlusion_rays`]; 0: off, the default).
+    pub hit_occlusion_rays: u32,
 }
 
 impl Config {
@@ -580,6 +583,17 @@ impl Config {
                 let shift = |p: glam::DVec3| p + origin;
                 let bounds = volume.bounds.map(|(lo, hi)| (shift(lo), shift(hi)));
                 Config::Ddgi { name, volume: Box::new(ddgi::DdgiVolume { bounds, ..*volume }), occlusion, taa }
+            }
+            other => other,
+        }
+    }
+
+    /// This configuration with `rays` hit occlusion rays ([`ddgi::DdgiVolume::hit_occlusion_rays`])
+    /// if it is a DDGI volume.
+    pub fn with_hit_occlusion(self, rays: u32) -> Config {
+        match self {
+            Config::Ddgi { name, volume, occlusion, taa } => {
+                Config::Ddgi { name, volume: Box::new(ddgi::DdgiVolume { hit_occlusion_rays: rays, ..*volume }), occlusion, taa }
             }
             other => other,
         }
@@ -608,7 +622,10 @@ pub fn run(gpu: &GpuContext, facts: &SceneFacts, scene: SceneDescription, option
     let reference_ldr = tonemap_to_srgb8(&reference, EXPOSURE);
     let mut rows = Vec::new();
     let mut direct_ldr: Option<Vec<u8>> = None;
-    let list = Config::for_scene(Config::still_list(facts, experiments, grid, adaptive), &scene, options.cascades.as_ref());
+    let list: Vec<Config> = Config::for_scene(Config::still_list(facts, experiments, grid, adaptive), &scene, options.cascades.as_ref())
+        .into_iter()
+        .map(|c| c.with_hit_occlusion(options.hit_occlusion_rays))
+        .collect();
     let seed = pathtrace::PathTraceSettings::default().seed;
     // The path tracer's GPU ms per path per pixel at the timing size, timed once the first DDGI
     // configuration needs it.

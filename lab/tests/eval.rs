@@ -22,6 +22,7 @@ fn options(size: u32, reference_spp: u32, out: PathBuf, cache: PathBuf) -> EvalO
         settle_frames: 240,
         cascades: None,
         timing_size: None,
+        hit_occlusion_rays: 0,
     }
 }
 

@@ -377,7 +377,10 @@ pub fn run(
     let changed = before.nodes[change.node].name.clone();
     let seed = pathtrace::PathTraceSettings::default().seed;
     let mut runs = Vec::new();
-    let list = Config::for_scene(Config::time_series_list(facts, grid, adaptive), &before, options.cascades.as_ref());
+    let list: Vec<Config> = Config::for_scene(Config::time_series_list(facts, grid, adaptive), &before, options.cascades.as_ref())
+        .into_iter()
+        .map(|c| c.with_hit_occlusion(options.hit_occlusion_rays))
+        .collect();
     for config in list {
         let settle = settle_frames_of(&config, settle_frames);
         let settings = HeadlessSettings { width, height, frames: settle + frames, ..Default::default() };

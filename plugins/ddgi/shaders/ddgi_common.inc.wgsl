@@ -83,7 +83,12 @@ struct DdgiVolumeGpu {
     wake_resting: u32,
     // With adaptive budgets, the most a drifting probe's 1 − hysteresis is multiplied by (≤ 1: off).
     drift_rate: f32,
-    _pad2: u32,
+    // Near-field occlusion rays at each probe ray's hit (0: off), and their reach in world units.
+    hit_occlusion_rays: u32,
+    hit_occlusion_reach: f32,
+    _pad3: u32,
+    _pad4: u32,
+    _pad5: u32,
 }
 
 // Per-probe state: relocation and classification write offset and state, the irradiance update

@@ -20,6 +20,27 @@ fn ddgi_ray(info: DdgiRay) -> Ray {
     return Ray(ddgi_probe_position(info.probe), 0.0, info.direction, ddgi_volume.max_ray_distance);
 }
 
+// The open share of the hemisphere over a probe ray's hit (origin already lifted off the surface,
+// unit normal n): hit_occlusion_rays cosine-distributed rays of hit_occlusion_reach, stratified and
+// turned by a hash of the ray and the frame (the maps' blending averages the turns).
+fn ddgi_hit_open_share(i: u32, origin: vec3<f32>, n: vec3<f32>) -> f32 {
+    let count = ddgi_volume.hit_occlusion_rays;
+    let tangent = safe_normalize(cross(select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.9), n), vec3<f32>(1.0, 0.0, 0.0));
+    let bitangent = cross(n, tangent);
+    let turn = f32(hash_lowbias32(i * 2654435769u + view.frame * 40503u + 12345u)) / 4294967296.0;
+    var open = 0u;
+    for (var k = 0u; k < count; k++) {
+        let u = (f32(k) + 0.5) / f32(count);
+        let phi = 2.0 * PI * fract(f32(k) * 0.618033988749895 + turn);
+        let r = sqrt(u);
+        let d = tangent * (r * cos(phi)) + bitangent * (r * sin(phi)) + n * sqrt(max(1.0 - u, 0.0));
+        if !trace_any(Ray(origin, 0.0, d, ddgi_volume.hit_occlusion_reach)) {
+            open += 1u;
+        }
+    }
+    return f32(open) / f32(max(count, 1u));
+}
+
 // Shades ray i (`ray_info`, traced as ddgi_ray(ray_info)) at its closest hit, back faces included
 // (they mark probes inside geometry): its emission, direct light (a shadow ray per light, through
 // the BRDF) and indirect light from the previous frame's probes, into ddgi_radiance[i].
@@ -62,7 +83,12 @@ fn ddgi_shade_ray(i: u32, ray_info: DdgiRay, hit: RayHit) {
             direct += brdf_eval(brdf, normal, to_probe, s.to_light) * s.irradiance;
         }
     }
-    let probes = ddgi_sample_irradiance(position, normal, to_probe);
+    var probes = ddgi_sample_irradiance(position, normal, to_probe);
+    if ddgi_volume.hit_occlusion_rays > 0u {
+        // A blocked share of the hemisphere sees a nearby surface, taken to reflect like this one.
+        let open = ddgi_hit_open_share(i, shadow_origin, normal);
+        probes = probes * (open + (1.0 - open) * surface.albedo) + (1.0 - open) * PI * surface.emissive;
+    }
     var radiance = surface.emissive + surface.albedo * INV_PI * (irradiance + probes);
     if brdf_has_specular(brdf) {
         // Direct light through the whole BRDF; the probes' light (irradiance, which cannot resolve

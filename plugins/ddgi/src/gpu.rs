@@ -59,7 +59,12 @@ pub(crate) struct DdgiVolumeGpu {
     pub wake_resting: u32,
     /// [`crate::DdgiAdaptive::drift_rate`] (1 with the fixed budget: off).
     pub drift_rate: f32,
-    pub _pad2: u32,
+    /// [`crate::DdgiVolume::hit_occlusion_rays`] (0: off), and their reach in world units.
+    pub hit_occlusion_rays: u32,
+    pub hit_occlusion_reach: f32,
+    pub _pad3: u32,
+    pub _pad4: u32,
+    pub _pad5: u32,
 }
 
 /// One probe's GPU state (WGSL `DdgiProbeData`, `ddgi_probes`): relocation and classification
@@ -461,7 +466,11 @@ impl DdgiVolumeGpu {
             wake_boxes,
             wake_resting: 0,
             drift_rate: if a.enabled { a.drift_rate } else { 1.0 },
-            _pad2: 0,
+            hit_occlusion_rays: volume.hit_occlusion_rays,
+            hit_occlusion_reach: volume.hit_occlusion_reach * min_spacing,
+            _pad3: 0,
+            _pad4: 0,
+            _pad5: 0,
         }
     }
 }
@@ -489,7 +498,7 @@ pub fn gpu_structs() -> Vec<engine::shader::HostStruct> {
             firefly_threshold, backface_threshold, min_frontface_distance, recheck, irradiance_atlas_size, distance_atlas_size,
             min_rays, recheck_rays, error_target, error_decay, error_smoothing, error_floor, dark_fraction, frame_budget,
             max_rest_frames, rest_error, hysteresis_exponent, rest_smoothing, scroll, cascade_blend, wake_boxes, wake_resting, drift_rate,
-            _pad2,
+            hit_occlusion_rays, hit_occlusion_reach, _pad3, _pad4, _pad5,
         }),
         layout!(DdgiProbeData in "ddgi_common.inc.wgsl" {
             offset, state, error, ray_count, ray_offset, luma, pinned_rays, pinned_state, empty_rays, rest, settled_error, updates,

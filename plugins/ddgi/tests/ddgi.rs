@@ -50,7 +50,7 @@ fn invalid_settings_name_their_field_and_value() {
     let smoothing =
         |s: f32| DdgiVolume { adaptive: ddgi::DdgiAdaptive { rest_smoothing: Some(s), ..ddgi::DdgiAdaptive::on() }, ..Default::default() };
     let drift = |d: f32| DdgiVolume { adaptive: ddgi::DdgiAdaptive { drift_rate: d, ..ddgi::DdgiAdaptive::on() }, ..Default::default() };
-    let cases: [(DdgiVolume, &str, &str); 11] = [
+    let cases: [(DdgiVolume, &str, &str); 13] = [
         (DdgiVolume { probe_counts: Some(UVec3::new(4, 0, 4)), ..Default::default() }, "probe_counts", "UVec3(4, 0, 4)"),
         (DdgiVolume { rays_per_probe: 0, ..Default::default() }, "rays_per_probe", "0"),
         (DdgiVolume { hysteresis: 1.5, ..Default::default() }, "hysteresis", "1.5"),
@@ -62,6 +62,8 @@ fn invalid_settings_name_their_field_and_value() {
         (smoothing(f32::NAN), "adaptive.rest_smoothing", "NaN"),
         (drift(0.5), "adaptive.drift_rate", "0.5"),
         (drift(f32::INFINITY), "adaptive.drift_rate", "inf"),
+        (DdgiVolume { hit_occlusion_rays: 65, ..Default::default() }, "hit_occlusion_rays", "65"),
+        (DdgiVolume { hit_occlusion_reach: 0.0, ..Default::default() }, "hit_occlusion_reach", "0.0"),
     ];
     for (volume, field, value) in cases {
         let message = volume.validate().expect_err(field).to_string();
@@ -295,6 +297,51 @@ fn furnace_probes_converge_to_the_analytic_irradiance() {
     let mean = frame.hdr.chunks_exact(4).map(|p| p[0]).sum::<f32>() / (frame.width * frame.height) as f32;
     let radiance = emission / (1.0 - albedo);
     assert!((mean - radiance).abs() < 0.03 * radiance, "image radiance {mean}, expected {radiance}");
+}
+
+#[test]
+fn hit_occlusion_keeps_a_cluttered_furnace_exact() {
+    let Some(gpu) = gpu("hit_occlusion_keeps_a_cluttered_furnace_exact") else { return };
+    // The furnace of the test above with clutter of the same material: a slab a hand above the
+    // floor and a block in a corner. Every surface still emits Le and reflects ρ, so the radiance
+    // is Le / (1 − ρ) everywhere and every probe's irradiance π Le / (1 − ρ), however occluded the
+    // probe rays' hits are. Hit occlusion rays find those hits' blocked directions; the surfaces
+    // there are taken to reflect like the hit's own (emission plus albedo times the probes'
+    // light), which is exact here: merely darkening the blocked share would settle lower.
+    let (albedo, emission) = (0.5f32, 0.3f32);
+    let (lo, hi) = (Vec3::new(-1.0, 0.0, -1.5), Vec3::new(1.0, 1.5, 1.5));
+    let material = Material { base_color: Vec3::splat(albedo).extend(1.0), emissive: Vec3::splat(emission), ..Default::default() };
+    let mut scene = closed_room(lo, hi, 0.2, material);
+    let clutter = [("slab", Vec3::new(-0.2, 0.12, 0.0), Vec3::new(0.6, 0.02, 0.8)), ("block", Vec3::new(0.7, 0.3, 1.2), Vec3::splat(0.3))];
+    for (name, centre, half) in clutter {
+        scene.add_mesh_node(name, Transform::from_translation(centre), engine::shapes::cuboid(name, half), 0);
+    }
+    let volume = DdgiVolume {
+        bounds: Some((lo.into(), hi.into())),
+        probe_counts: Some(UVec3::new(3, 2, 3)),
+        rays_per_probe: 96,
+        hysteresis: 0.8,
+        hit_occlusion_rays: 8,
+        adaptive: ddgi::DdgiAdaptive::off(),
+        ..Default::default()
+    };
+    let (_, app) = run_ddgi(&gpu, scene, volume, 16, 90);
+    let expected = std::f32::consts::PI * emission / (1.0 - albedo);
+    let v = first_volume(&app);
+    let atlas = read_irradiance(&gpu, v);
+    let bytes = engine::render::readback::read_buffer(&gpu, &v.probes);
+    let probes: Vec<ddgi::gpu::DdgiProbeData> =
+        bytemuck::pod_collect_to_vec(&bytes[..v.layout.probe_count as usize * size_of::<ddgi::gpu::DdgiProbeData>()]);
+    let mut checked = 0;
+    for probe in 0..v.layout.probe_count {
+        if probes[probe as usize].state & ddgi::gpu::PROBE_INACTIVE != 0 {
+            continue;
+        }
+        let e = probe_mean_irradiance(&atlas, v, probe);
+        assert!((e - Vec3::splat(expected)).abs().max_element() < 0.03 * expected, "probe {probe}: {e}, expected {expected}");
+        checked += 1;
+    }
+    assert!(checked >= 9, "only {checked} probes were active");
 }
 
 /// Emission of the walls of [`emitting_room`].

@@ -13,7 +13,7 @@
 use std::collections::HashMap;
 use std::sync::LazyLock;
 
-use ddgi::volume::{MAX_MAP_TEXELS, MAX_RAYS_PER_PROBE};
+use ddgi::volume::{MAX_HIT_OCCLUSION_RAYS, MAX_MAP_TEXELS, MAX_RAYS_PER_PROBE};
 use ddgi::{DdgiAdaptive, DdgiVolume, DdgiWeights};
 use glam::{DVec3, UVec3, Vec3};
 
@@ -193,6 +193,8 @@ pub const VOLUME_FIELDS: &[Field<DdgiVolume>] = &[
     Field { name: "update_period", edit: |ui, v| u32_range(ui, &mut v.update_period, 1, 1024) },
     Field { name: "update_phase", edit: |ui, v| u32_range(ui, &mut v.update_phase, 0, 1023) },
     Field { name: "persistent_trace", edit: |ui, v| toggle(ui, &mut v.persistent_trace) },
+    Field { name: "hit_occlusion_rays", edit: |ui, v| u32_range(ui, &mut v.hit_occlusion_rays, 0, MAX_HIT_OCCLUSION_RAYS) },
+    Field { name: "hit_occlusion_reach", edit: |ui, v| f32_range(ui, &mut v.hit_occlusion_reach, 0.01, 4.0, 0.01) },
 ];
 
 /// The editors of every [`DdgiAdaptive`] field, in the struct's order.
