@@ -1236,5 +1236,33 @@ fn postponed_triangle_tests_find_the_hits_of_tests_at_once() {
                 assert!(w.postponed > w.waits, "{name}: at a share of 1 some lane should walk nodes before its triangles");
             }
         }
+        // Packets (`bench trace --packet`): the rays of a subgroup or a workgroup walk as one; each
+        // lane still culls by its own closest hit, so the hits are the same. (Workgroup packets
+        // go up to 128 threads: see lab::bench::MAX_WORKGROUP_PACKET.)
+        for packet in [lab::bench::PacketScope::Subgroup, lab::bench::PacketScope::Workgroup] {
+            for workgroup_size in [32, 64, 128] {
+                let v = lab::bench::TraceVariant { packet: Some(packet), workgroup_size, ..at_once };
+                let got = lab::bench::closest_hits(&gpu, &app, bounds, grid, rays, v).expect("packets");
+                assert_eq!(first_difference(&got), None, "{name}, packets of a {packet:?}, {workgroup_size} threads: (ray, got, expected)");
+            }
+            let w = lab::bench::traversal_work(
+                &gpu,
+                &app,
+                bounds,
+                grid,
+                rays,
+                lab::bench::TraceVariant { packet: Some(packet), workgroup_size: 32, ..at_once },
+            )
+            .expect("work");
+            let alone =
+                lab::bench::traversal_work(&gpu, &app, bounds, grid, rays, lab::bench::TraceVariant { workgroup_size: 32, ..at_once })
+                    .expect("work");
+            eprintln!("{name}, packets of a {packet:?}: {:.1} steps a ray against {:.1} a ray walked alone", w.steps, alone.steps);
+            // A packet visits every node any of its rays needs: never less work a ray.
+            assert!(
+                w.blas_nodes >= alone.blas_nodes && w.steps >= alone.steps,
+                "{name}, {packet:?}: a packet walks a superset of its rays' nodes"
+            );
+        }
     }
 }

@@ -438,7 +438,7 @@ enum BenchCommand {
     /// Closest-hit throughput of probe-like rays (grids 16×8×16 … 32×32×32, 32 … 256 rays per probe;
     /// GPU timestamps of the trace pass alone) and the CPU cost of TLAS updates when instances move.
     #[command(
-        after_long_help = "Examples:\n  game_demo bench trace --scene cathedral --iterations 15 --no-flat-rebuild\n  game_demo bench trace --scene forest --cpu-only   # the TLAS refit for moving instances only\n  game_demo bench trace --scene forest --iterations 15 --no-flat-rebuild --cpu-only --gpu-refit   # CPU refit against GPU refit (CPU ms)\n  game_demo bench trace --scene forest --rebraid 4   # a re-braided TLAS (up to 4 primitives an instance)\n  game_demo bench trace --scene forest --work-only --no-flat-rebuild   # traversal work per ray, no timing\n  game_demo bench trace --scene cathedral --no-flat-rebuild --shared-stack 8   # the stack's top 8 entries in workgroup memory against function memory\n  game_demo bench trace --scene cathedral --no-flat-rebuild --persistent-groups 4224 --workgroup-size 128 --ray-order coherent --subgroup-postpone 0.2,0.35,0.5   # postponed triangle tests at three thresholds against tests at once"
+        after_long_help = "Examples:\n  game_demo bench trace --scene cathedral --iterations 15 --no-flat-rebuild\n  game_demo bench trace --scene forest --cpu-only   # the TLAS refit for moving instances only\n  game_demo bench trace --scene forest --iterations 15 --no-flat-rebuild --cpu-only --gpu-refit   # CPU refit against GPU refit (CPU ms)\n  game_demo bench trace --scene forest --rebraid 4   # a re-braided TLAS (up to 4 primitives an instance)\n  game_demo bench trace --scene forest --work-only --no-flat-rebuild   # traversal work per ray, no timing\n  game_demo bench trace --scene cathedral --no-flat-rebuild --shared-stack 8   # the stack's top 8 entries in workgroup memory against function memory\n  game_demo bench trace --scene cathedral --no-flat-rebuild --persistent-groups 4224 --workgroup-size 128 --ray-order coherent --subgroup-postpone 0.2,0.35,0.5   # postponed triangle tests at three thresholds against tests at once\n  game_demo bench trace --scene cathedral --work-only --no-flat-rebuild --ray-order coherent --workgroup-size 32 --packet workgroup   # packets of 32 rays walking as one: their work a lane against a ray a lane"
     )]
     Trace {
         /// A built-in scene or a scene file.
@@ -487,6 +487,13 @@ enum BenchCommand {
         /// subgroup operations.
         #[arg(long, requires = "persistent_groups")]
         subgroup_fetch: bool,
+        /// Also time packet traversal, a thread a ray, once for each scope given (comma separated:
+        /// `subgroup`, `workgroup`), in the same run: the rays of a subgroup (or of a workgroup)
+        /// walk as one, every node any of them hits visited by all. `subgroup` needs a GPU with
+        /// subgroup operations; `workgroup` unites the lanes' hits slowly, for counting the walk of
+        /// packets of --workgroup-size rays (--work-only).
+        #[arg(long, value_enum, value_delimiter = ',', conflicts_with = "persistent_groups")]
+        packet: Vec<PacketArg>,
         /// Only the traversal work per ray (no timings): the counts do not depend on the GPU, so
         /// lavapipe gives the same as any other.
         #[arg(long, conflicts_with = "cpu_only")]
@@ -563,6 +570,13 @@ enum BenchCommand {
 enum RayOrderArg {
     Fibonacci,
     Coherent,
+}
+
+/// `bench trace --packet`: see `lab::bench::PacketScope`.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, clap::ValueEnum)]
+enum PacketArg {
+    Subgroup,
+    Workgroup,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, Debug, clap::ValueEnum)]
@@ -1164,6 +1178,7 @@ fn bench(command: BenchCommand) -> Result<(), String> {
             shared_stack,
             subgroup_postpone,
             subgroup_fetch,
+            packet,
             work_only,
             gpu_refit,
             json,
@@ -1181,7 +1196,7 @@ fn bench(command: BenchCommand) -> Result<(), String> {
                 gpu_refit,
                 rebraid,
                 bench::TraceVariant { ray_order, workgroup_size, persistent_groups, ..Default::default() },
-                (shared_stack, subgroup_postpone, subgroup_fetch),
+                (shared_stack, subgroup_postpone, subgroup_fetch, packet),
                 json,
             )
         }
@@ -1255,12 +1270,20 @@ fn bench(command: BenchCommand) -> Result<(), String> {
             return write_json(json.as_deref(), report);
         }
     };
-    let (shared_stack, postpone, fetch) = stack_and_subgroups;
+    let (shared_stack, postpone, fetch, packets) = stack_and_subgroups;
+    let packets: Vec<bench::PacketScope> = packets
+        .iter()
+        .map(|p| match p {
+            PacketArg::Subgroup => bench::PacketScope::Subgroup,
+            PacketArg::Workgroup => bench::PacketScope::Workgroup,
+        })
+        .collect();
     let scene = load(&name)?;
     let bounds = bench::world_bounds(&scene).ok_or("the scene has no geometry")?;
     let triangles = scene.instanced_triangle_count();
     // Subgroup operations only where a variant uses them (the device is then the same for all).
-    let gpu = GpuContext::new(GpuOptions { subgroups: !postpone.is_empty() || fetch, ..Default::default() }).map_err(|e| e.to_string())?;
+    let subgroups = !postpone.is_empty() || fetch || packets.contains(&bench::PacketScope::Subgroup);
+    let gpu = GpuContext::new(GpuOptions { subgroups, ..Default::default() }).map_err(|e| e.to_string())?;
     let started = std::time::Instant::now();
     let mut app = bench::prepared_app(&gpu, scene);
     println!("# bench trace: {name} ({triangles} triangles) on {}", gpu.adapter_name());
@@ -1294,6 +1317,10 @@ fn bench(command: BenchCommand) -> Result<(), String> {
         let unfetched: Vec<_> = variants.iter().filter(|v| v.shared_stack_entries == 0).copied().collect();
         variants.extend(unfetched.into_iter().map(|v| bench::TraceVariant { subgroup_fetch: true, ..v }));
     }
+    // Then packets of each scope asked for.
+    for &scope in &packets {
+        variants.push(bench::TraceVariant { packet: Some(scope), ..variant });
+    }
     let variant_name = |v: &bench::TraceVariant| {
         let mut parts = Vec::new();
         if shared_stack.is_some() {
@@ -1310,6 +1337,13 @@ fn bench(command: BenchCommand) -> Result<(), String> {
         }
         if fetch {
             parts.push(if v.subgroup_fetch { "one fetch a subgroup" } else { "one fetch a lane" }.to_string());
+        }
+        if !packets.is_empty() {
+            parts.push(match v.packet {
+                None => "a walk a ray".to_string(),
+                Some(bench::PacketScope::Subgroup) => "a walk a subgroup (packets)".to_string(),
+                Some(bench::PacketScope::Workgroup) => format!("a walk a workgroup of {} (packets)", v.workgroup_size),
+            });
         }
         parts.join(", ")
     };
@@ -1373,6 +1407,8 @@ fn bench(command: BenchCommand) -> Result<(), String> {
             match v.postpone_triangles {
                 Some(share) => postponed_work.push(serde_json::json!({"share": share, "work": json})),
                 None if v.shared_stack_entries > 0 => report["traversal_work_per_ray_shared_stack"] = json,
+                None if v.packet == Some(bench::PacketScope::Subgroup) => report["traversal_work_per_ray_subgroup_packets"] = json,
+                None if v.packet.is_some() => report["traversal_work_per_ray_workgroup_packets"] = json,
                 None => report["traversal_work_per_ray"] = json,
             }
             match first {
@@ -1389,6 +1425,21 @@ fn bench(command: BenchCommand) -> Result<(), String> {
                     w.steps,
                     100.0 * w.simt_efficiency,
                     w.deepest_stack
+                ),
+                // A packet's lanes walk the same nodes: the SIMT efficiency is 100%, and its
+                // steps a ray are a warp's steps (against the first's steps over its efficiency).
+                Some(f) if v.packet.is_some() => println!(
+                    "{}: {:.1} TLAS nodes, {:.2} instances entered, {:.1} BLAS nodes, {:.1} triangles tested; {:.1} loop steps a ray \
+                     (a walk a ray: {:.1} steps a ray, {:.1} for its warp's slowest lane), SIMT efficiency {:.0}%",
+                    variant_name(v),
+                    w.tlas_nodes,
+                    w.instances,
+                    w.blas_nodes,
+                    w.triangles,
+                    w.steps,
+                    f.steps,
+                    f.steps / f.simt_efficiency.max(1e-9),
+                    100.0 * w.simt_efficiency,
                 ),
                 // Postponed tests reorder the walk: a closer hit found later culls fewer nodes.
                 Some(_) if v.postpone_triangles.is_some() => println!(

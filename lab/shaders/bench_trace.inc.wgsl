@@ -211,3 +211,110 @@ fn bench_persistent(group_id: vec3<u32>, lane: u32) {
         }
     }
 }
+
+// ---- Packet variant (`bench trace --packet subgroup|workgroup`): the rays of a packet (a
+// subgroup, or the whole workgroup) walk as one: one walk state for all of them, and every node
+// that any of their rays hits is visited by all (packet traversal; a probe's rays share their
+// origin, so neighbouring rays of the coherent order cross the same nodes near it). Each lane tests
+// its own ray against a node's children, with its own closest hit so far; the packet's hit mask is
+// the union of the lanes' (bench_packet_or, from the entry point's file), and the children are
+// visited in the order of the packet's lead ray's octant, so that the walk stays the same in every
+// lane. A lane tests the triangles any lane's ray reached (a miss of its own box only costs the
+// test). Lanes without a ray take part with an empty one (tmax < 0: it hits nothing).
+
+// One step's node test of a packet's walk: rt_walk_node with the lanes' hit masks united.
+fn bench_packet_node(w: ptr<function, RtWalk>, stack: ptr<function, array<vec2<u32>, RT_STACK_SIZE>>) {
+    if RT_COUNT_WORK {
+        rt_steps += 1u;
+    }
+    if ((*w).group.y & 0xff000000u) != 0u && (*w).prims.y == 0u {
+        let hits = (*w).group.y;
+        let child_bit = firstLeadingBit(hits);
+        (*w).group.y &= ~(1u << child_bit);
+        if ((*w).group.y & 0xff000000u) != 0u {
+            rt_walk_push(w, stack, (*w).group);
+        }
+        let slot = (child_bit - 24u) ^ ((*w).oct_inv4 & 0xffu);
+        let node = (*w).group.x + countOneBits(hits & ~(0xffffffffu << slot));
+        var b = node * 5u;
+        if (*w).in_blas {
+            b = ((*w).node_offset + node) * 5u;
+        }
+        var n: array<vec4<u32>, 5>;
+        for (var k = 0u; k < 5u; k++) {
+            if (*w).in_blas {
+                n[k] = blas_nodes[b + k];
+            } else {
+                n[k] = tlas_nodes[b + k];
+            }
+        }
+        if RT_COUNT_WORK {
+            if (*w).in_blas {
+                rt_work.z += 1u;
+            } else {
+                rt_work.x += 1u;
+            }
+        }
+        let oct_inv4 = (*w).oct_inv4;
+        let own = rt_cwbvh_node_hits(n[0], n[1], n[2], n[3], n[4], (*w).origin, (*w).dir, oct_inv4, (*w).ray.tmin, (*w).best.t);
+        let hit_mask = bench_packet_or(own);
+        (*w).group = vec2<u32>(n[1].x, (hit_mask & 0xff000000u) | (n[0].w >> 24u));
+        (*w).prims = vec2<u32>(n[1].y, select(rt_xor_permute8(hit_mask & 0xffu, oct_inv4 & 7u), hit_mask & 0x00ffffffu, (*w).in_blas));
+    } else {
+        // Every lane takes part in every union (a workgroup's needs its barriers in step).
+        bench_packet_or(0u);
+    }
+}
+
+// The packet kernel: thread `id` traces ray `id` with its packet (`lane`: local_invocation_index).
+fn bench_packet_main(id: vec3<u32>, lane: u32) {
+    rt_stack_lane = lane;
+    bench_lane = lane;
+    let i = id.x + id.y * 65535u * BENCH_GROUP;
+    let has_ray = i < bench.ray_count;
+    var ray = bench_ray(min(i, bench.ray_count - 1u));
+    if !has_ray {
+        ray.tmax = -1.0;
+    }
+    var walk = rt_walk_start(ray);
+    // The packet's child order: its lead ray's octant, in world space and in each instance.
+    let lead = bench_packet_lead(walk.world_dir, i - lane);
+    walk.world_oct = rt_octant_inv4(lead);
+    walk.oct_inv4 = walk.world_oct;
+    var stack: array<vec2<u32>, RT_STACK_SIZE>;
+    loop {
+        let was_in_blas = walk.in_blas;
+        bench_packet_node(&walk, &stack);
+        if rt_walk_prims(&walk, &stack, false) {
+            break;
+        }
+        if walk.in_blas && !was_in_blas {
+            let local_from_world = instances[walk.instance].local_from_world;
+            walk.oct_inv4 = rt_octant_inv4(rt_safe_direction((local_from_world * vec4<f32>(lead, 0.0)).xyz));
+        }
+    }
+    if has_ray {
+        bench_keep_hit(i, &walk);
+        if RT_COUNT_WORK {
+            atomicAdd(&bench_work[0], rt_work.x);
+            atomicAdd(&bench_work[1], rt_work.y);
+            atomicAdd(&bench_work[2], rt_work.z);
+            atomicAdd(&bench_work[3], rt_work.w);
+            atomicAdd(&bench_work[4], rt_steps);
+        }
+    }
+    if RT_COUNT_WORK {
+        bench_steps[lane] = select(0u, rt_steps, has_ray);
+        workgroupBarrier();
+        if lane % BENCH_WARP == 0u {
+            var most = 0u;
+            for (var k = lane; k < min(lane + BENCH_WARP, BENCH_GROUP); k++) {
+                most = max(most, bench_steps[k]);
+            }
+            atomicAdd(&bench_work[5], most * BENCH_WARP);
+        }
+    }
+}
+
+// This thread's local_invocation_index (the packet kernel).
+var<private> bench_lane: u32;

@@ -33,6 +33,21 @@ fn bench_fetch(done: bool) -> u32 {
     return base + subgroupExclusiveAdd(select(0u, 1u, done));
 }
 
+// The packet kernel's packet is the subgroup (a warp of 32 on NVIDIA).
+fn bench_packet_or(m: u32) -> u32 {
+    return subgroupOr(m);
+}
+
+// The direction of the subgroup's first active lane's ray, whose octant orders the packet's walk.
+fn bench_packet_lead(dir: vec3<f32>, first: u32) -> vec3<f32> {
+    return subgroupBroadcastFirst(dir);
+}
+
+@compute @workgroup_size(BENCH_GROUP)
+fn packet(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_index) lane: u32) {
+    bench_packet_main(id, lane);
+}
+
 @compute @workgroup_size(BENCH_GROUP)
 fn main(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_index) lane: u32) {
     bench_main(id, lane);

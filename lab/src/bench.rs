@@ -72,12 +72,34 @@ pub struct TraceVariant {
     /// rays ended in the same step take their next rays with one atomic add on the workgroup's
     /// counter, not one each. Needs subgroup operations, like `postpone_triangles`.
     pub subgroup_fetch: bool,
+    /// `Some(scope)`: packet traversal, a thread a ray: the rays of a subgroup or of a workgroup
+    /// walk as one, every node any of them hits visited by all, in their lead ray's octant order
+    /// (`bench_packet_main` in `bench_trace.inc.wgsl`). Not with the persistent kernel, postponed
+    /// tests or a shared stack.
+    pub packet: Option<PacketScope>,
+}
+
+/// The largest workgroup packet ([`PacketScope::Workgroup`]): on lavapipe, packets of 256 threads
+/// or more left every ray of the crowd test scene but the first subgroup's unwritten (packets of
+/// up to 128 threads, and subgroup packets in workgroups of up to 1,024, found every hit; not
+/// understood, so refused rather than trusted).
+pub const MAX_WORKGROUP_PACKET: u32 = 128;
+
+/// Which threads walk as one packet ([`TraceVariant::packet`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PacketScope {
+    /// A subgroup (a warp of 32 on NVIDIA): hit masks united with `subgroupOr`. Needs subgroup
+    /// operations.
+    Subgroup,
+    /// The workgroup ([`TraceVariant::workgroup_size`] threads): hit masks united in workgroup
+    /// memory by one thread, slowly. For counting the walk of packets of a given size on any device.
+    Workgroup,
 }
 
 impl TraceVariant {
     /// Whether the variant's kernel uses subgroup operations (`bench_trace_subgroup.wgsl`).
     pub fn uses_subgroups(&self) -> bool {
-        self.postpone_triangles.is_some() || self.subgroup_fetch
+        self.postpone_triangles.is_some() || self.subgroup_fetch || self.packet == Some(PacketScope::Subgroup)
     }
 }
 
@@ -90,6 +112,7 @@ impl Default for TraceVariant {
             shared_stack_entries: 0,
             postpone_triangles: None,
             subgroup_fetch: false,
+            packet: None,
         }
     }
 }
@@ -99,8 +122,8 @@ impl Default for TraceVariant {
 pub const RT_STACK_SIZE: u32 = 48;
 
 /// Bytes of workgroup memory the bench kernel uses besides the shared stack: `bench_steps` (1,024
-/// words) and `bench_next` (one).
-const BENCH_WORKGROUP_BYTES: u32 = 1024 * 4 + 4;
+/// words), `bench_next` (one) and the workgroup packet's masks (at most 1,024 words and one).
+const BENCH_WORKGROUP_BYTES: u32 = 1024 * 4 + 4 + 1025 * 4;
 
 /// Words of `bench_work` (see `bench_trace.inc.wgsl`).
 const BENCH_WORK_WORDS: usize = 10;
@@ -214,7 +237,12 @@ fn kernel_pipeline(variant: TraceVariant, usage: KernelUse) -> (&'static str, &'
         constants.push(("RT_SHARED_STACK_LANES", f64::from(variant.workgroup_size)));
     }
     let file = if variant.uses_subgroups() { "bench_trace_subgroup.wgsl" } else { "bench_trace.wgsl" };
-    (file, if persistent_groups.is_some() { "persistent" } else { "main" }, constants)
+    let entry = match (persistent_groups, variant.packet) {
+        (Some(_), _) => "persistent",
+        (None, Some(_)) => "packet",
+        (None, None) => "main",
+    };
+    (file, entry, constants)
 }
 
 /// The bench kernel with its buffers, built for `usage` ([`KernelUse`]).
@@ -238,8 +266,23 @@ struct TraceKernel {
 impl TraceKernel {
     fn new(gpu: &GpuContext, app: &App, usage: KernelUse, variant: TraceVariant) -> Result<Self, String> {
         let count_work = usage == KernelUse::CountWork;
-        let TraceVariant { ray_order, workgroup_size, persistent_groups, shared_stack_entries, postpone_triangles, subgroup_fetch: _ } =
-            variant;
+        let TraceVariant {
+            ray_order,
+            workgroup_size,
+            persistent_groups,
+            shared_stack_entries,
+            postpone_triangles,
+            subgroup_fetch: _,
+            packet,
+        } = variant;
+        if packet.is_some() && (persistent_groups.is_some() || shared_stack_entries > 0 || postpone_triangles.is_some()) {
+            return Err(format!(
+                "{variant:?}: packet traversal runs a thread a ray, with the stack in function memory and triangle tests at once"
+            ));
+        }
+        if packet == Some(PacketScope::Workgroup) && workgroup_size > MAX_WORKGROUP_PACKET {
+            return Err(format!("workgroup packets of {workgroup_size} threads: at most {MAX_WORKGROUP_PACKET}"));
+        }
         if let Some(share) = postpone_triangles
             && !(share > 0.0 && share <= 1.0)
         {
@@ -1049,8 +1092,8 @@ mod tests {
     }
 
     /// naga resolves and validates every variant of the bench kernel that `bench trace` can build:
-    /// both kernels, counting work or not, each stack, several workgroup sizes, triangle tests at
-    /// once or postponed (the subgroup module, validated as on a device with subgroups; the other
+    /// the three kernels, counting work or not, each stack, several workgroup sizes, triangle tests at
+    /// once or postponed, packets of a subgroup or a workgroup (the subgroup module, validated as on a device with subgroups; the other
     /// as on any device).
     #[test]
     fn every_bench_kernel_variant_validates() {
@@ -1085,7 +1128,19 @@ mod tests {
                 }
             }
         }
-        assert_eq!(entries.len(), 4, "both kernels of both modules: {entries:?}");
+        // The packet kernel: a thread a ray, tests at once, the engine's stack.
+        for packet in [PacketScope::Subgroup, PacketScope::Workgroup] {
+            for workgroup_size in [32, 64, 128, 256] {
+                for usage in [KernelUse::Time, KernelUse::CountWork, KernelUse::HitIds] {
+                    let variant = TraceVariant { workgroup_size, packet: Some(packet), ..Default::default() };
+                    let (file, entry, constants) = kernel_pipeline(variant, usage);
+                    entries.insert((file, entry));
+                    let parsed = if file == subgroup.name { &subgroup } else { &plain };
+                    parsed.validate_compute_variant(entry, &constants).unwrap_or_else(|e| panic!("{e}"));
+                }
+            }
+        }
+        assert_eq!(entries.len(), 6, "the three kernels of both modules: {entries:?}");
         // The check refuses what wgpu would: a value for an override the shader does not have.
         let misspelt = [("BENCH_GROUP", 64.0), ("RT_SHARED_STACK", 8.0)];
         assert!(plain.validate_compute_variant("main", &misspelt).is_err(), "a misspelt override must be refused");
