@@ -133,6 +133,10 @@ enum Command {
         /// 0: off).
         #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=64))]
         hit_occlusion: u32,
+        /// Reach of those rays, a share of the smallest probe spacing
+        /// (DdgiVolume::hit_occlusion_reach).
+        #[arg(long, default_value_t = ddgi::DdgiVolume::default().hit_occlusion_reach)]
+        hit_occlusion_reach: f32,
         /// Also DDGI's experiments: quality for probe densities 8×4×8, 16×8×16, 32×16×32 × irradiance
         /// maps of 4, 8, 16 texels, and the ablation of the visibility weights (none → back-face →
         /// Chebyshev → normal bias → contact occlusion).
@@ -1586,6 +1590,7 @@ fn main() -> ExitCode {
             calm_error,
             drift_rate,
             hit_occlusion,
+            hit_occlusion_reach,
             experiments,
             out,
             cache,
@@ -1650,6 +1655,7 @@ fn main() -> ExitCode {
                 cascades,
                 timing_size: (!no_display_timing && [width, height] != eval::DISPLAY_SIZE).then_some(eval::DISPLAY_SIZE),
                 hit_occlusion_rays: hit_occlusion,
+                hit_occlusion_reach,
             };
             if walk {
                 let series = eval::walk_series::WalkSeries { start: walk_from, speed: walk_speed, sky: sky.unwrap_or_default() };

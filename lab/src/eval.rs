@@ -571,6 +571,9 @@ pub struct EvalOptions {
     /// Hit occlusion rays of every DDGI configuration's probe rays
     /// ([`ddgi::DdgiVolume::hit_occlusion_rays`]; 0: off, the default).
     pub hit_occlusion_rays: u32,
+    /// Their reach, a share of the smallest probe spacing
+    /// ([`ddgi::DdgiVolume::hit_occlusion_reach`]; the volume's default, 0.5, unless set).
+    pub hit_occlusion_reach: f32,
 }
 
 impl Config {
@@ -588,13 +591,17 @@ impl Config {
         }
     }
 
-    /// This configuration with `rays` hit occlusion rays ([`ddgi::DdgiVolume::hit_occlusion_rays`])
-    /// if it is a DDGI volume.
-    pub fn with_hit_occlusion(self, rays: u32) -> Config {
+    /// This configuration with `rays` hit occlusion rays of `reach`
+    /// ([`ddgi::DdgiVolume::hit_occlusion_rays`], [`ddgi::DdgiVolume::hit_occlusion_reach`]) if it
+    /// is a DDGI volume.
+    pub fn with_hit_occlusion(self, rays: u32, reach: f32) -> Config {
         match self {
-            Config::Ddgi { name, volume, occlusion, taa } => {
-                Config::Ddgi { name, volume: Box::new(ddgi::DdgiVolume { hit_occlusion_rays: rays, ..*volume }), occlusion, taa }
-            }
+            Config::Ddgi { name, volume, occlusion, taa } => Config::Ddgi {
+                name,
+                volume: Box::new(ddgi::DdgiVolume { hit_occlusion_rays: rays, hit_occlusion_reach: reach, ..*volume }),
+                occlusion,
+                taa,
+            },
             other => other,
         }
     }
@@ -624,7 +631,7 @@ pub fn run(gpu: &GpuContext, facts: &SceneFacts, scene: SceneDescription, option
     let mut direct_ldr: Option<Vec<u8>> = None;
     let list: Vec<Config> = Config::for_scene(Config::still_list(facts, experiments, grid, adaptive), &scene, options.cascades.as_ref())
         .into_iter()
-        .map(|c| c.with_hit_occlusion(options.hit_occlusion_rays))
+        .map(|c| c.with_hit_occlusion(options.hit_occlusion_rays, options.hit_occlusion_reach))
         .collect();
     let seed = pathtrace::PathTraceSettings::default().seed;
     // The path tracer's GPU ms per path per pixel at the timing size, timed once the first DDGI

@@ -23,6 +23,7 @@ fn options(size: u32, reference_spp: u32, out: PathBuf, cache: PathBuf) -> EvalO
         cascades: None,
         timing_size: None,
         hit_occlusion_rays: 0,
+        hit_occlusion_reach: ddgi::DdgiVolume::default().hit_occlusion_reach,
     }
 }
 

@@ -379,7 +379,7 @@ pub fn run(
     let mut runs = Vec::new();
     let list: Vec<Config> = Config::for_scene(Config::time_series_list(facts, grid, adaptive), &before, options.cascades.as_ref())
         .into_iter()
-        .map(|c| c.with_hit_occlusion(options.hit_occlusion_rays))
+        .map(|c| c.with_hit_occlusion(options.hit_occlusion_rays, options.hit_occlusion_reach))
         .collect();
     for config in list {
         let settle = settle_frames_of(&config, settle_frames);

@@ -344,9 +344,11 @@ pub struct DdgiVolume {
     /// image's mean luminance from 1.039× the path tracer's to 1.020× (reach 0.5) or 1.007×
     /// (reach 1), FLIP −8% / −12%; on the H200 (`eval --time-series`, fixed budget, the error
     /// settled 240 frames after a change) the cathedral's FLIP −13% and the demo level's −10%, at
-    /// 2.4× the probe-update time (the cathedral 1.168 against 0.484 ms). Off by default for that
-    /// cost. Cost: that many more any-hit rays per probe ray (short ones), in `ddgi_trace` or
-    /// `ddgi_shade`.
+    /// 2.4× the probe-update time (the cathedral 1.168 against 0.484 ms). One ray does as well
+    /// as eight (lavapipe, 2026-12-05: 1.008× at reach 1): each frame's probe rays point
+    /// elsewhere, so the hysteresis averages the blocked share. Off by default until that one
+    /// ray's cost is measured. Cost: that many more any-hit rays per probe ray (short ones), in
+    /// `ddgi_trace` or `ddgi_shade`.
     pub hit_occlusion_rays: u32,
     /// Reach of the hit occlusion rays, as a share of the smallest probe spacing (> 0): the
     /// surfaces nearer than this to a hit count as blocking it. Longer: more of the probes'
