@@ -346,8 +346,9 @@ pub struct DdgiVolume {
     /// settled 240 frames after a change) the cathedral's FLIP −13% and the demo level's −10%, at
     /// 2.4× the probe-update time (the cathedral 1.168 against 0.484 ms). One ray does as well
     /// as eight (lavapipe, 2026-12-05: 1.008× at reach 1): each frame's probe rays point
-    /// elsewhere, so the hysteresis averages the blocked share. Off by default until that one
-    /// ray's cost is measured. Cost: that many more any-hit rays per probe ray (short ones), in
+    /// elsewhere, so the hysteresis averages the blocked share. Off by default: that one ray's
+    /// cost is not yet measured, and on a coarse grid the reach, a share of the spacing, takes
+    /// far walls for near surfaces (color_bleed's 2×2×2 probes: darker, FLIP +6%). Cost: that many more any-hit rays per probe ray (short ones), in
     /// `ddgi_trace` or `ddgi_shade`.
     pub hit_occlusion_rays: u32,
     /// Reach of the hit occlusion rays, as a share of the smallest probe spacing (> 0): the
