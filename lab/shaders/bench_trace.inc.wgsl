@@ -104,16 +104,35 @@ fn bench_main(id: vec3<u32>, lane: u32) {
         trace_one(i);
     }
     if RT_COUNT_WORK {
-        bench_steps[lane] = rt_steps;
-        workgroupBarrier();
-        if lane % BENCH_WARP == 0u {
-            var most = 0u;
-            for (var k = lane; k < min(lane + BENCH_WARP, BENCH_GROUP); k++) {
-                most = max(most, bench_steps[k]);
-            }
-            atomicAdd(&bench_work[5], most * BENCH_WARP);
-        }
+        bench_add_warp_steps(lane, rt_steps);
     }
+}
+
+// Adds 32 × each warp's most steps to bench_work (RT_COUNT_WORK): `steps` is this thread's, and
+// every thread of the workgroup calls it (a barrier).
+fn bench_add_warp_steps(lane: u32, steps: u32) {
+    bench_steps[lane] = steps;
+    workgroupBarrier();
+    if lane % BENCH_WARP == 0u {
+        var most = 0u;
+        for (var k = lane; k < min(lane + BENCH_WARP, BENCH_GROUP); k++) {
+            most = max(most, bench_steps[k]);
+        }
+        atomicAdd(&bench_work[5], most * BENCH_WARP);
+    }
+}
+
+// Adds this thread's counted traversal work to bench_work (RT_COUNT_WORK).
+fn bench_add_work() {
+    atomicAdd(&bench_work[0], rt_work.x);
+    atomicAdd(&bench_work[1], rt_work.y);
+    atomicAdd(&bench_work[2], rt_work.z);
+    atomicAdd(&bench_work[3], rt_work.w);
+    atomicAdd(&bench_work[4], rt_steps);
+    atomicAdd(&bench_work[6], rt_stack_work.x);
+    atomicMax(&bench_work[7], rt_stack_work.y);
+    atomicAdd(&bench_work[8], bench_postponed);
+    atomicAdd(&bench_work[9], bench_waits);
 }
 
 fn trace_one(i: u32) {
@@ -126,15 +145,7 @@ fn trace_one(i: u32) {
     }
     bench_keep_hit(i, &walk);
     if RT_COUNT_WORK {
-        atomicAdd(&bench_work[0], rt_work.x);
-        atomicAdd(&bench_work[1], rt_work.y);
-        atomicAdd(&bench_work[2], rt_work.z);
-        atomicAdd(&bench_work[3], rt_work.w);
-        atomicAdd(&bench_work[4], rt_steps);
-        atomicAdd(&bench_work[6], rt_stack_work.x);
-        atomicMax(&bench_work[7], rt_stack_work.y);
-        atomicAdd(&bench_work[8], bench_postponed);
-        atomicAdd(&bench_work[9], bench_waits);
+        bench_add_work();
     }
 }
 
@@ -296,23 +307,11 @@ fn bench_packet_main(id: vec3<u32>, lane: u32) {
     if has_ray {
         bench_keep_hit(i, &walk);
         if RT_COUNT_WORK {
-            atomicAdd(&bench_work[0], rt_work.x);
-            atomicAdd(&bench_work[1], rt_work.y);
-            atomicAdd(&bench_work[2], rt_work.z);
-            atomicAdd(&bench_work[3], rt_work.w);
-            atomicAdd(&bench_work[4], rt_steps);
+            bench_add_work();
         }
     }
     if RT_COUNT_WORK {
-        bench_steps[lane] = select(0u, rt_steps, has_ray);
-        workgroupBarrier();
-        if lane % BENCH_WARP == 0u {
-            var most = 0u;
-            for (var k = lane; k < min(lane + BENCH_WARP, BENCH_GROUP); k++) {
-                most = max(most, bench_steps[k]);
-            }
-            atomicAdd(&bench_work[5], most * BENCH_WARP);
-        }
+        bench_add_warp_steps(lane, select(0u, rt_steps, has_ray));
     }
 }
 

@@ -122,8 +122,8 @@ impl Default for TraceVariant {
 pub const RT_STACK_SIZE: u32 = 48;
 
 /// Bytes of workgroup memory the bench kernel uses besides the shared stack: `bench_steps` (1,024
-/// words), `bench_next` (one) and the workgroup packet's masks (at most 1,024 words and one).
-const BENCH_WORKGROUP_BYTES: u32 = 1024 * 4 + 4 + 1025 * 4;
+/// words) and `bench_next` (one); workgroup packets add their masks (a word a thread, and one).
+const BENCH_WORKGROUP_BYTES: u32 = 1024 * 4 + 4;
 
 /// Words of `bench_work` (see `bench_trace.inc.wgsl`).
 const BENCH_WORK_WORDS: usize = 10;
@@ -310,7 +310,8 @@ impl TraceKernel {
         if shared_stack_entries > RT_STACK_SIZE {
             return Err(format!("shared stack of {shared_stack_entries} entries: 0 to {RT_STACK_SIZE} (the whole stack)"));
         }
-        let bytes = shared_stack_entries * workgroup_size * 8 + BENCH_WORKGROUP_BYTES;
+        let packet_bytes = if packet == Some(PacketScope::Workgroup) { workgroup_size * 4 + 4 } else { 0 };
+        let bytes = shared_stack_entries * workgroup_size * 8 + BENCH_WORKGROUP_BYTES + packet_bytes;
         let available = gpu.device.limits().max_compute_workgroup_storage_size;
         if bytes > available {
             return Err(format!(
