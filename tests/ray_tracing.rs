@@ -1266,3 +1266,41 @@ fn postponed_triangle_tests_find_the_hits_of_tests_at_once() {
         }
     }
 }
+
+/// Every mesh's BLAS as the scene holds it, built again at `quality` on the side: equal node for node.
+fn assert_blases_built_at(app: &App, quality: engine::rt::BlasBuildQuality) {
+    let rt = app.world().resource::<RayTracingScene>();
+    let meshes = app.world().resource::<Assets<Mesh>>();
+    for (handle, mesh) in meshes.iter() {
+        let held = rt.blas(handle.index() as usize).expect("built");
+        let fresh = engine::rt::Blas::build_with(mesh, quality);
+        let bytes = |b: &engine::rt::Blas| bytemuck::cast_slice::<_, u8>(&b.nodes).to_vec();
+        assert!(bytes(held) == bytes(&fresh) && held.triangles == fresh.triangles, "mesh '{}': not the BLAS of {quality:?}", mesh.name);
+    }
+}
+
+#[test]
+fn every_blas_build_quality_finds_the_cpu_references_hits_and_a_change_rebuilds_every_blas() {
+    use engine::rt::BlasBuildQuality;
+    let Some(gpu) = testkit::gpu("every_blas_build_quality_finds_the_cpu_references_hits_and_a_change_rebuilds_every_blas") else { return };
+    let scene = (scenes::find("door_room").expect("built-in").build)();
+    let bounds = scene.bounds().expect("bounds");
+    let rays = random_rays(bounds, 3000, 0xB1A5);
+    let mut app = app_for(&gpu, scene);
+    assert_blases_built_at(&app, BlasBuildQuality::default());
+    let nodes = |app: &App| -> usize {
+        let rt = app.world().resource::<RayTracingScene>();
+        (0..app.world().resource::<Assets<Mesh>>().len()).filter_map(|i| rt.blas(i)).map(|b| b.nodes.len()).sum()
+    };
+    let mut node_counts = Vec::new();
+    for quality in [BlasBuildQuality::Fast, BlasBuildQuality::Medium, BlasBuildQuality::High] {
+        app.insert_resource(quality);
+        run_headless(&mut app, 1);
+        assert_blases_built_at(&app, quality);
+        let (n, exact, hits) = compare(&format!("door_room, {quality:?}"), &app, &gpu, &rays);
+        assert!(hits > n / 10 && exact > n * 99 / 100, "{quality:?}: {exact}/{n} exact, {hits} hits");
+        node_counts.push(nodes(&app));
+    }
+    // The presets build different trees (else this test could not tell them apart).
+    assert!(node_counts[0] != node_counts[2] || node_counts[1] != node_counts[2], "node counts {node_counts:?}");
+}

@@ -186,7 +186,13 @@ impl TraceCell {
 
 /// A headless app with the scene prepared (BLASes built, TLAS uploaded).
 pub fn prepared_app(gpu: &GpuContext, scene: SceneDescription) -> App {
+    prepared_app_with(gpu, scene, engine::rt::BlasBuildQuality::default())
+}
+
+/// [`prepared_app`] with BLASes built at `quality`.
+pub fn prepared_app_with(gpu: &GpuContext, scene: SceneDescription, quality: engine::rt::BlasBuildQuality) -> App {
     let mut app = engine::headless::headless_app(gpu, RenderSize { width: 8, height: 8 }, 1.0 / 60.0);
+    app.insert_resource(quality);
     crate::progress::show_blas_builds(&mut app);
     scene.spawn(app.world_mut());
     run_headless(&mut app, 1);
@@ -824,7 +830,8 @@ pub fn flat_rebuild_cost(app: &mut App) -> (Duration, usize) {
     }
     let started = Instant::now();
     let mut core = Duration::ZERO;
-    let bvh = obvhs::cwbvh::builder::build_cwbvh_from_tris(&tris, obvhs::BvhBuildParams::medium_build(), &mut core);
+    let quality = world.get_resource::<engine::rt::BlasBuildQuality>().copied().unwrap_or_default();
+    let bvh = obvhs::cwbvh::builder::build_cwbvh_from_tris(&tris, quality.params(), &mut core);
     std::hint::black_box(&bvh);
     (started.elapsed(), tris.len())
 }

@@ -121,6 +121,44 @@ pub enum TlasRefit {
 /// uploads it in a few copies rather than hundreds.
 const TLAS_UPLOAD_GAP_BYTES: usize = 16 << 10;
 
+/// How much CPU time a BLAS build spends on the tree's quality: a resource, read whenever a mesh's
+/// BLAS is built. Insert it before the meshes load; changing it later rebuilds every BLAS (the old
+/// ones trace until the new ones arrive). The presets are obvhs's PLOC builder (Meister and
+/// Bittner 2018) followed by reinsertion (Meister and Bittner 2022); a better tree means fewer node
+/// tests for every ray of the mesh's life, so the default spends more build time than obvhs's own
+/// "medium" preset. Traversal work a ray at 32×8×32 probes × 128 rays (`game_demo bench trace
+/// --scene S --work-only --no-flat-rebuild --blas-build Q`; it does not depend on the GPU) and the
+/// scene's preparation time on this project's 2-core development VM, `Medium` → `High`: cathedral
+/// (72,576 triangles) 8.3 → 6.6 BLAS nodes, 14.8 → 12.8 loop steps, 192 → 254–285 ms; forest 47.0
+/// → 45.6 steps; cornell 7.4 → 7.5 steps (its warps' longest walks 12.8 → 12.5); door_room and the
+/// demo level unchanged (2.5 and 3.5 steps). `Fast` is `Medium`'s work in the cathedral (14.8).
+#[derive(Resource, Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum BlasBuildQuality {
+    /// obvhs's `fast_build`: PLOC pairs each cluster with the best of its nearest 1 neighbour in
+    /// the first 2 merging passes and of 6 after; 2% of the nodes reinserted.
+    Fast,
+    /// obvhs's `medium_build` (this engine's BLAS build until 2026-12-05): 1 neighbour in the first
+    /// 3 merging passes and 14 after; 5% of the nodes reinserted.
+    Medium,
+    /// 14 neighbours in every merging pass (the first ones, over the most clusters, decide the
+    /// tree's lower levels); half of the nodes reinserted.
+    #[default]
+    High,
+}
+
+impl BlasBuildQuality {
+    /// obvhs's build parameters for this preset.
+    pub fn params(self) -> obvhs::BvhBuildParams {
+        match self {
+            Self::Fast => obvhs::BvhBuildParams::fast_build(),
+            Self::Medium => obvhs::BvhBuildParams::medium_build(),
+            Self::High => {
+                obvhs::BvhBuildParams { search_depth_threshold: 0, reinsertion_batch_ratio: 0.5, ..obvhs::BvhBuildParams::medium_build() }
+            }
+        }
+    }
+}
+
 /// A bottom-level BVH: a CWBVH over one mesh in its local space.
 #[derive(Clone, Debug)]
 pub struct Blas {
@@ -133,8 +171,14 @@ pub struct Blas {
 }
 
 impl Blas {
-    /// Builds the BLAS of a mesh. Degenerate triangles are kept (they never report a hit).
+    /// Builds the BLAS of a mesh at the default [`BlasBuildQuality`]. Degenerate triangles are kept
+    /// (they never report a hit).
     pub fn build(mesh: &Mesh) -> Self {
+        Self::build_with(mesh, BlasBuildQuality::default())
+    }
+
+    /// Builds the BLAS of a mesh at `quality`.
+    pub fn build_with(mesh: &Mesh, quality: BlasBuildQuality) -> Self {
         // Scene data with NaN or infinite positions is rejected at upload; its BLAS is empty.
         if mesh.positions.iter().any(|p| !p.is_finite()) {
             return Self { nodes: Vec::new(), triangles: Vec::new(), bounds: None };
@@ -151,7 +195,7 @@ impl Blas {
             return Self { nodes: Vec::new(), triangles: Vec::new(), bounds: None };
         }
         let mut time = Duration::ZERO;
-        let cwbvh: CwBvh = obvhs::cwbvh::builder::build_cwbvh_from_tris(&tris, obvhs::BvhBuildParams::medium_build(), &mut time);
+        let cwbvh: CwBvh = obvhs::cwbvh::builder::build_cwbvh_from_tris(&tris, quality.params(), &mut time);
         let triangles = cwbvh
             .primitive_indices
             .iter()
@@ -384,8 +428,15 @@ pub struct RayTracingScene {
     requested_meshes: usize,
     /// BLAS builds requested and not yet received.
     outstanding: usize,
-    results: Mutex<Receiver<(usize, Arc<Blas>)>>,
-    sender: Sender<(usize, Arc<Blas>)>,
+    results: Mutex<Receiver<BuiltBlas>>,
+    sender: Sender<BuiltBlas>,
+    /// The [`BlasBuildQuality`] of the builds requested last, and how many times it changed (the
+    /// generation each build carries): a build of an older generation that arrives after a newer
+    /// one of the same mesh is dropped.
+    blas_quality: BlasBuildQuality,
+    blas_generation: u32,
+    /// The generation of each mesh's BLAS in `blas`.
+    blas_built_generation: Vec<u32>,
     /// Triangles built and pending, shared with the worker threads that build large BLASes.
     pub progress: BlasBuildProgress,
     /// The BVH over the adapter's buffer limits, when it is (nothing is traced then).
@@ -468,6 +519,9 @@ impl RayTracingScene {
             outstanding: 0,
             results: Mutex::new(results),
             sender,
+            blas_quality: BlasBuildQuality::default(),
+            blas_generation: 0,
+            blas_built_generation: Vec::new(),
             progress: BlasBuildProgress::default(),
             over_limit: None,
             tlas: None,
@@ -613,7 +667,14 @@ impl RayTracingScene {
     /// Starts BLAS builds for meshes added since the last call: small ones now, in parallel on
     /// rayon's pool, large ones one after the other on a worker thread of their own (so that they
     /// never hold up the pool a refit runs on). Tells `hook` of the progress.
-    fn request_blas(&mut self, meshes: &Assets<Mesh>, hook: Option<&BlasBuildHook>) {
+    fn request_blas(&mut self, meshes: &Assets<Mesh>, quality: BlasBuildQuality, hook: Option<&BlasBuildHook>) {
+        if quality != self.blas_quality {
+            // Every mesh again, at the new quality.
+            self.blas_quality = quality;
+            self.blas_generation += 1;
+            self.requested_meshes = 0;
+        }
+        let generation = self.blas_generation;
         let mut background: Vec<(usize, Mesh)> = Vec::new();
         let mut now: Vec<(usize, &Mesh)> = Vec::new();
         let mut triangles = 0;
@@ -631,7 +692,7 @@ impl RayTracingScene {
         self.outstanding += now.len() + background.len();
         self.progress.requested(now.len() + background.len(), triangles, hook);
         now.par_iter().for_each_with(self.sender.clone(), |sender, &(index, mesh)| {
-            let _ = sender.send((index, Arc::new(Blas::build(mesh))));
+            let _ = sender.send(BuiltBlas { index, generation, blas: Arc::new(Blas::build_with(mesh, quality)) });
             self.progress.built(mesh.triangle_count(), hook);
         });
         if !background.is_empty() {
@@ -641,10 +702,10 @@ impl RayTracingScene {
             std::thread::spawn(move || {
                 for (index, mesh) in background {
                     let started = Instant::now();
-                    let blas = Arc::new(Blas::build(&mesh));
+                    let blas = Arc::new(Blas::build_with(&mesh, quality));
                     log::info!("BLAS of '{}' ({} triangles) built in {:.2?}", mesh.name, mesh.triangle_count(), started.elapsed());
                     // Send first: once progress says done, the next frame finds every result.
-                    if sender.send((index, blas)).is_err() {
+                    if sender.send(BuiltBlas { index, generation, blas }).is_err() {
                         return;
                     }
                     progress.built(mesh.triangle_count(), hook.as_ref());
@@ -671,9 +732,13 @@ impl RayTracingScene {
             }
         }
         self.outstanding = self.outstanding.saturating_sub(arrived.len());
-        for next in arrived {
-            let (index, blas) = next;
+        for BuiltBlas { index, generation, blas } in arrived {
+            self.blas_built_generation.resize(self.blas.len(), 0);
+            if self.blas[index].is_some() && generation < self.blas_built_generation[index] {
+                continue;
+            }
             self.blas[index] = Some(blas);
+            self.blas_built_generation[index] = generation;
             any = true;
         }
         any
@@ -1468,9 +1533,25 @@ fn encode_bounds(bvh: &Bvh2, source: usize, children: &[u32; 8], node: &mut CwBv
     }
 }
 
+/// A finished BLAS build on its way from a worker thread: the mesh, the generation of the request
+/// ([`BlasBuildQuality`] changes start a new one) and the BLAS.
+struct BuiltBlas {
+    index: usize,
+    generation: u32,
+    blas: Arc<Blas>,
+}
+
 /// Whether BLAS builds block the frame (headless, deterministic) or run in the background.
 #[derive(Resource, Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub struct WaitForBlasBuilds(pub bool);
+
+/// The resources that shape BLAS builds, each optional.
+#[derive(bevy_ecs::system::SystemParam)]
+pub struct BlasBuildSettings<'w> {
+    wait: Option<Res<'w, WaitForBlasBuilds>>,
+    quality: Option<Res<'w, BlasBuildQuality>>,
+    hook: Option<Res<'w, BlasBuildHook>>,
+}
 
 /// Prepare stage (after the GPU scene): builds BLASes for new meshes, and rebuilds or refits the TLAS
 /// from the instance changes the GPU scene recorded this frame.
@@ -1478,15 +1559,16 @@ pub fn prepare_ray_tracing_scene(
     gpu: Res<GpuContext>,
     meshes: Res<Assets<Mesh>>,
     scene: Res<GpuScene>,
-    wait: Option<Res<WaitForBlasBuilds>>,
-    hook: Option<Res<BlasBuildHook>>,
+    settings: BlasBuildSettings,
     mut uploads: ResMut<Uploads>,
     mut rt: ResMut<RayTracingScene>,
 ) {
     let started = Instant::now();
     rt.stats = BvhFrameStats::default();
-    if meshes.len() > rt.requested_meshes {
-        rt.request_blas(&meshes, hook.as_deref());
+    let BlasBuildSettings { wait, quality, hook } = settings;
+    let quality = quality.map_or_else(BlasBuildQuality::default, |q| *q);
+    if meshes.len() > rt.requested_meshes || quality != rt.blas_quality {
+        rt.request_blas(&meshes, quality, hook.as_deref());
     }
     let new_blas = rt.receive_blas(wait.is_some_and(|w| w.0));
     if new_blas {
