@@ -124,7 +124,8 @@ const TLAS_UPLOAD_GAP_BYTES: usize = 16 << 10;
 /// How much CPU time a BLAS build spends on the tree's quality: a resource, read whenever a mesh's
 /// BLAS is built. Insert it before the meshes load; changing it later rebuilds every BLAS (the old
 /// ones trace until the new ones arrive). The presets are obvhs's PLOC builder (Meister and
-/// Bittner 2018) followed by reinsertion (Meister and Bittner 2022); a better tree means fewer node
+/// Bittner, TVCG 2018) followed by parallel reinsertion (Meister and Bittner, Eurographics 2018);
+/// a better tree means fewer node
 /// tests for every ray of the mesh's life, so the default spends more build time than obvhs's own
 /// "medium" preset. Traversal work a ray at 32×8×32 probes × 128 rays (`game_demo bench trace
 /// --scene S --work-only --no-flat-rebuild --blas-build Q`; it does not depend on the GPU) and the
@@ -732,9 +733,9 @@ impl RayTracingScene {
             }
         }
         self.outstanding = self.outstanding.saturating_sub(arrived.len());
+        self.blas_built_generation.resize(self.blas.len(), 0);
         for BuiltBlas { index, generation, blas } in arrived {
-            self.blas_built_generation.resize(self.blas.len(), 0);
-            if self.blas[index].is_some() && generation < self.blas_built_generation[index] {
+            if generation < self.blas_built_generation[index] {
                 continue;
             }
             self.blas[index] = Some(blas);

@@ -949,8 +949,8 @@ fn dark_probes_switch_off_and_an_opening_door_wakes_them() {
         bounds: Some((DVec3::new(-3.6, -0.5, -3.6), DVec3::new(3.6, 4.0, 6.0))),
         probe_counts: Some(UVec3::new(6, 4, 8)),
         rays_per_probe: 64,
-        // The walls are thin against the 1 m cells, so DDGI's own leaking lights the closed room
-        // at about 1% of the sunlit probes' luma (measured: 0.2–1%): call that dark here.
+        // The walls are thin against the 1.2 m cells, so DDGI's own leaking lights the closed room
+        // at about 1% of the sunlit probes' luma (measured with 1 m cells: 0.2–1%): call that dark here.
         adaptive: ddgi::DdgiAdaptive { dark_fraction: 0.02, ..ddgi::DdgiAdaptive::on() },
         ..Default::default()
     };
