@@ -333,46 +333,67 @@ fn rt_walk_node(w: ptr<function, RtWalk>, stack: ptr<function, array<vec2<u32>, 
     if RT_COUNT_WORK {
         rt_steps += 1u;
     }
-    if ((*w).group.y & 0xff000000u) != 0u && (*w).prims.y == 0u {
-        let hits = (*w).group.y;
-        let child_bit = firstLeadingBit(hits);
-        (*w).group.y &= ~(1u << child_bit);
-        if ((*w).group.y & 0xff000000u) != 0u {
-            rt_walk_push(w, stack, (*w).group);
-        }
-        let slot = (child_bit - 24u) ^ ((*w).oct_inv4 & 0xffu);
-        let node = (*w).group.x + countOneBits(hits & ~(0xffffffffu << slot));
-        var n0: vec4<u32>;
-        var n1: vec4<u32>;
-        var n2: vec4<u32>;
-        var n3: vec4<u32>;
-        var n4: vec4<u32>;
-        if (*w).in_blas {
-            let b = ((*w).node_offset + node) * 5u;
-            n0 = blas_nodes[b];
-            n1 = blas_nodes[b + 1u];
-            n2 = blas_nodes[b + 2u];
-            n3 = blas_nodes[b + 3u];
-            n4 = blas_nodes[b + 4u];
-            if RT_COUNT_WORK {
-                rt_work.z += 1u;
-            }
-        } else {
-            let b = node * 5u;
-            n0 = tlas_nodes[b];
-            n1 = tlas_nodes[b + 1u];
-            n2 = tlas_nodes[b + 2u];
-            n3 = tlas_nodes[b + 3u];
-            n4 = tlas_nodes[b + 4u];
-            if RT_COUNT_WORK {
-                rt_work.x += 1u;
-            }
-        }
-        let oct_inv4 = (*w).oct_inv4;
-        let hit_mask = rt_cwbvh_node_hits(n0, n1, n2, n3, n4, (*w).origin, (*w).dir, oct_inv4, (*w).ray.tmin, (*w).best.t);
-        (*w).group = vec2<u32>(n1.x, (hit_mask & 0xff000000u) | (n0.w >> 24u));
-        (*w).prims = vec2<u32>(n1.y, select(rt_xor_permute8(hit_mask & 0xffu, oct_inv4 & 7u), hit_mask & 0x00ffffffu, (*w).in_blas));
+    if rt_walk_has_node(w) {
+        let node = rt_walk_next_node(w, stack);
+        rt_walk_enter_node(w, node, rt_walk_node_hits(w, node));
     }
+}
+
+// A CWBVH node: 80 bytes, five vec4 words (obvhs's encoding, `engine::rt::Blas::nodes`).
+struct RtNode {
+    n0: vec4<u32>,
+    n1: vec4<u32>,
+    n2: vec4<u32>,
+    n3: vec4<u32>,
+    n4: vec4<u32>,
+}
+
+// Whether the walk's next step tests a node: its group has children left and no primitives of the
+// last node wait.
+fn rt_walk_has_node(w: ptr<function, RtWalk>) -> bool {
+    return ((*w).group.y & 0xff000000u) != 0u && (*w).prims.y == 0u;
+}
+
+// Takes the group's next child (nearest first in the walk's octant order), pushes the rest of the
+// group, and loads the child's node from the BLAS or the TLAS. Only when rt_walk_has_node.
+fn rt_walk_next_node(w: ptr<function, RtWalk>, stack: ptr<function, array<vec2<u32>, RT_STACK_SIZE>>) -> RtNode {
+    let hits = (*w).group.y;
+    let child_bit = firstLeadingBit(hits);
+    (*w).group.y &= ~(1u << child_bit);
+    if ((*w).group.y & 0xff000000u) != 0u {
+        rt_walk_push(w, stack, (*w).group);
+    }
+    let slot = (child_bit - 24u) ^ ((*w).oct_inv4 & 0xffu);
+    let node = (*w).group.x + countOneBits(hits & ~(0xffffffffu << slot));
+    var n: RtNode;
+    if (*w).in_blas {
+        let b = ((*w).node_offset + node) * 5u;
+        n = RtNode(blas_nodes[b], blas_nodes[b + 1u], blas_nodes[b + 2u], blas_nodes[b + 3u], blas_nodes[b + 4u]);
+        if RT_COUNT_WORK {
+            rt_work.z += 1u;
+        }
+    } else {
+        let b = node * 5u;
+        n = RtNode(tlas_nodes[b], tlas_nodes[b + 1u], tlas_nodes[b + 2u], tlas_nodes[b + 3u], tlas_nodes[b + 4u]);
+        if RT_COUNT_WORK {
+            rt_work.x += 1u;
+        }
+    }
+    return n;
+}
+
+// The children of `n` that the walk's ray hits before its closest hit so far (rt_cwbvh_node_hits'
+// mask).
+fn rt_walk_node_hits(w: ptr<function, RtWalk>, n: RtNode) -> u32 {
+    return rt_cwbvh_node_hits(n.n0, n.n1, n.n2, n.n3, n.n4, (*w).origin, (*w).dir, (*w).oct_inv4, (*w).ray.tmin, (*w).best.t);
+}
+
+// Makes the children in `hit_mask` (rt_cwbvh_node_hits' layout) the walk's group: the internal
+// ones to visit next, the leaves' primitives to test (BLAS triangles, TLAS instances).
+fn rt_walk_enter_node(w: ptr<function, RtWalk>, n: RtNode, hit_mask: u32) {
+    let oct_inv4 = (*w).oct_inv4;
+    (*w).group = vec2<u32>(n.n1.x, (hit_mask & 0xff000000u) | (n.n0.w >> 24u));
+    (*w).prims = vec2<u32>(n.n1.y, select(rt_xor_permute8(hit_mask & 0xffu, oct_inv4 & 7u), hit_mask & 0x00ffffffu, (*w).in_blas));
 }
 
 // Whether the walk holds triangles to test (in a BLAS; rt_walk_prims tests them all).

@@ -238,39 +238,9 @@ fn bench_packet_node(w: ptr<function, RtWalk>, stack: ptr<function, array<vec2<u
     if RT_COUNT_WORK {
         rt_steps += 1u;
     }
-    if ((*w).group.y & 0xff000000u) != 0u && (*w).prims.y == 0u {
-        let hits = (*w).group.y;
-        let child_bit = firstLeadingBit(hits);
-        (*w).group.y &= ~(1u << child_bit);
-        if ((*w).group.y & 0xff000000u) != 0u {
-            rt_walk_push(w, stack, (*w).group);
-        }
-        let slot = (child_bit - 24u) ^ ((*w).oct_inv4 & 0xffu);
-        let node = (*w).group.x + countOneBits(hits & ~(0xffffffffu << slot));
-        var b = node * 5u;
-        if (*w).in_blas {
-            b = ((*w).node_offset + node) * 5u;
-        }
-        var n: array<vec4<u32>, 5>;
-        for (var k = 0u; k < 5u; k++) {
-            if (*w).in_blas {
-                n[k] = blas_nodes[b + k];
-            } else {
-                n[k] = tlas_nodes[b + k];
-            }
-        }
-        if RT_COUNT_WORK {
-            if (*w).in_blas {
-                rt_work.z += 1u;
-            } else {
-                rt_work.x += 1u;
-            }
-        }
-        let oct_inv4 = (*w).oct_inv4;
-        let own = rt_cwbvh_node_hits(n[0], n[1], n[2], n[3], n[4], (*w).origin, (*w).dir, oct_inv4, (*w).ray.tmin, (*w).best.t);
-        let hit_mask = bench_packet_or(own);
-        (*w).group = vec2<u32>(n[1].x, (hit_mask & 0xff000000u) | (n[0].w >> 24u));
-        (*w).prims = vec2<u32>(n[1].y, select(rt_xor_permute8(hit_mask & 0xffu, oct_inv4 & 7u), hit_mask & 0x00ffffffu, (*w).in_blas));
+    if rt_walk_has_node(w) {
+        let node = rt_walk_next_node(w, stack);
+        rt_walk_enter_node(w, node, bench_packet_or(rt_walk_node_hits(w, node)));
     } else {
         // Every lane takes part in every union (a workgroup's needs its barriers in step).
         bench_packet_or(0u);
