@@ -133,10 +133,10 @@ const TLAS_UPLOAD_GAP_BYTES: usize = 16 << 10;
 /// (72,576 triangles) 8.3 → 6.6 BLAS nodes, 14.8 → 12.8 loop steps, 192 → 254–285 ms; forest 47.0
 /// → 45.6 steps; cornell 7.4 → 7.5 steps (its warps' longest walks 12.8 → 12.5); door_room and the
 /// demo level unchanged (2.5 and 3.5 steps). `Fast` is `Medium`'s work in the cathedral (14.8).
-/// Timed on an H100 (BENCHMARKS.md, 2026-12-05, `bench trace` against `Medium` in one run): the
-/// cathedral traces 1.28–1.33× faster a thread a ray and 1.18–1.33× with the bench's persistent
-/// kernel (2,310 against 1,945 MRays/s at 32³ × 256), the level 1.04–1.08×, the forest
-/// 1.02–1.05×, cornell 0.98–1.01×.
+/// Timed on an H100 (BENCHMARKS.md, 2026-12-05, `bench trace` against `Medium` in the same
+/// calls): the cathedral traces 1.28–1.33× faster a thread a ray and 1.18–1.33× with the bench's
+/// persistent kernel (2,299–2,320 against 1,936–1,946 MRays/s at 32³ × 256), the level
+/// 1.04–1.08×, the forest 1.02–1.05×, cornell 0.98–1.01×.
 #[derive(Resource, Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum BlasBuildQuality {
     /// obvhs's `fast_build`: PLOC pairs each cluster with the best of its nearest 1 neighbour in
