@@ -1304,3 +1304,123 @@ fn every_blas_build_quality_finds_the_cpu_references_hits_and_a_change_rebuilds_
     // The presets build different trees (else this test could not tell them apart).
     assert!(node_counts[0] != node_counts[2] || node_counts[1] != node_counts[2], "node counts {node_counts:?}");
 }
+
+/// Overlapping instances of meshes each used once (sheets and boxes, rotated and non-uniformly
+/// scaled, as a building's walls, vaults and floor overlap), plus two instances of one shared cube,
+/// which no group may take (a group copies its members' triangles).
+fn grouped_scene() -> SceneDescription {
+    let mut s = SceneDescription { name: "grouped".into(), ..Default::default() };
+    let m = s.add_material(Material::diffuse("grey", Vec3::splat(0.5)));
+    let mut rng = SplitMix64::new(0x006A_0C1D);
+    for i in 0..8 {
+        let mesh = if i % 2 == 0 {
+            s.add_mesh(sheet(16 + 4 * i))
+        } else {
+            s.add_mesh(engine::shapes::cuboid("box", Vec3::splat(0.3 + 0.1 * i as f32)))
+        };
+        let t = Transform::from_xyz(rng.range(-1.0, 1.0), rng.range(-0.5, 0.5), rng.range(-1.0, 1.0))
+            .with_rotation(Quat::from_axis_angle(rng.direction(), rng.range(0.0, 6.0)))
+            .with_scale(Vec3::new(rng.range(1.0, 2.5), rng.range(0.5, 2.0), rng.range(1.0, 2.5)));
+        s.add_node(&format!("unique{i}"), t, None, vec![NodeContent::Meshes(vec![(mesh, m)])]);
+    }
+    let cube = s.add_mesh(engine::shapes::cuboid("cube", Vec3::splat(0.4)));
+    for i in 0..2 {
+        s.add_node(&format!("shared{i}"), Transform::from_xyz(0.5 * i as f32, 0.2, -0.3), None, vec![NodeContent::Meshes(vec![(cube, m)])]);
+    }
+    s
+}
+
+/// Asserts that traces of the same rays without and with static groups found the same hits: the
+/// same instance, triangle and any-hit answer, at distances equal to float rounding (a group's
+/// triangles are stored in its frame instance's space), or a tie the CPU reference confirms.
+fn assert_close_hits(what: &str, app: &App, rays: &[GpuRay], want: &[TraceResult], got: &[TraceResult]) {
+    let cpu = cpu_reference(app);
+    for (i, (w, g)) in want.iter().zip(got).enumerate() {
+        let same =
+            w.instance == g.instance && w.primitive == g.primitive && w.any_hit == g.any_hit && (w.instance == u32::MAX || close(g.t, w.t));
+        let tie = close(g.t, w.t) && w.any_hit == g.any_hit && cpu.hit_t(&rays[i], g.instance, g.primitive).is_some_and(|t| close(t, w.t));
+        assert!(same || tie, "{what}, ray {i} {:?}: without groups {w:?}, grouped {g:?}", rays[i]);
+    }
+}
+
+/// Sets the static grouping and runs the frame that rebuilds the TLAS with it.
+fn group(app: &mut App, grouping: engine::rt::StaticGrouping) -> (usize, usize) {
+    app.world_mut().resource_mut::<RayTracingScene>().set_static_grouping(grouping);
+    run_headless(app, 1);
+    let rt = app.world().resource::<RayTracingScene>();
+    assert!(rt.stats.tlas_rebuilt, "a new grouping rebuilds the TLAS");
+    (rt.static_group_count(), rt.grouped_instance_count())
+}
+
+/// A static group (one BLAS over overlapping static instances, in one member's space) reports each
+/// hit on the member it belongs to, with that member's triangle index and distance: the CPU
+/// reference's hits, and the hits of the same scene without groups. A member that moves leaves its
+/// group (the TLAS is rebuilt) and is seen where it went.
+#[test]
+fn static_groups_report_their_members_hits_and_a_member_that_moves_leaves() {
+    use engine::rt::StaticGrouping;
+    let Some(gpu) = testkit::gpu("static_groups_report_their_members_hits_and_a_member_that_moves_leaves") else { return };
+    let scene = grouped_scene();
+    let bounds = scene.bounds().expect("bounds");
+    let mut app = app_for(&gpu, scene);
+    assert_eq!(group(&mut app, StaticGrouping::Off), (0, 0));
+    let rays = random_rays(bounds, 3000, 0x6A0C);
+    let (closest, any) = (trace(&app, &gpu, &rays, false), trace(&app, &gpu, &rays, true));
+    let (groups, grouped) = group(&mut app, StaticGrouping::Always);
+    assert_eq!((groups, grouped), (1, 8), "the eight unique instances overlap: one group, the shared cube's instances outside it");
+    assert_eq!(app.world().resource::<RayTracingScene>().tlas_primitive_count(), 3, "one leaf for the group, one for each shared cube");
+    let (n, _, hits) = compare("grouped", &app, &gpu, &rays);
+    assert!(hits > n / 10, "too few hits ({hits} of {n}) for the test to mean anything");
+    let got = trace(&app, &gpu, &rays, false);
+    let members: std::collections::BTreeSet<u32> = got.iter().filter(|r| r.instance != u32::MAX).map(|r| r.instance).collect();
+    assert!(members.len() >= 8, "hits should land on many members, each reported as itself: {members:?}");
+    assert_close_hits("grouped", &app, &rays, &closest, &got);
+    assert_close_hits("grouped, any hit", &app, &rays, &any, &trace(&app, &gpu, &rays, true));
+
+    // unique3 moves: the refit gives way to a rebuild, which leaves it out of the group.
+    let world = app.world_mut();
+    let mut q = world.query::<(&engine::scene::Name, &mut Transform)>();
+    for (name, mut t) in q.iter_mut(world) {
+        if name.0 == "unique3" {
+            t.translation += Vec3::new(0.7, 0.4, -0.5);
+            t.rotation *= Quat::from_rotation_x(0.8);
+        }
+    }
+    run_headless(&mut app, 1);
+    let rt = app.world().resource::<RayTracingScene>();
+    assert!(rt.stats.tlas_rebuilt, "a grouped member's move rebuilds the TLAS: {:?}", rt.stats);
+    assert_eq!((rt.static_group_count(), rt.grouped_instance_count()), (1, 7), "the others are grouped again, without the mover");
+    compare("a member moved", &app, &gpu, &random_rays(bounds, 3000, 0x6A0D));
+}
+
+/// The default grouping (`StaticGrouping::Estimated`) forms a group only where its CPU estimate says
+/// rays do less work: the traversal steps the GPU counts for probe rays are then no more than
+/// without groups (the cathedral, whose four meshes all span the nave, is grouped; the Cornell box,
+/// whose room holds small boxes, is not).
+#[test]
+fn the_estimated_grouping_never_adds_traversal_work() {
+    use engine::rt::StaticGrouping;
+    let Some(gpu) = testkit::gpu("the_estimated_grouping_never_adds_traversal_work") else { return };
+    let (grid, rays) = ([6, 4, 6], 64);
+    for (name, grouped) in [("cathedral", true), ("cornell", false)] {
+        let scene = (scenes::find(name).expect("built-in").build)();
+        let bounds = lab::bench::world_bounds(&scene).expect("bounds");
+        let mut app = lab::bench::prepared_app(&gpu, scene);
+        let steps = |app: &mut App, grouping| {
+            let (groups, _) = group(app, grouping);
+            let work = lab::bench::traversal_work(&gpu, app, bounds, grid, rays, Default::default()).expect("work");
+            (groups, work.steps)
+        };
+        let (none, off) = steps(&mut app, StaticGrouping::Off);
+        let (groups, estimated) = steps(&mut app, StaticGrouping::Estimated);
+        let (_, always) = steps(&mut app, StaticGrouping::Always);
+        eprintln!("{name}: steps a ray {off:.2} without groups, {estimated:.2} estimated ({groups} groups), {always:.2} always");
+        assert_eq!((none, groups > 0), (0, grouped), "{name}: {groups} groups");
+        assert!(estimated <= off * 1.001, "{name}: {estimated} steps a ray with the estimated grouping against {off} without");
+        if grouped {
+            assert!(estimated < off * 0.95, "{name}: the group should save steps ({estimated} against {off})");
+        } else {
+            assert!(always > off, "{name}: the estimate declined a group that would add work ({always} against {off})");
+        }
+    }
+}

@@ -29,7 +29,9 @@ struct TlasEntry {
 }
 
 @group(0) @binding(7) var<storage, read> blas_nodes: array<vec4<u32>>;
-// Three vec4 a triangle, in leaf order: (v0, mesh triangle index as bits), (v1 - v0, 0), (v2 - v0, 0).
+// Three vec4 a triangle, in leaf order: (v0, mesh triangle index as bits), (v1 - v0, tag), (v2 - v0, 0);
+// the tag is 0 in a mesh's BLAS and the member's instance slot + 1 (as bits) in a static group's
+// (engine/src/rt/groups.rs), whose leaf is entered in its frame instance's space.
 @group(0) @binding(8) var<storage, read> blas_triangles: array<vec4<f32>>;
 @group(0) @binding(9) var<storage, read> blas_info: array<GpuBlas>;
 // The TLAS: CWBVH nodes (5 × vec4<u32> each) whose leaves hold one TlasEntry each, then the entries
@@ -497,6 +499,11 @@ fn rt_walk_hit(w: ptr<function, RtWalk>) -> RayHit {
     var best = (*w).best;
     if best.instance != RT_NO_HIT {
         best.primitive = bitcast<u32>(blas_triangles[(*w).best_triangle * 3u].w);
+        // A static group's triangle names its member's instance (slot + 1; 0 in a mesh's BLAS).
+        let member = bitcast<u32>(blas_triangles[(*w).best_triangle * 3u + 1u].w);
+        if member != 0u {
+            best.instance = member - 1u;
+        }
     }
     return best;
 }

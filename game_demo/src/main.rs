@@ -442,7 +442,7 @@ enum BenchCommand {
     /// Closest-hit throughput of probe-like rays (grids 16×8×16 … 32×32×32, 32 … 256 rays per probe;
     /// GPU timestamps of the trace pass alone) and the CPU cost of TLAS updates when instances move.
     #[command(
-        after_long_help = "Examples:\n  game_demo bench trace --scene cathedral --iterations 15 --no-flat-rebuild\n  game_demo bench trace --scene forest --cpu-only   # the TLAS refit for moving instances only\n  game_demo bench trace --scene forest --iterations 15 --no-flat-rebuild --cpu-only --gpu-refit   # CPU refit against GPU refit (CPU ms)\n  game_demo bench trace --scene forest --rebraid 4   # a re-braided TLAS (up to 4 primitives an instance)\n  game_demo bench trace --scene cathedral --work-only --no-flat-rebuild --blas-build medium   # BLASes built as before 2026-12-05\n  game_demo bench trace --scene forest --work-only --no-flat-rebuild   # traversal work per ray, no timing\n  game_demo bench trace --scene cathedral --no-flat-rebuild --shared-stack 8   # the stack's top 8 entries in workgroup memory against function memory\n  game_demo bench trace --scene cathedral --no-flat-rebuild --persistent-groups 4224 --workgroup-size 128 --ray-order coherent --subgroup-postpone 0.2,0.35,0.5   # postponed triangle tests at three thresholds against tests at once\n  game_demo bench trace --scene cathedral --work-only --no-flat-rebuild --ray-order coherent --workgroup-size 32 --packet workgroup   # packets of 32 rays walking as one: their work a lane against a ray a lane"
+        after_long_help = "Examples:\n  game_demo bench trace --scene cathedral --iterations 15 --no-flat-rebuild\n  game_demo bench trace --scene forest --cpu-only   # the TLAS refit for moving instances only\n  game_demo bench trace --scene forest --iterations 15 --no-flat-rebuild --cpu-only --gpu-refit   # CPU refit against GPU refit (CPU ms)\n  game_demo bench trace --scene forest --rebraid 4   # a re-braided TLAS (up to 4 primitives an instance)\n  game_demo bench trace --scene cathedral --no-flat-rebuild --static-groups off   # each instance entered on its own, no static groups\n  game_demo bench trace --scene cathedral --work-only --no-flat-rebuild --blas-build medium   # BLASes built as before 2026-12-05\n  game_demo bench trace --scene forest --work-only --no-flat-rebuild   # traversal work per ray, no timing\n  game_demo bench trace --scene cathedral --no-flat-rebuild --shared-stack 8   # the stack's top 8 entries in workgroup memory against function memory\n  game_demo bench trace --scene cathedral --no-flat-rebuild --persistent-groups 4224 --workgroup-size 128 --ray-order coherent --subgroup-postpone 0.2,0.35,0.5   # postponed triangle tests at three thresholds against tests at once\n  game_demo bench trace --scene cathedral --work-only --no-flat-rebuild --ray-order coherent --workgroup-size 32 --packet workgroup   # packets of 32 rays walking as one: their work a lane against a ray a lane"
     )]
     Trace {
         /// A built-in scene or a scene file.
@@ -462,6 +462,11 @@ enum BenchCommand {
         /// (engine::rt::TLAS_REBRAID_BUDGET).
         #[arg(long)]
         rebraid: Option<f32>,
+        /// Static groups (engine::rt::StaticGrouping): `estimated` (the engine's default) traces
+        /// static instances that overlap through a shared BLAS where a CPU estimate says rays do
+        /// less work that way, `always` wherever they overlap, `off` enters each instance on its own.
+        #[arg(long, value_enum, default_value = "estimated")]
+        static_groups: StaticGroupsArg,
         /// How thoroughly the BLASes are built (engine::rt::BlasBuildQuality): `fast`, `medium`
         /// (obvhs's presets) or `high` (the engine's default).
         #[arg(long, value_enum, default_value = "high")]
@@ -578,6 +583,24 @@ enum BenchCommand {
 enum RayOrderArg {
     Fibonacci,
     Coherent,
+}
+
+/// `bench trace --static-groups`: see `engine::rt::StaticGrouping`.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, clap::ValueEnum)]
+enum StaticGroupsArg {
+    Off,
+    Estimated,
+    Always,
+}
+
+impl From<StaticGroupsArg> for engine::rt::StaticGrouping {
+    fn from(arg: StaticGroupsArg) -> Self {
+        match arg {
+            StaticGroupsArg::Off => Self::Off,
+            StaticGroupsArg::Estimated => Self::Estimated,
+            StaticGroupsArg::Always => Self::Always,
+        }
+    }
 }
 
 /// `bench trace --blas-build`: see `engine::rt::BlasBuildQuality`.
@@ -1198,6 +1221,7 @@ fn bench(command: BenchCommand) -> Result<(), String> {
             no_flat_rebuild,
             cpu_only,
             rebraid,
+            static_groups,
             blas_build,
             ray_order,
             workgroup_size,
@@ -1221,7 +1245,7 @@ fn bench(command: BenchCommand) -> Result<(), String> {
                 cpu_only,
                 work_only,
                 gpu_refit,
-                (rebraid, engine::rt::BlasBuildQuality::from(blas_build)),
+                (rebraid, engine::rt::BlasBuildQuality::from(blas_build), engine::rt::StaticGrouping::from(static_groups)),
                 bench::TraceVariant { ray_order, workgroup_size, persistent_groups, ..Default::default() },
                 (shared_stack, subgroup_postpone, subgroup_fetch, packet),
                 json,
@@ -1312,17 +1336,20 @@ fn bench(command: BenchCommand) -> Result<(), String> {
     let subgroups = !postpone.is_empty() || fetch || packets.contains(&bench::PacketScope::Subgroup);
     let gpu = GpuContext::new(GpuOptions { subgroups, ..Default::default() }).map_err(|e| e.to_string())?;
     let started = std::time::Instant::now();
-    let (rebraid, blas_build) = rebraid;
+    let (rebraid, blas_build, static_groups) = rebraid;
     let mut app = bench::prepared_app_with(&gpu, scene, blas_build);
     println!("# bench trace: {name} ({triangles} triangles) on {}", gpu.adapter_name());
     println!("scene prepared (BLAS ({blas_build:?}) and TLAS built, uploaded) in {:.2?}", started.elapsed());
     let prepare_ms = started.elapsed().as_secs_f64() * 1e3;
-    let build = bench::tlas_build(&mut app, rebraid);
+    let build = bench::tlas_build(&mut app, rebraid, Some(static_groups));
     println!(
-        "TLAS (re-braiding budget {}): {} primitives over {} instances, built and uploaded in {:.2} ms",
+        "TLAS (re-braiding budget {}, static groups {:?}): {} primitives over {} instances ({} static groups of {} instances), built and uploaded in {:.2} ms",
         build.budget,
+        build.static_grouping,
         build.primitives,
         build.instances,
+        build.groups,
+        build.grouped_instances,
         build.time.as_secs_f64() * 1e3
     );
     let mut report = serde_json::json!({
@@ -1330,6 +1357,7 @@ fn bench(command: BenchCommand) -> Result<(), String> {
         "ray_order": format!("{:?}", variant.ray_order), "workgroup_size": variant.workgroup_size, "persistent_groups": variant.persistent_groups,
         "prepare_ms": prepare_ms, "blas_build": format!("{blas_build:?}"), "rebraid_budget": build.budget, "tlas_primitives": build.primitives,
         "tlas_instances": build.instances, "tlas_build_ms": build.time.as_secs_f64() * 1e3,
+        "static_grouping": format!("{:?}", build.static_grouping), "static_group_count": build.groups, "grouped_instances": build.grouped_instances,
     });
     // The variants timed and counted: the one asked for, then the same with a shared stack, then
     // the same with triangle tests postponed at each share asked for.

@@ -636,6 +636,10 @@ pub fn traversal_work(
 pub struct TlasBuild {
     /// The re-braiding budget it was built with.
     pub budget: f32,
+    /// How static instances were grouped, and how many groups formed (with the instances they hold).
+    pub static_grouping: engine::rt::StaticGrouping,
+    pub groups: usize,
+    pub grouped_instances: usize,
     /// TLAS primitives (instances, and BLAS nodes opened by re-braiding).
     pub primitives: usize,
     /// Live instances.
@@ -644,15 +648,21 @@ pub struct TlasBuild {
     pub time: Duration,
 }
 
-/// Rebuilds the TLAS with re-braiding budget `budget` (`None`: the one it has) and times it.
-pub fn tlas_build(app: &mut App, budget: Option<f32>) -> TlasBuild {
+/// Rebuilds the TLAS with re-braiding budget `budget` (`None`: the one it has) and static groups on
+/// grouped as `grouping` says (`None`: as they are), and times it (static groups formed included).
+pub fn tlas_build(app: &mut App, budget: Option<f32>, grouping: Option<engine::rt::StaticGrouping>) -> TlasBuild {
     let mut rt = app.world_mut().resource_mut::<RayTracingScene>();
     let budget = budget.unwrap_or(rt.rebraid_budget());
     rt.set_rebraid_budget(budget);
+    let grouping = grouping.unwrap_or(rt.static_grouping());
+    rt.set_static_grouping(grouping);
     app.update();
     let rt = app.world().resource::<RayTracingScene>();
     TlasBuild {
         budget: rt.rebraid_budget(),
+        static_grouping: rt.static_grouping(),
+        groups: rt.static_group_count(),
+        grouped_instances: rt.grouped_instance_count(),
         primitives: rt.tlas_primitive_count(),
         instances: app.world().resource::<GpuScene>().live_instances().len(),
         time: rt.stats.cpu_time,

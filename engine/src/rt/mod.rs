@@ -27,6 +27,11 @@
 //!   through its own slice, then the few nodes above them; only changed nodes are uploaded, those
 //!   near each other in one copy. Every way gives the same nodes, bit for bit. A static scene does
 //!   no BVH work per frame.
+//! - **Static groups** (`groups.rs`, [`StaticGrouping`]): static instances whose meshes are used once
+//!   and whose world boxes overlap (a building's walls, vaults and floor) are traced through one BLAS
+//!   built over all their triangles in one member's space, entered by one TLAS leaf; each triangle
+//!   carries its member's instance slot, which the hit reports. A cluster becomes a group only where
+//!   rays traced on the CPU say it saves work; a member that moves leaves its group.
 //!
 //! Traversal lives in `engine/shaders/ray_tracing.inc.wgsl`: closest hit and any hit in one loop over both
 //! levels (a warp's lanes test TLAS and BLAS nodes with the same code in the same step), the ray
@@ -35,7 +40,12 @@
 
 pub mod cpu;
 pub(crate) mod gpu_refit;
+mod groups;
 pub use gpu_refit::{TLAS_GPU_COST_READ_EVERY, TLAS_REFIT_COST_SCALE};
+pub use groups::{
+    GROUP_COST_RAYS, GROUP_ENTER_COST, GROUP_MAX_TRIANGLES, GROUP_NODE_COST, GROUP_OVERLAP, GROUP_OVERLAP_PADDING, GROUP_TRIANGLE_COST,
+    StaticGrouping,
+};
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, Sender, channel};
@@ -169,7 +179,8 @@ impl BlasBuildQuality {
 pub struct Blas {
     /// The 8-wide nodes, root first (obvhs's CWBVH encoding, 80 bytes each on the GPU).
     pub nodes: Vec<obvhs::cwbvh::node::CwBvhNode>,
-    /// Triangles in leaf order: `[v0.xyz, mesh triangle index as bits], [e1.xyz, 0], [e2.xyz, 0]`.
+    /// Triangles in leaf order: `[v0.xyz, mesh triangle index as bits], [e1.xyz, tag], [e2.xyz, 0]`,
+    /// the tag 0 in a mesh's BLAS and the member's instance slot + 1 (as bits) in a static group's.
     pub triangles: Vec<[f32; 12]>,
     /// Local-space bounds (`None` for a mesh without triangles).
     pub bounds: Option<(Vec3, Vec3)>,
@@ -196,18 +207,26 @@ impl Blas {
                 Triangle { v0: p(t[0]), v1: p(t[1]), v2: p(t[2]) }
             })
             .collect();
+        let tags: Vec<(u32, u32)> = (0..tris.len() as u32).map(|i| (i, 0)).collect();
+        Self::build_tagged(&tris, &tags, quality)
+    }
+
+    /// Builds a BLAS over `tris`, each stored with its tag: (mesh triangle index, instance slot + 1
+    /// for a static group's triangle, 0 for a mesh's), in the first and second records' w.
+    pub(crate) fn build_tagged(tris: &[Triangle], tags: &[(u32, u32)], quality: BlasBuildQuality) -> Self {
         if tris.is_empty() {
             return Self { nodes: Vec::new(), triangles: Vec::new(), bounds: None };
         }
         let mut time = Duration::ZERO;
-        let cwbvh: CwBvh = obvhs::cwbvh::builder::build_cwbvh_from_tris(&tris, quality.params(), &mut time);
+        let cwbvh: CwBvh = obvhs::cwbvh::builder::build_cwbvh_from_tris(tris, quality.params(), &mut time);
         let triangles = cwbvh
             .primitive_indices
             .iter()
             .map(|&i| {
                 let t = tris[i as usize];
+                let (prim, member) = tags[i as usize];
                 let (e1, e2) = (t.v1 - t.v0, t.v2 - t.v0);
-                [t.v0.x, t.v0.y, t.v0.z, f32::from_bits(i), e1.x, e1.y, e1.z, 0.0, e2.x, e2.y, e2.z, 0.0]
+                [t.v0.x, t.v0.y, t.v0.z, f32::from_bits(prim), e1.x, e1.y, e1.z, f32::from_bits(member), e2.x, e2.y, e2.z, 0.0]
             })
             .collect();
         let b = cwbvh.total_aabb;
@@ -495,6 +514,11 @@ pub struct RayTracingScene {
     rebraid_budget: f32,
     /// A rebuild was asked for (a setting changed).
     rebuild_requested: bool,
+    /// Whether static instances that overlap are traced through shared BLASes (static groups, see
+    /// `groups.rs`; [`RayTracingScene::set_static_grouping`]).
+    static_grouping: StaticGrouping,
+    /// The static groups, and the clusters found not worth one.
+    static_groups: groups::StaticGroups,
     /// Instance slots that have moved since the scene was loaded: kept at their BLAS root by
     /// re-braiding (a freed slot that a new instance takes keeps its mark).
     slot_moved: Vec<bool>,
@@ -550,6 +574,8 @@ impl RayTracingScene {
             gpu_refit_ready: false,
             rebraid_budget: TLAS_REBRAID_BUDGET,
             rebuild_requested: false,
+            static_grouping: StaticGrouping::default(),
+            static_groups: groups::StaticGroups::default(),
             slot_moved: Vec::new(),
             marked: Vec::new(),
             wide_marked: Vec::new(),
@@ -749,6 +775,7 @@ impl RayTracingScene {
         any
     }
 
+    /// Uploads every BLAS (the meshes', then the static groups') and the meshes' [`GpuBlas`] records.
     fn upload_blas(&mut self, gpu: &GpuContext, scene: &GpuScene) {
         let mut nodes: Vec<u8> = Vec::new();
         let mut triangles: Vec<[f32; 12]> = Vec::new();
@@ -776,6 +803,20 @@ impl RayTracingScene {
             self.gpu_blas.push(info);
         }
         let limit = crate::render::gpu_scene::max_storage_buffer_bytes(&gpu.device);
+        // Static groups after the meshes, while both buffers stay within the limit (a group that
+        // does not fit is not used: its members are traced one by one).
+        for group in &mut self.static_groups.groups {
+            let (node_bytes, triangle_bytes) =
+                (nodes.len() + group.blas.nodes.len() * 80, (triangles.len() + group.blas.triangles.len()) * 48);
+            if node_bytes as u64 > limit || triangle_bytes as u64 > limit {
+                group.node_offset = NONE;
+                continue;
+            }
+            group.node_offset = (nodes.len() / 80) as u32;
+            group.triangle_offset = triangles.len() as u32;
+            nodes.extend_from_slice(bytemuck::cast_slice(&group.blas.nodes));
+            triangles.extend_from_slice(&group.blas.triangles);
+        }
         let needed = (nodes.len() as u64).max(std::mem::size_of_val(triangles.as_slice()) as u64);
         self.over_limit = None;
         if needed > limit {
@@ -795,6 +836,9 @@ impl RayTracingScene {
             for info in &mut self.gpu_blas {
                 *info = GpuBlas { node_offset: u32::MAX, ..GpuBlas::zeroed() };
             }
+            for group in &mut self.static_groups.groups {
+                group.node_offset = NONE;
+            }
         }
         self.blas_nodes.write(gpu, &nodes);
         self.blas_triangles.write(gpu, bytemuck::cast_slice(&triangles));
@@ -813,11 +857,21 @@ impl RayTracingScene {
         Some((TlasPrim { local, entry }, aabb))
     }
 
-    /// Rebuilds the TLAS from every live instance whose BLAS is ready.
-    fn rebuild_tlas(&mut self, gpu: &GpuContext, instances: &[(u32, u32, Affine3A)]) {
+    /// Rebuilds the TLAS from every live instance whose BLAS is ready (static groups formed or
+    /// dissolved first, the BLAS buffers uploaded again when they changed).
+    fn rebuild_tlas(&mut self, gpu: &GpuContext, scene: &GpuScene) {
         self.rebuild_requested = false;
+        let instances = scene.live_instances();
+        if self.update_static_groups(&instances) {
+            self.upload_blas(gpu, scene);
+        }
+        let grouped: std::collections::HashSet<u32> =
+            self.static_groups.groups.iter().filter(|g| g.node_offset != NONE).flat_map(|g| g.members.iter().map(|m| m.0)).collect();
         let mut roots = Vec::with_capacity(instances.len());
-        for &(slot, mesh, world) in instances {
+        for &(slot, mesh, world) in &instances {
+            if grouped.contains(&slot) {
+                continue;
+            }
             let Some((prim, aabb)) = self.instance_prim(slot, mesh, &world) else { continue };
             roots.push((prim, aabb, mesh, world));
         }
@@ -834,6 +888,18 @@ impl RayTracingScene {
                 self.slot_prims[slot] = self.tlas_prims.len() as u32;
             }
             self.tlas_prims.push(prim);
+            aabbs.push(aabb);
+        }
+        // A group's leaf is entered in its frame instance's space. Its members keep no primitive of
+        // their own (`slot_prims`): one that moves makes the refit give way to a rebuild, which
+        // dissolves the group.
+        for group in self.static_groups.groups.iter().filter(|g| g.node_offset != NONE) {
+            let Some(local) = group.blas.bounds else { continue };
+            let Some(&(_, _, world)) = group.members.iter().find(|m| m.0 == group.frame) else { continue };
+            let Some(aabb) = world_aabb(local, &world) else { continue };
+            let entry =
+                TlasEntry { instance: group.frame, node_offset: group.node_offset, triangle_offset: group.triangle_offset, start_node: 0 };
+            self.tlas_prims.push(TlasPrim { local, entry });
             aabbs.push(aabb);
         }
         if aabbs.is_empty() {
@@ -1584,12 +1650,12 @@ pub fn prepare_ray_tracing_scene(
         for &slot in &changes.moved {
             rt.note_moved(slot);
         }
-        rt.rebuild_tlas(&gpu, &scene.live_instances());
+        rt.rebuild_tlas(&gpu, &scene);
     } else if !changes.moved.is_empty() {
         let moved: Vec<(u32, u32, Affine3A)> =
             changes.moved.iter().filter_map(|&slot| scene.instance_placement(slot).map(|(m, w)| (slot, m, w))).collect();
         if !rt.refit_tlas(&gpu, &mut uploads, &moved) {
-            rt.rebuild_tlas(&gpu, &scene.live_instances());
+            rt.rebuild_tlas(&gpu, &scene);
         }
     }
     if rt.stats.tlas_rebuilt || rt.stats.tlas_refitted_leaves > 0 || new_blas {
