@@ -64,8 +64,8 @@ struct Args {
     #[arg(long)]
     json: Option<PathBuf>,
     /// Rows of ours with adaptive budgets capped at these shares of the rays sgl-3d traced per
-    /// update, `S[,S…]` (1: at its count). Below 1 they compare the two at equal or lower error
-    /// with fewer rays than sgl-3d's.
+    /// update, `S[,S…]` (1: at its count; each in (0, 16]). Below 1 they compare the two at equal
+    /// or lower error with fewer rays than sgl-3d's; above 1, what more rays than sgl-3d's buy.
     #[arg(long, value_delimiter = ',', default_value = "1")]
     ours_at_shares: Vec<f64>,
     /// Leave out the sgl-3d row whose volume is kept awake (a light changed by one part in a
@@ -138,8 +138,8 @@ fn median(mut v: Vec<f64>) -> Option<f64> {
 }
 
 fn run(args: &Args) -> Result<(), String> {
-    if let Some(bad) = args.ours_at_shares.iter().find(|s| !(s.is_finite() && **s > 0.0 && **s <= 1.0)) {
-        return Err(format!("--ours-at-shares: each share must be in (0, 1], got {bad}"));
+    if let Some(bad) = args.ours_at_shares.iter().find(|s| !(s.is_finite() && **s > 0.0 && **s <= 16.0)) {
+        return Err(format!("--ours-at-shares: each share must be in (0, 16], got {bad}"));
     }
     let quality = match args.rays {
         128 => DynamicGiQuality::Low,

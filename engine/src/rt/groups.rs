@@ -186,6 +186,7 @@ impl RayTracingScene {
         if !frame_from_world.to_cols_array().iter().all(|v| v.is_finite()) {
             return None;
         }
+        let started = std::time::Instant::now();
         let mut tris = Vec::new();
         let mut tags = Vec::new();
         for (&(slot, _, world), blas) in members.iter().zip(&blases) {
@@ -202,10 +203,11 @@ impl RayTracingScene {
         let (merged, separate) = group_costs(&group, &frame_world, members, &blases)?;
         let formed = always || merged < separate;
         log::info!(
-            "static group of {} instances ({} triangles): {merged:.2} steps a ray against {separate:.2} one by one (estimated): {}",
+            "static group of {} instances ({} triangles): {merged:.2} steps a ray against {separate:.2} one by one (estimated): {} (built and estimated in {:.1?})",
             members.len(),
             group.triangles.len(),
-            if formed { "formed" } else { "not formed" }
+            if formed { "formed" } else { "not formed" },
+            started.elapsed()
         );
         formed.then(|| StaticGroup {
             members: members.to_vec(),
