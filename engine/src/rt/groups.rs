@@ -75,7 +75,7 @@ pub enum StaticGrouping {
     /// Every instance is entered on its own.
     Off,
     /// Clusters of overlapping static instances become groups where the CPU estimate
-    /// ([`group_costs`]) says rays do less work through the group (the default). Costs the group
+    /// (`group_costs`) says rays do less work through the group (the default). Costs the group
     /// BLAS's build and the estimate's rays (cathedral, 72,576 triangles: about 120 ms on a 2-core
     /// VM) when the scene is loaded, and a second copy of the members' triangles and nodes.
     #[default]
@@ -170,7 +170,7 @@ impl RayTracingScene {
             .collect()
     }
 
-    /// The group of a cluster, when its estimated traversal work ([`group_costs`]) is below its
+    /// The group of a cluster, when its estimated traversal work (`group_costs`) is below its
     /// members' one by one (or `always`); `None` otherwise (or when it would be too large, or its
     /// frame's transform cannot be inverted).
     fn build_group(&self, members: &[(u32, u32, Affine3A)], quality: BlasBuildQuality, always: bool) -> Option<StaticGroup> {
@@ -295,7 +295,7 @@ fn overlaps(a: &Aabb, b: &Aabb, pad: f32) -> bool {
     overlap > 0.0 && overlap >= GROUP_OVERLAP * volume(a_lo, a_hi).min(volume(b_lo, b_hi))
 }
 
-/// Rays the cost estimate of a cluster traces on the CPU ([`group_costs`]).
+/// Rays the cost estimate of a cluster traces on the CPU (`group_costs`).
 pub const GROUP_COST_RAYS: u32 = 2048;
 
 /// The traversal work of the closest hits of one ray through a BLAS, in its space: node tests and
