@@ -56,12 +56,15 @@ peer: toolchain vulkan-driver
 # The peer table of BENCHMARKS.md in one command: cornell at 256×256, the cathedral and the demo
 # level at 1280×720, 128 rays a probe, each scene's rows interleaved frame by frame; the three
 # tables end up together in out/peer/table.md. Needs a GPU whose driver gives sgl-3d its binding tier.
+# PEER_SHARES: the rows of ours capped at these shares of sgl-3d's rays (1: its count; 2: twice it,
+# where the cathedral is ≥ 2× faster at lower FLIP and relative MSE).
 PEER_SCENES ?= cornell:256:256 cathedral:1280:720 level:1280:720
+PEER_SHARES ?= 1,2
 peer-table: toolchain vulkan-driver
 	@mkdir -p $(XDG_RUNTIME_DIR) && chmod 700 $(XDG_RUNTIME_DIR)
 	@set -e; for s in $(PEER_SCENES); do \
 		scene=$${s%%:*}; size=$${s#*:}; w=$${size%%:*}; h=$${size#*:}; \
-		$(CARGO) run --release --ignore-rust-version --manifest-path peer/Cargo.toml -- --scene $$scene --width $$w --height $$h --rays 128 --out out/peer --json out/peer/$$scene.json; \
+		$(CARGO) run --release --ignore-rust-version --manifest-path peer/Cargo.toml -- --scene $$scene --width $$w --height $$h --rays 128 --ours-at-shares $(PEER_SHARES) --out out/peer --json out/peer/$$scene.json; \
 	done; for s in $(PEER_SCENES); do cat out/peer/$${s%%:*}.md; echo; done > out/peer/table.md
 	@echo "wrote out/peer/table.md"
 
