@@ -76,8 +76,8 @@ pub enum StaticGrouping {
     Off,
     /// Clusters of overlapping static instances become groups where the CPU estimate
     /// (`group_costs`) says rays do less work through the group (the default). Costs the group
-    /// BLAS's build and the estimate's rays (cathedral, 72,576 triangles: about 120 ms on a 2-core
-    /// VM) when the scene is loaded, and a second copy of the members' triangles and nodes.
+    /// BLAS's build and the estimate's rays (cathedral, 72,576 triangles: 146 ms on a 2-core VM)
+    /// when the scene is loaded, and a second copy of the members' triangles and nodes.
     #[default]
     Estimated,
     /// Every cluster becomes a group, whatever the estimate says (for measuring it).
