@@ -428,6 +428,14 @@ fn cube_field(transforms: &[Transform]) -> SceneDescription {
     s
 }
 
+/// Two apps of the same cube field: the first refits its TLAS on the CPU, the second on the GPU.
+fn refit_pair(gpu: &engine::gpu::GpuContext, start: &[Transform]) -> [App; 2] {
+    let mut apps = [app_for(gpu, cube_field(start)), app_for(gpu, cube_field(start))];
+    apps[0].world_mut().resource_mut::<RayTracingScene>().tlas_refit = engine::rt::TlasRefit::Cpu;
+    apps[1].world_mut().resource_mut::<RayTracingScene>().tlas_refit = engine::rt::TlasRefit::Gpu;
+    apps
+}
+
 /// `count` placements over a `side` × `side` square, up to 4 m high, as a forest's trees and props.
 fn field_transforms(count: usize, side: f32, seed: u64) -> Vec<Transform> {
     let mut rng = SplitMix64::new(seed);
@@ -900,9 +908,7 @@ fn a_gpu_refit_writes_the_wide_nodes_a_cpu_refit_encodes_bit_for_bit() {
     use engine::rt::TlasRefit;
     let Some(gpu) = testkit::gpu("a_gpu_refit_writes_the_wide_nodes_a_cpu_refit_encodes_bit_for_bit") else { return };
     let start = field_transforms(2000, 80.0, 12);
-    let mut apps = [app_for(&gpu, cube_field(&start)), app_for(&gpu, cube_field(&start))];
-    apps[0].world_mut().resource_mut::<RayTracingScene>().tlas_refit = TlasRefit::Cpu;
-    apps[1].world_mut().resource_mut::<RayTracingScene>().tlas_refit = TlasRefit::Gpu;
+    let mut apps = refit_pair(&gpu, &start);
     let (mut gpu_refits, mut compared) = (0, 0);
     // Frames 9 and 10 refit on the CPU (the GPU's copy is then reloaded), the others on the GPU; from
     // frame 4 on some instances move far or change scale (the TLASes are then rebuilt at times).
@@ -942,13 +948,11 @@ fn a_gpu_refit_writes_the_wide_nodes_a_cpu_refit_encodes_bit_for_bit() {
 /// after it, and the cost they measure is the CPU copy's.
 #[test]
 fn a_gpu_refit_rebuilds_a_tlas_whose_quality_decayed() {
-    use engine::rt::{TLAS_GPU_COST_READ_EVERY, TLAS_REBUILD_COST_RATIO, TlasRefit};
+    use engine::rt::{TLAS_GPU_COST_READ_EVERY, TLAS_REBUILD_COST_RATIO};
     let Some(gpu) = testkit::gpu("a_gpu_refit_rebuilds_a_tlas_whose_quality_decayed") else { return };
     let every = TLAS_GPU_COST_READ_EVERY as u64;
     let start = field_transforms(2000, 80.0, 17);
-    let mut apps = [app_for(&gpu, cube_field(&start)), app_for(&gpu, cube_field(&start))];
-    apps[0].world_mut().resource_mut::<RayTracingScene>().tlas_refit = TlasRefit::Cpu;
-    apps[1].world_mut().resource_mut::<RayTracingScene>().tlas_refit = TlasRefit::Gpu;
+    let mut apps = refit_pair(&gpu, &start);
     let mut readings = Vec::new();
     let jitter_frames = 3 * every + 2;
     for frame in 0..jitter_frames {
@@ -1010,13 +1014,10 @@ fn a_gpu_refit_rebuilds_a_tlas_whose_quality_decayed() {
 /// nodes bit for bit, frame after frame, with no rebuild; the cost they measure is the CPU copy's.
 #[test]
 fn a_gpu_refit_of_one_two_and_nine_instances_is_the_cpu_refit() {
-    use engine::rt::TlasRefit;
     let Some(gpu) = testkit::gpu("a_gpu_refit_of_one_two_and_nine_instances_is_the_cpu_refit") else { return };
     for count in [1, 2, 9] {
         let start = field_transforms(count, 10.0, 60 + count as u64);
-        let mut apps = [app_for(&gpu, cube_field(&start)), app_for(&gpu, cube_field(&start))];
-        apps[0].world_mut().resource_mut::<RayTracingScene>().tlas_refit = TlasRefit::Cpu;
-        apps[1].world_mut().resource_mut::<RayTracingScene>().tlas_refit = TlasRefit::Gpu;
+        let mut apps = refit_pair(&gpu, &start);
         for frame in 0..2 * engine::rt::TLAS_GPU_COST_READ_EVERY as u64 + 2 {
             for app in &mut apps {
                 move_cubes(app, &mut SplitMix64::new(500 + frame), 1.0, false);
@@ -1036,12 +1037,9 @@ fn a_gpu_refit_of_one_two_and_nine_instances_is_the_cpu_refit() {
 
 #[test]
 fn rays_after_a_gpu_refit_hit_what_rays_after_a_cpu_refit_hit() {
-    use engine::rt::TlasRefit;
     let Some(gpu) = testkit::gpu("rays_after_a_gpu_refit_hit_what_rays_after_a_cpu_refit_hit") else { return };
     let start = field_transforms(3000, 120.0, 41);
-    let mut apps = [app_for(&gpu, cube_field(&start)), app_for(&gpu, cube_field(&start))];
-    apps[0].world_mut().resource_mut::<RayTracingScene>().tlas_refit = TlasRefit::Cpu;
-    apps[1].world_mut().resource_mut::<RayTracingScene>().tlas_refit = TlasRefit::Gpu;
+    let mut apps = refit_pair(&gpu, &start);
     // Wild moves, then small ones: the last two refitted on the GPU (the cost readings of the wild
     // moves, a few frames late, may ask for rebuilds before).
     let last = 5 + 2 * engine::rt::TLAS_GPU_COST_READ_EVERY as u64 + 4;
@@ -1081,7 +1079,6 @@ fn rays_after_a_gpu_refit_hit_what_rays_after_a_cpu_refit_hit() {
 
 #[test]
 fn a_gpu_refit_of_far_flat_and_tiny_instances_is_the_cpu_refit() {
-    use engine::rt::TlasRefit;
     let Some(gpu) = testkit::gpu("a_gpu_refit_of_far_flat_and_tiny_instances_is_the_cpu_refit") else { return };
     // Cubes 300 km out (float steps of 1/32 m there), flat ones (zero thickness on an
     // axis), tiny ones, mirrored ones and a few at the origin, all moving.
@@ -1100,9 +1097,7 @@ fn a_gpu_refit_of_far_flat_and_tiny_instances_is_the_cpu_refit() {
                 .with_scale(scale)
         })
         .collect();
-    let mut apps = [app_for(&gpu, cube_field(&start)), app_for(&gpu, cube_field(&start))];
-    apps[0].world_mut().resource_mut::<RayTracingScene>().tlas_refit = TlasRefit::Cpu;
-    apps[1].world_mut().resource_mut::<RayTracingScene>().tlas_refit = TlasRefit::Gpu;
+    let mut apps = refit_pair(&gpu, &start);
     for frame in 0..4u64 {
         for app in &mut apps {
             let mut rng = SplitMix64::new(50 + frame);
