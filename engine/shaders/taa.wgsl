@@ -5,16 +5,7 @@
 // pixel becomes the running mean of up to `max_samples` jittered samples: the box-filtered,
 // anti-aliased image the path tracer also converges to. Alpha of the history: its sample count.
 #include "scene.inc.wgsl"
-
-struct TaaParams {
-    // Most samples a history pixel averages; past it the running mean is an exponential one.
-    max_samples: f32,
-    // 0: no history (the first frame, a camera cut or a new size): the frame is taken as it is.
-    history_valid: u32,
-    // Sharpening of the output (pass taa_output), 0–1.
-    sharpness: f32,
-    _pad: u32,
-}
+#include "taa.inc.wgsl"
 
 @group(1) @binding(0) var<uniform> taa: TaaParams;
 @group(1) @binding(1) var taa_current: texture_2d<f32>;

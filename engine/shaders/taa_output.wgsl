@@ -2,13 +2,7 @@
 // the tonemapper shows and image.exr holds), sharpened when asked: an unsharp mask over the four
 // direct neighbours, limited to their range so that it cannot ring or go negative.
 #include "scene.inc.wgsl"
-
-struct TaaParams {
-    max_samples: f32,
-    history_valid: u32,
-    sharpness: f32,
-    _pad: u32,
-}
+#include "taa.inc.wgsl"
 
 @group(1) @binding(0) var<uniform> taa: TaaParams;
 @group(1) @binding(1) var taa_resolved: texture_2d<f32>;

@@ -38,6 +38,7 @@ pub const ENGINE_SHADERS: &[ShaderModule] = &[
     ("direct_lighting.wgsl", include_str!("../shaders/direct_lighting.wgsl")),
     ("tonemap.wgsl", include_str!("../shaders/tonemap.wgsl")),
     ("blit.wgsl", include_str!("../shaders/blit.wgsl")),
+    ("taa.inc.wgsl", include_str!("../shaders/taa.inc.wgsl")),
     ("taa.wgsl", include_str!("../shaders/taa.wgsl")),
     ("taa_output.wgsl", include_str!("../shaders/taa_output.wgsl")),
     ("exposure.inc.wgsl", include_str!("../shaders/exposure.inc.wgsl")),

@@ -144,6 +144,8 @@ pub struct GpuLight {
 /// against naga's layout ([`crate::shader::check_struct_layout`]).
 pub fn gpu_structs() -> Vec<crate::shader::HostStruct> {
     use crate::gpu_struct_layout as layout;
+    use crate::render::exposure::ExposureParams;
+    use crate::render::taa::TaaParams;
     use crate::rt::cpu::{GpuRay as Ray, TraceResult};
     use crate::rt::gpu_refit::{TlasRefitLeaf, TlasRefitParams};
     use crate::rt::{GpuBlas, TlasEntry};
@@ -169,5 +171,9 @@ pub fn gpu_structs() -> Vec<crate::shader::HostStruct> {
         layout!(TlasRefitParams in "tlas_refit.wgsl" { moved, inner, leaves, wide }),
         layout!(TlasRefitLeaf in "tlas_refit.wgsl" { lo, leaf, hi, _pad }),
         layout!(TraceResult in "trace_rays.wgsl" { t, instance, primitive, flags, barycentrics, any_hit, _pad, albedo, emissive }),
+        layout!(TaaParams in "taa.inc.wgsl" { max_samples, history_valid, sharpness, _pad }),
+        layout!(ExposureParams in "exposure.inc.wgsl" {
+            min_ev100, max_ev100, low_percentile, high_percentile, compensation, speed_brighten, speed_darken, delta_seconds
+        }),
     ]
 }
