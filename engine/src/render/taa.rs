@@ -77,7 +77,7 @@ pub fn jitter(sample: u32) -> Vec2 {
     if k == 0 { Vec2::ZERO } else { Vec2::new(halton(k, 2), halton(k, 3)) - 0.5 }
 }
 
-/// `TaaParams` of `taa.wgsl` and `taa_output.wgsl`.
+/// `TaaParams` of `taa.inc.wgsl`, which both TAA passes (`taa.wgsl`, `taa_output.wgsl`) include.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub(crate) struct TaaParams {
