@@ -116,7 +116,7 @@ fn the_agx_display_transform_matches_its_cpu_mirror_and_keeps_highlights() {
 
 #[test]
 fn kenney_model_renders_with_its_texture() {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/kenney_fps");
+    let Some(dir) = testkit::shared("kenney_model_renders_with_its_texture", scenes::shared::KENNEY_FPS) else { return };
     let Some(gpu) = testkit::gpu("kenney_model_renders_with_its_texture") else { return };
     let mut scene = engine::import::load_scene(&dir.join("platform-large-grass.glb")).expect("load");
     let sun = Transform::IDENTITY.looking_at(Vec3::new(-0.3, -1.0, -0.5), Vec3::Y);

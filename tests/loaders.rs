@@ -382,8 +382,8 @@ fn obj_metals_from_the_mtl_pbr_extension() {
 
 #[test]
 fn kenney_models() {
-    // Vendored with their CC0 licence: always there.
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/kenney_fps");
+    // Kenney's CC0 models in the shared folder beside the checkout (the repository holds none).
+    let Some(dir) = testkit::shared("kenney_models", scenes::shared::KENNEY_FPS) else { return };
     let mut models: Vec<PathBuf> =
         std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().path()).filter(|p| p.extension().is_some_and(|e| e == "glb")).collect();
     models.sort();

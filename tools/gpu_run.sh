@@ -9,9 +9,16 @@ if ! ls /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json >/dev/null 2>&1;
     export VK_DRIVER_FILES=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
 fi
 export WGPU_BACKEND=vulkan RUST_LOG=${RUST_LOG:-warn}
-# Binaries built before the Kenney models were vendored look for them in ../shared beside the
-# checkout they were built from (/work/main or /tmp/base): put a copy there.
-for d in /work/shared/assets /shared/assets; do mkdir -p "$d" && cp -r assets/kenney_fps "$d/" 2>/dev/null; done
+# The shared folder (Kenney's models for the level) does not travel with the checkout: carry a copy
+# as .shared/ (`mkdir -p .shared/assets && cp -r ../shared/assets/kenney_fps .shared/assets/`, and
+# `carry: [".shared"]`); binaries find it through DDGI_SHARED_DIR, older ones in ../shared beside
+# the checkout they were built from (/work/main or /tmp/base). Without it the level has its own props.
+if [ -d .shared ]; then
+    export DDGI_SHARED_DIR=$PWD/.shared
+    for d in /work/shared /shared; do mkdir -p "$d" && cp -r .shared/. "$d/" 2>/dev/null; done
+else
+    echo "no .shared/ carried: the level is built from its own props" >&2
+fi
 # B: the binary (default dist/game_demo); TAG: a suffix for the results of this call, so that
 # several binaries can be compared in one session.
 B=${B:-dist/game_demo}

@@ -255,7 +255,8 @@ struct PlayArgs {
     /// 16×8×16 probes, the finest at --cascade-spacing, each next twice as coarse.
     #[arg(long, default_value_t = play::PlayOptions::default().cascades, value_parser = clap::value_parser!(u32).range(0..=8))]
     cascades: u32,
-    /// Build the level from procedural geometry only, without the Kenney models.
+    /// Build the level from its own procedural props, without Kenney's models (which it loads from
+    /// ../shared/assets/kenney_fps, or $DDGI_SHARED_DIR/assets/kenney_fps, when they are there).
     #[arg(long)]
     no_assets: bool,
     /// Without temporal anti-aliasing: every frame as rendered (aliased edges, no jitter).

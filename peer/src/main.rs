@@ -30,8 +30,9 @@ use sgl_3d::settings::DynamicGiQuality;
     after_long_help = "Examples:\n  peer --scene cornell --width 256 --height 256\n  peer --scene level --width 1280 --height 720\n  peer --scene cathedral --width 1280 --height 720 --rays 256 --json out/peer/cathedral.json"
 )]
 struct Args {
-    /// A built-in scene: cornell, cathedral, level (the demo level, with the Kenney models when
-    /// assets/kenney_fps is there), or any of `scenes::ALL` whose content converts.
+    /// A built-in scene: cornell, cathedral, level (the demo level, with Kenney's models when
+    /// ../shared/assets/kenney_fps is there, its own props otherwise), or any of `scenes::ALL`
+    /// whose content converts.
     #[arg(long, default_value = "cornell")]
     scene: String,
     #[arg(long, default_value_t = 256)]

@@ -1,5 +1,6 @@
-//! The demo level's content: a grass field kit-bashed from Kenney's FPS kit (CC0) around a house
-//! built from thick procedural boxes, its lights, camera, sky and DDGI volume, and its floor plan
+//! The demo level's content: a grass field kit-bashed from Kenney's FPS kit (CC0, loaded from the
+//! shared folder beside the checkout, [`kenney_assets_dir`]) or from the project's own low-poly
+//! props ([`props`]) around a house built from thick procedural boxes, its lights, camera, sky and DDGI volume, and its floor plan
 //! for a navigation mesh and a character controller. What animates it (the door, the lift, the
 //! day–night cycle, the colour-cycling light) is the demo's (`game_demo`'s `play::level`); the
 //! parameters of the sun's day and of the light's colour are here, since the scene is built from
@@ -16,12 +17,16 @@
 //!   a flying enemy circling the field and a lift platform east of the house moving between 0.3 m
 //!   and 2.8 m.
 //!
-//! Every mesh is a closed solid (boxes or Kenney's closed models) so that probes can tell inside
-//! from outside. Without the Kenney folder the props become procedural boxes of the same size, so
-//! the layout (and the tests) do not depend on the assets.
+//! Every mesh is a closed solid (boxes, Kenney's closed models, the props' closed pieces) so that
+//! probes can tell inside from outside. Without the Kenney folder each model is replaced by the
+//! project's own prop of the same size, so the layout (and the tests) do not depend on the assets.
+
+pub mod props;
 
 use std::f32::consts::{PI, TAU};
 use std::path::{Path, PathBuf};
+
+use props::PropPiece;
 
 use bevy_ecs::component::Component;
 use engine::scene::{Camera, DirectionalLight, Material, NodeContent, Orbit, PointLight, SceneDescription, Transform};
@@ -43,7 +48,7 @@ pub fn probe_counts() -> UVec3 {
 }
 
 /// The level as `render`, `eval` and `peer` show it: with the Kenney models when they are there
-/// ([`kenney_assets_or_note`]).
+/// ([`kenney_assets_or_note`]), with the project's own props otherwise.
 pub fn scene() -> SceneDescription {
     demo_level(kenney_assets_or_note().as_deref()).scene
 }
@@ -179,18 +184,16 @@ pub fn view_of_the_door_from_inside() -> Transform {
 pub fn kenney_assets_or_note() -> Option<PathBuf> {
     let dir = kenney_assets_dir();
     if dir.is_none() {
-        eprintln!("note: assets/kenney_fps is absent; the level is built from procedural geometry only");
+        eprintln!("note: {}; the level uses its own procedural props", crate::shared::absent(crate::shared::KENNEY_FPS));
     }
     dir
 }
 
-/// The Kenney FPS kit (CC0, vendored with its licence in `<repo>/assets/kenney_fps`), if it is there:
-/// under the working directory (a binary run from a checkout's root), else in the checkout the
-/// binary was built from.
+/// Kenney's Starter Kit FPS (CC0, by Kenney) in the shared folder beside the checkout
+/// (`../shared/assets/kenney_fps`, see [`crate::shared`]), if it is there with its texture folder.
+/// The repository holds none of it.
 pub fn kenney_assets_dir() -> Option<PathBuf> {
-    let here = Path::new("assets/kenney_fps").to_path_buf();
-    let built = Path::new(env!("CARGO_MANIFEST_DIR")).join("../assets/kenney_fps");
-    [here, built].into_iter().find(|d| d.join("Textures").is_dir())
+    crate::shared::path(crate::shared::KENNEY_FPS).filter(|d| d.join("Textures").is_dir())
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -235,37 +238,53 @@ const DOOR_WOOD: Vec3 = Vec3::new(0.45, 0.24, 0.1);
 const STONE: Vec3 = Vec3::new(0.5, 0.5, 0.52);
 const LIFT_PAINT: Vec3 = Vec3::new(0.9, 0.5, 0.08);
 
-/// Measured bounds of the Kenney models (used to place them and for their stand-in boxes).
+/// Measured bounds of the Kenney models (used to place them, and filled by the props that stand in
+/// for them).
 struct KitModel {
     file: &'static str,
     min: Vec3,
     max: Vec3,
-    /// Colour of the stand-in box; `None`: no stand-in (small decoration).
-    fallback: Option<Vec3>,
+    /// The project's own prop of these bounds, used without the Kenney folder.
+    prop: fn(Vec3, Vec3) -> Vec<PropPiece>,
 }
 
 const PLATFORM_SMALL: KitModel =
-    KitModel { file: "platform.glb", min: Vec3::new(-1.1, 0.0, -1.1), max: Vec3::new(1.1, 0.5, 1.1), fallback: Some(GRASS) };
-const PLATFORM_LARGE: KitModel =
-    KitModel { file: "platform-large-grass.glb", min: Vec3::new(-2.6, 0.0, -2.6), max: Vec3::new(2.6, 0.5, 2.6), fallback: Some(GRASS) };
-const WALL_HIGH: KitModel =
-    KitModel { file: "wall-high.glb", min: Vec3::new(-0.75, 0.0, -0.35), max: Vec3::new(0.75, 1.7, 0.35), fallback: Some(STONE) };
-const WALL_LOW: KitModel =
-    KitModel { file: "wall-low.glb", min: Vec3::new(-1.1, 0.0, -0.35), max: Vec3::new(1.1, 0.8, 0.35), fallback: Some(STONE) };
-const GRASS_TUFT: KitModel =
-    KitModel { file: "grass.glb", min: Vec3::new(-0.26, 0.0, -0.27), max: Vec3::new(0.26, 0.31, 0.27), fallback: None };
-const GRASS_SMALL: KitModel =
-    KitModel { file: "grass-small.glb", min: Vec3::new(-0.12, 0.0, -0.16), max: Vec3::new(0.12, 0.26, 0.16), fallback: None };
-const CLOUD: KitModel =
-    KitModel { file: "cloud.glb", min: Vec3::new(-0.5, 0.0, -0.5), max: Vec3::new(0.5, 1.0, 0.5), fallback: Some(Vec3::splat(0.9)) };
-const ENEMY_FLYING: KitModel = KitModel {
-    file: "enemy-flying.glb",
-    min: Vec3::new(-0.6, 0.0, -0.32),
-    max: Vec3::new(0.6, 0.875, 0.43),
-    fallback: Some(Vec3::new(0.5, 0.1, 0.6)),
+    KitModel { file: "platform.glb", min: Vec3::new(-1.1, 0.0, -1.1), max: Vec3::new(1.1, 0.5, 1.1), prop: props::grass_platform };
+const PLATFORM_LARGE: KitModel = KitModel {
+    file: "platform-large-grass.glb",
+    min: Vec3::new(-2.6, 0.0, -2.6),
+    max: Vec3::new(2.6, 0.5, 2.6),
+    prop: props::grass_platform,
 };
+const WALL_HIGH: KitModel = KitModel {
+    file: "wall-high.glb",
+    min: Vec3::new(-0.75, 0.0, -0.35),
+    max: Vec3::new(0.75, 1.7, 0.35),
+    prop: |min, max| props::stone_wall(min, max, 4, 0x3a11),
+};
+const WALL_LOW: KitModel = KitModel {
+    file: "wall-low.glb",
+    min: Vec3::new(-1.1, 0.0, -0.35),
+    max: Vec3::new(1.1, 0.8, 0.35),
+    prop: |min, max| props::stone_wall(min, max, 2, 0x10e),
+};
+const GRASS_TUFT: KitModel = KitModel {
+    file: "grass.glb",
+    min: Vec3::new(-0.26, 0.0, -0.27),
+    max: Vec3::new(0.26, 0.31, 0.27),
+    prop: |min, max| props::grass_tuft(min, max, 8, true, 0x7af7),
+};
+const GRASS_SMALL: KitModel = KitModel {
+    file: "grass-small.glb",
+    min: Vec3::new(-0.12, 0.0, -0.16),
+    max: Vec3::new(0.12, 0.26, 0.16),
+    prop: |min, max| props::grass_tuft(min, max, 6, false, 0x5a11),
+};
+const CLOUD: KitModel = KitModel { file: "cloud.glb", min: Vec3::new(-0.5, 0.0, -0.5), max: Vec3::new(0.5, 1.0, 0.5), prop: props::cloud };
+const ENEMY_FLYING: KitModel =
+    KitModel { file: "enemy-flying.glb", min: Vec3::new(-0.6, 0.0, -0.32), max: Vec3::new(0.6, 0.875, 0.43), prop: props::flying_enemy };
 const BLASTER: KitModel =
-    KitModel { file: "blaster.glb", min: Vec3::new(-0.36, 0.0, -0.7), max: Vec3::new(0.52, 0.9, 0.9), fallback: None };
+    KitModel { file: "blaster.glb", min: Vec3::new(-0.36, 0.0, -0.7), max: Vec3::new(0.52, 0.9, 0.9), prop: props::blaster };
 
 // ---------------------------------------------------------------------------------------------
 // Building
@@ -279,15 +298,20 @@ struct Builder {
     assets: Option<PathBuf>,
     walls: Vec<Footprint>,
     floors: Vec<Floor>,
-    loaded: Vec<(&'static str, Option<Parts>)>,
+    loaded: Vec<(&'static str, Parts)>,
 }
 
 impl Builder {
     fn material(&mut self, name: &str, color: Vec3) -> usize {
-        if let Some(i) = self.desc.materials.iter().position(|m| m.name == name) {
-            return i;
+        self.material_once(Material::diffuse(name, color))
+    }
+
+    /// The material's index, adding it unless one of its name is there.
+    fn material_once(&mut self, material: Material) -> usize {
+        match self.desc.materials.iter().position(|m| m.name == material.name) {
+            Some(i) => i,
+            None => self.desc.add_material(material),
         }
-        self.desc.add_material(Material::diffuse(name, color))
     }
 
     /// A static box `min`..`max` in world space.
@@ -295,17 +319,17 @@ impl Builder {
         self.desc.add_mesh_node(name, Transform::IDENTITY, merge(name, &[box_part(min, max)]), material)
     }
 
-    /// The model's parts, loading it (into the scene's lists) on first use; `None` when it is not
-    /// available and has no stand-in.
-    fn model(&mut self, model: &KitModel) -> Option<Parts> {
+    /// The model's parts, loading it (into the scene's lists) on first use: Kenney's file, or the
+    /// project's own prop of the same bounds when the file is not there.
+    fn model(&mut self, model: &KitModel) -> Parts {
         if let Some((_, parts)) = self.loaded.iter().find(|(f, _)| *f == model.file) {
             return parts.clone();
         }
-        let parts = self.load(model).or_else(|| {
-            let color = model.fallback?;
-            let material = self.material(&format!("standin_{}", model.file), color);
-            let mesh = self.desc.add_mesh(merge(model.file, &[box_part(model.min, model.max)]));
-            Some(vec![(Affine3A::IDENTITY, mesh, material)])
+        let parts = self.load(model).unwrap_or_else(|| {
+            (model.prop)(model.min, model.max)
+                .into_iter()
+                .map(|piece| (Affine3A::IDENTITY, self.desc.add_mesh(piece.mesh), self.material_once(piece.material)))
+                .collect()
         });
         self.loaded.push((model.file, parts.clone()));
         parts
@@ -316,7 +340,7 @@ impl Builder {
         let scene = match engine::import::load_scene(&path) {
             Ok(scene) => scene,
             Err(e) => {
-                log::warn!("demo level: {e}; using a stand-in box");
+                log::warn!("demo level: {e}; using the level's own prop");
                 return None;
             }
         };
@@ -373,14 +397,14 @@ impl Builder {
     }
 
     /// Places a model as a node named `name` (children for parts that are not at the model's
-    /// origin). Returns the node, or `None` when the model is unavailable without stand-in.
-    fn place(&mut self, name: &str, model: &KitModel, transform: Transform) -> Option<usize> {
+    /// origin). Returns the node.
+    fn place(&mut self, name: &str, model: &KitModel, transform: Transform) -> usize {
         self.place_with(name, model, transform, Affine3A::IDENTITY)
     }
 
     /// [`Builder::place`] with `pre` applied to the model inside its node.
-    fn place_with(&mut self, name: &str, model: &KitModel, transform: Transform, pre: Affine3A) -> Option<usize> {
-        let parts: Parts = self.model(model)?.into_iter().map(|(xf, mesh, material)| (pre * xf, mesh, material)).collect();
+    fn place_with(&mut self, name: &str, model: &KitModel, transform: Transform, pre: Affine3A) -> usize {
+        let parts: Parts = self.model(model).into_iter().map(|(xf, mesh, material)| (pre * xf, mesh, material)).collect();
         let at_origin: Vec<(usize, usize)> =
             parts.iter().filter(|(xf, _, _)| *xf == Affine3A::IDENTITY).map(|&(_, m, mt)| (m, mt)).collect();
         let content = if at_origin.is_empty() { vec![NodeContent::Empty] } else { vec![NodeContent::Meshes(at_origin)] };
@@ -390,7 +414,7 @@ impl Builder {
             let local = Transform { translation, rotation, scale };
             self.desc.add_node(&format!("{name}_part{i}"), local, Some(node), vec![NodeContent::Meshes(vec![(*mesh, *material)])]);
         }
-        Some(node)
+        node
     }
 
     /// Places a model standing on the ground at (x, y, z), turned `yaw` about Y, scaled, and
@@ -405,12 +429,12 @@ impl Builder {
 }
 
 /// Builds the level; `assets` is the Kenney FPS kit folder (see [`kenney_assets_dir`]). Missing or
-/// unreadable models are replaced by boxes of the same size (or left out, for small decoration).
+/// unreadable models are replaced by the level's own props of the same size ([`props`]).
 pub fn demo_level(assets: Option<&Path>) -> DemoLevel {
     match assets {
         Some(dir) if dir.is_dir() => log::info!("demo level: Kenney models from {}", dir.display()),
-        Some(dir) => log::warn!("demo level: {} is not a folder; procedural geometry only", dir.display()),
-        None => log::info!("demo level: no Kenney assets; procedural geometry only"),
+        Some(dir) => log::warn!("demo level: {} is not a folder; the level's own props", dir.display()),
+        None => log::info!("demo level: no Kenney assets; the level's own props"),
     }
     let mut b = Builder {
         desc: SceneDescription { name: "demo_level".into(), ..Default::default() },
@@ -660,9 +684,8 @@ fn build_outdoors(b: &mut Builder) {
     // glTF models face +Z and the orbit points the node's -Z at its target: turn the model round.
     let start = Transform::from_translation(orbit.center + Vec3::X * orbit.radius);
     let pre = Affine3A::from_scale_rotation_translation(Vec3::splat(1.5), Quat::from_rotation_y(PI), Vec3::ZERO);
-    if let Some(node) = b.place_with(ENEMY, &ENEMY_FLYING, start, pre) {
-        b.desc.nodes[node].orbit = Some(orbit);
-    }
+    let node = b.place_with(ENEMY, &ENEMY_FLYING, start, pre);
+    b.desc.nodes[node].orbit = Some(orbit);
 }
 
 /// The lift: a painted column whose top is the platform, rising out of the ground.
@@ -674,7 +697,7 @@ fn build_lift(b: &mut Builder) -> PlatformSpec {
     let center = (LIFT_MIN + LIFT_MAX) * 0.5;
     b.desc.add_mesh_node(PLATFORM, Transform::from_xyz(center.x, LIFT_LOW, center.y), mesh, paint);
     // A stone pit rim around the column.
-    let stone = b.material("standin_stone", STONE);
+    let stone = b.material("stone", STONE);
     let rim = 0.25;
     let (lo, hi) = (LIFT_MIN - rim - 0.02, LIFT_MAX + rim + 0.02);
     let inner = (LIFT_MIN - 0.02, LIFT_MAX + 0.02);
@@ -862,10 +885,58 @@ mod tests {
         }
     }
 
+    const MODELS: [&KitModel; 9] =
+        [&PLATFORM_SMALL, &PLATFORM_LARGE, &WALL_HIGH, &WALL_LOW, &GRASS_TUFT, &GRASS_SMALL, &CLOUD, &ENEMY_FLYING, &BLASTER];
+
+    #[test]
+    fn the_levels_own_props_are_closed_solids_that_fill_their_models_boxes() {
+        for model in MODELS {
+            let pieces = (model.prop)(model.min, model.max);
+            assert!(!pieces.is_empty(), "{}: no prop", model.file);
+            let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+            for piece in &pieces {
+                let mesh = &piece.mesh;
+                assert!(engine::shapes::is_closed(mesh), "{}: {} is not a closed solid", model.file, mesh.name);
+                assert!(piece.material.name.starts_with("prop_"), "{}: material {}", model.file, piece.material.name);
+                assert!(mesh.normals.len() == mesh.positions.len() && mesh.positions.iter().chain(&mesh.normals).all(|v| v.is_finite()));
+                let (a, b) = mesh.bounds().unwrap();
+                (lo, hi) = (lo.min(a), hi.max(b));
+            }
+            // Inside the model's box, and filling most of it along every axis (walls and platforms,
+            // which the plan's footprints and floors stand for, fill it exactly).
+            let tolerance = 1e-4;
+            assert!(lo.cmpge(model.min - tolerance).all() && hi.cmple(model.max + tolerance).all(), "{}: {lo}..{hi}", model.file);
+            let filled = (hi - lo) / (model.max - model.min);
+            assert!(filled.min_element() > 0.8, "{}: fills {filled} of its box", model.file);
+        }
+        for solid in [&WALL_HIGH, &WALL_LOW, &PLATFORM_SMALL, &PLATFORM_LARGE] {
+            let (lo, hi) = (solid.prop)(solid.min, solid.max)
+                .iter()
+                .map(|p| p.mesh.bounds().unwrap())
+                .fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(lo, hi), (a, b)| (lo.min(a), hi.max(b)));
+            assert!((lo - solid.min).abs().max_element() < 1e-4 && (hi - solid.max).abs().max_element() < 1e-4, "{}", solid.file);
+        }
+    }
+
+    #[test]
+    fn without_the_kenney_models_every_prop_is_the_levels_own() {
+        let level = demo_level(None);
+        let own: Vec<&str> = level.scene.materials.iter().filter(|m| m.name.starts_with("prop_")).map(|m| m.name.as_str()).collect();
+        for name in ["prop_stone_light", "prop_turf", "prop_blade_dark", "prop_petal", "prop_cloud", "prop_enemy_body", "prop_gun_metal"] {
+            assert!(own.contains(&name), "no {name} among {own:?}");
+        }
+        // Every prop node is placed, the decoration (grass, the blaster) included.
+        let names = names(&level.scene);
+        assert_eq!(names.iter().filter(|n| n.starts_with("grass") && !n.contains("_part")).count(), 60);
+        assert!(names.contains(&"blaster"));
+        // The props' pieces are shared between their nodes, not copied: one mesh a material a model.
+        assert!(level.scene.meshes.len() < 80, "{} meshes", level.scene.meshes.len());
+    }
+
     #[test]
     fn loads_the_kenney_models_when_present() {
         let Some(dir) = kenney_assets_dir() else {
-            eprintln!("skipped: no Kenney assets next to the repository");
+            eprintln!("loads_the_kenney_models_when_present: skipped: {}", crate::shared::absent(crate::shared::KENNEY_FPS));
             return;
         };
         let with = demo_level(Some(&dir));
@@ -874,7 +945,8 @@ mod tests {
         assert!(!with.scene.images.is_empty(), "the colormap texture was not loaded");
         assert_eq!(with.scene.images.len(), 1, "the shared colormap should be stored once");
         assert!(with.scene.triangle_count() > without.scene.triangle_count());
-        for model in [&PLATFORM_SMALL, &PLATFORM_LARGE, &WALL_HIGH, &WALL_LOW, &GRASS_TUFT, &GRASS_SMALL, &CLOUD, &ENEMY_FLYING, &BLASTER] {
+        assert!(with.scene.materials.iter().all(|m| !m.name.starts_with("prop_")), "a prop stood in for a Kenney model");
+        for model in MODELS {
             let scene = engine::import::load_scene(&dir.join(model.file)).unwrap();
             let (lo, hi) = scene.bounds().unwrap();
             assert!(

@@ -11,8 +11,9 @@
 //! | `forest`          | ≈21.6 million instanced triangles over a hilly terrain                 |
 //! | `open_world`      | a house in a yard amid a 1 km² forest: camera-following cascades       |
 //!
-//! The demo level ([`level`], found by [`level::NAME`]) is built here too, outside [`ALL`]: its
-//! Kenney models are files, and its plan and animations belong to the demo.
+//! The demo level ([`level`], found by [`level::NAME`]) is built here too, outside [`ALL`]: it uses
+//! Kenney's models from the shared folder beside the checkout when they are there ([`shared`]) and
+//! its own procedural props otherwise, and its plan and animations belong to the demo.
 //!
 //! [`ALL`] is the one table of them: each [`SceneEntry`] holds a scene's name, builder, probe
 //! volume bounds and openings, so adding a scene is adding one entry. Look one up by name with
@@ -23,6 +24,7 @@ pub mod large;
 pub mod level;
 pub mod open;
 pub mod rooms;
+pub mod shared;
 
 use engine::scene::{Camera, NodeContent, SceneDescription, Transform};
 use glam::Vec3;

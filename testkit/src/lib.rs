@@ -1,6 +1,7 @@
 //! Shared test support, a dev-dependency of every crate's tests: GPU access under the CI rules
 //! ([`gpu`]), FLIP comparisons ([`flip`], [`mean_flip`]), golden images ([`assert_golden`]),
-//! path-traced reference images ([`path_traced_reference`]) and test scenes ([`closed_room`]).
+//! path-traced reference images ([`path_traced_reference`]), test scenes ([`closed_room`]) and the
+//! shared data beside the checkout ([`shared`]).
 //!
 //! **Re-blessing.** Every reference image lives in `tests/golden/` and is re-made by one command,
 //! `make bless` (`BLESS=1 cargo test --workspace`): golden images from the renderer under test, and
@@ -26,6 +27,17 @@ pub fn gpu(test: &str) -> Option<GpuContext> {
 /// [`gpu`] with other options (smaller limits, say); validation errors still panic.
 pub fn gpu_with(test: &str, options: GpuOptions<'_>) -> Option<GpuContext> {
     GpuContext::for_tests_with(test, options)
+}
+
+/// The item `relative` of the shared folder beside the checkout (`../shared/<relative>`, see
+/// [`scenes::shared`]), or `None` after a `<test>: skipped: ../shared/<relative> is absent (…)` line:
+/// tests of data the repository does not hold skip with that message, never silently.
+pub fn shared(test: &str, relative: &str) -> Option<PathBuf> {
+    let found = scenes::shared::path(relative);
+    if found.is_none() {
+        eprintln!("{test}: skipped: {}", scenes::shared::absent(relative));
+    }
+    found
 }
 
 /// Whether references are being re-made (`BLESS=1`) instead of compared with.

@@ -46,7 +46,8 @@ pub struct PlayOptions {
     pub cascade_spacing: f32,
     pub rays_per_probe: u32,
     pub adaptive: bool,
-    /// Load the Kenney models (vendored in assets/kenney_fps).
+    /// Load Kenney's models from the shared folder beside the checkout
+    /// (`scenes::level::kenney_assets_dir`) when they are there; the level's own props otherwise.
     pub use_assets: bool,
     /// Camera-following cascades (0: one volume over the level): this many nested volumes of
     /// [`CASCADE_PROBES`] probes, the finest at `cascade_spacing`.
