@@ -1,5 +1,5 @@
 //! The scene importers: the glTF fixture's hierarchy, transforms, meshes, materials, lights and
-//! camera; the OBJ Cornell box; the Kenney models (vendored in assets/); and the broken-file corpus, where every
+//! camera; the OBJ Cornell box; the Kenney models (from ../shared, skipped without it); and the broken-file corpus, where every
 //! file must fail with a message naming the file and the problem, and nothing may panic.
 
 use std::f32::consts::FRAC_PI_4;

@@ -55,7 +55,7 @@ fn petal() -> Material {
     diffuse("petal", Vec3::new(0.95, 0.75, 0.08))
 }
 fn cloud_white() -> Material {
-    diffuse("cloud", Vec3::splat(0.9))
+    diffuse("cloud", Vec3::splat(0.92))
 }
 fn enemy_body() -> Material {
     Material { specular: 0.5, roughness: 0.5, ..diffuse("enemy_body", Vec3::new(0.32, 0.08, 0.5)) }
@@ -211,23 +211,43 @@ pub fn grass_tuft(min: Vec3, max: Vec3, blades: u32, flower: bool, seed: u64) ->
     kit.finish()
 }
 
-/// A cloud filling `min`..`max`: overlapping faceted puffs.
+/// A cloud filling `min`..`max`: overlapping faceted puffs on a flat base (a cumulus: seen from
+/// the ground its sunlit sides show, not a grey belly).
 pub fn cloud(min: Vec3, max: Vec3) -> Vec<PropPiece> {
-    let mut kit = Kit::new("cloud");
-    let size = max - min;
-    // (centre, radius) in the unit box.
+    // (centre, radius) in the unit box; the puffs are cut flat at `BASE` and the rest stretched
+    // to fill the box.
+    const BASE: f32 = 0.35;
     let puffs = [
         (Vec3::new(0.5, 0.5, 0.5), 0.5),
-        (Vec3::new(0.26, 0.36, 0.55), 0.25),
-        (Vec3::new(0.74, 0.34, 0.45), 0.25),
-        (Vec3::new(0.5, 0.3, 0.26), 0.22),
+        (Vec3::new(0.26, 0.4, 0.55), 0.25),
+        (Vec3::new(0.74, 0.38, 0.45), 0.25),
+        (Vec3::new(0.5, 0.36, 0.26), 0.22),
         (Vec3::new(0.56, 0.62, 0.62), 0.3),
     ];
-    for (center, radius) in puffs {
-        let xf = Affine3A::from_translation(min) * Affine3A::from_scale(size) * Affine3A::from_translation(center);
-        kit.add(cloud_white(), (icosphere("", radius, 1), xf));
-    }
+    let parts: Vec<(Mesh, Affine3A)> =
+        puffs.iter().map(|&(center, radius)| (icosphere("", radius, 1), Affine3A::from_translation(center))).collect();
+    let mut puffs = merge("", &parts);
+    flatten_below(&mut puffs, BASE);
+    let stretch = Affine3A::from_translation(Vec3::new(0.0, -BASE, 0.0));
+    let unit_to_box = Affine3A::from_translation(min) * Affine3A::from_scale((max - min) * Vec3::new(1.0, 1.0 / (1.0 - BASE), 1.0));
+    let mut kit = Kit::new("cloud");
+    kit.add(cloud_white(), (puffs, unit_to_box * stretch));
     kit.finish()
+}
+
+/// Lifts every vertex under height `y` onto it and gives each triangle its flat normal again: a
+/// faceted solid cut flat underneath (still closed: shared corners move together).
+fn flatten_below(mesh: &mut Mesh, y: f32) {
+    for p in &mut mesh.positions {
+        p.y = p.y.max(y);
+    }
+    for tri in mesh.indices.chunks_exact(3) {
+        let [a, b, c] = [tri[0], tri[1], tri[2]].map(|i| mesh.positions[i as usize]);
+        let normal = (b - a).cross(c - a).try_normalize().unwrap_or(Vec3::NEG_Y);
+        for &i in tri {
+            mesh.normals[i as usize] = normal;
+        }
+    }
 }
 
 /// A flying enemy facing +Z filling `min`..`max` (made for Kenney's box, -0.6..0.6 × 0..0.875 ×
