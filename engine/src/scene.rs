@@ -667,7 +667,22 @@ pub struct SceneDescription {
     /// Where the scene's root sits in the world, in double precision (a [`WorldAnchor`] on the
     /// root entity): a scene placed 1e5 units away renders as it does at the origin.
     pub origin: DVec3,
+    /// What rays that leave the scene see, when the scene says: the default daylight of a scene
+    /// without lights ([`SceneDescription::light_if_lightless`]) or a command line's `--sky`.
+    /// [`SceneDescription::spawn`] makes it the world's [`Sky`](crate::sky::Sky) resource, for
+    /// every renderer alike; `None` leaves the world's sky as it is (black unless the app set one).
+    pub sky: Option<crate::sky::Sky>,
 }
+
+/// The direction the default sun's light travels (from a sun 50° above the horizon), for a scene
+/// without lights ([`SceneDescription::light_if_lightless`]).
+pub const DEFAULT_SUN_DIRECTION: Vec3 = Vec3::new(0.45, -0.766, 0.459);
+/// The default sun's irradiance (W/m² on a surface facing it): with Preetham's sky of the same sun,
+/// a sunlit floor of albedo 0.8 reflects about 0.75 W/(m²·sr), which the renderers' default
+/// exposure shows bright but unclipped.
+pub const DEFAULT_SUN_IRRADIANCE: f32 = 3.0;
+/// The name of the node [`SceneDescription::add_sun`] adds.
+pub const SUN_NODE: &str = "sun";
 
 /// Marks the root entity of a spawned scene; despawning it removes the whole scene.
 #[derive(Component, Clone, Debug)]
@@ -677,6 +692,46 @@ pub struct SceneRoot {
 }
 
 impl SceneDescription {
+    /// Whether anything in the scene gives light: a directional, point or spot light, or a material
+    /// that emits.
+    pub fn has_lights(&self) -> bool {
+        let light =
+            |c: &NodeContent| matches!(c, NodeContent::DirectionalLight(_) | NodeContent::PointLight(_) | NodeContent::SpotLight(_));
+        let used: Vec<usize> = self
+            .nodes
+            .iter()
+            .flat_map(|n| &n.content)
+            .filter_map(|c| if let NodeContent::Meshes(list) = c { Some(list.iter().map(|&(_, m)| m)) } else { None })
+            .flatten()
+            .collect();
+        self.nodes.iter().flat_map(|n| &n.content).any(light)
+            || used.iter().any(|&m| self.materials.get(m).is_some_and(Material::is_emissive))
+    }
+
+    /// Adds a white directional light (a root node named [`SUN_NODE`]) whose light travels along
+    /// `direction` with `irradiance` W/m² on a surface facing it; returns the node.
+    pub fn add_sun(&mut self, direction: Vec3, irradiance: f32) -> usize {
+        let travel = direction.normalize_or(DEFAULT_SUN_DIRECTION);
+        let up = if travel.y.abs() > 0.99 { Vec3::Z } else { Vec3::Y };
+        let transform = Transform::IDENTITY.looking_at(travel, up);
+        let light = DirectionalLight { color: Vec3::ONE, intensity: irradiance };
+        self.add_node(SUN_NODE, transform, None, vec![NodeContent::DirectionalLight(light)])
+    }
+
+    /// Gives a scene without any light ([`SceneDescription::has_lights`]) the default daylight: a
+    /// sun along [`DEFAULT_SUN_DIRECTION`] of [`DEFAULT_SUN_IRRADIANCE`] and Preetham's sky of that
+    /// sun as its [`SceneDescription::sky`] (unless it has one). A file exported without its lights
+    /// (Šibenik, most asset-store models) then renders lit instead of black, in every mode alike.
+    /// Returns whether it did; a scene with any light is left as it is.
+    pub fn light_if_lightless(&mut self) -> bool {
+        if self.has_lights() {
+            return false;
+        }
+        self.add_sun(DEFAULT_SUN_DIRECTION, DEFAULT_SUN_IRRADIANCE);
+        self.sky.get_or_insert(crate::sky::Sky::Physical(crate::sky::PhysicalSky::default()));
+        true
+    }
+
     /// Adds a node with no orbit and returns its index.
     pub fn add_node(&mut self, name: &str, transform: Transform, parent: Option<usize>, content: Vec<NodeContent>) -> usize {
         self.nodes.push(SceneNode { name: name.into(), transform, parent, content, orbit: None });
@@ -756,9 +811,12 @@ impl SceneDescription {
         world
     }
 
-    /// Moves the assets into the world's stores and spawns one entity per node under a [`SceneRoot`].
-    /// Returns the root entity.
+    /// Moves the assets into the world's stores and spawns one entity per node under a [`SceneRoot`];
+    /// the scene's [`SceneDescription::sky`], if any, becomes the world's. Returns the root entity.
     pub fn spawn(self, world: &mut World) -> Entity {
+        if let Some(sky) = self.sky {
+            world.insert_resource(sky);
+        }
         let image_handles: Vec<Handle<Image>> = {
             let mut images = world.get_resource_or_insert_with(Assets::<Image>::default);
             self.images.into_iter().map(|i| images.add(i)).collect()
@@ -1126,5 +1184,66 @@ pub fn animate_orbits(time: Res<crate::app::Time>, mut query: Query<(&Orbit, &mu
             t = t.looking_at(target, up);
         }
         *transform = t;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sky::Sky;
+
+    fn floor(material: Material) -> SceneDescription {
+        let mut scene = SceneDescription::default();
+        let m = scene.add_material(material);
+        scene.add_mesh_node("floor", Transform::IDENTITY, crate::shapes::cuboid("floor", Vec3::new(5.0, 0.1, 5.0)), m);
+        scene
+    }
+
+    #[test]
+    fn only_a_scene_without_any_light_gets_the_default_daylight() {
+        let mut lightless = floor(Material::diffuse("grey", Vec3::splat(0.5)));
+        // An emissive material nothing draws gives no light.
+        lightless.add_material(Material::emissive("unused", Vec3::ONE));
+        assert!(!lightless.has_lights());
+        assert!(lightless.light_if_lightless());
+        assert!(lightless.has_lights() && !lightless.light_if_lightless(), "lit once, not twice");
+        let sun = lightless.nodes.iter().find(|n| n.name == SUN_NODE).expect("a sun node");
+        assert!(
+            matches!(sun.content[..], [NodeContent::DirectionalLight(DirectionalLight { intensity, .. })] if intensity == DEFAULT_SUN_IRRADIANCE)
+        );
+        // The node's -Z axis is the direction the light travels.
+        let travel = sun.transform.rotation * Vec3::NEG_Z;
+        assert!((travel - DEFAULT_SUN_DIRECTION.normalize()).length() < 1e-5, "{travel}");
+        assert!(matches!(lightless.sky, Some(Sky::Physical(_))));
+
+        let mut glowing = floor(Material::emissive("lamp", Vec3::ONE));
+        let mut lamp = floor(Material::diffuse("grey", Vec3::splat(0.5)));
+        lamp.add_node(
+            "lamp",
+            Transform::IDENTITY,
+            None,
+            vec![NodeContent::PointLight(PointLight { color: Vec3::ONE, intensity: 1.0, range: None })],
+        );
+        for scene in [&mut glowing, &mut lamp] {
+            assert!(scene.has_lights() && !scene.light_if_lightless());
+            assert!(scene.sky.is_none(), "a scene with a light keeps the app's sky");
+        }
+        // A sky the scene already has is kept.
+        let mut given = floor(Material::diffuse("grey", Vec3::splat(0.5)));
+        given.sky = Some(Sky::Uniform(Vec3::splat(0.2)));
+        assert!(given.light_if_lightless());
+        assert_eq!(given.sky, Some(Sky::Uniform(Vec3::splat(0.2))));
+    }
+
+    #[test]
+    fn spawning_a_scene_with_a_sky_sets_the_worlds() {
+        let mut world = World::new();
+        world.insert_resource(Sky::Uniform(Vec3::ONE));
+        floor(Material::default()).spawn(&mut world);
+        assert_eq!(*world.resource::<Sky>(), Sky::Uniform(Vec3::ONE), "no sky of its own: the world's stays");
+        let mut scene = floor(Material::default());
+        scene.sky = Some(Sky::Uniform(Vec3::splat(0.3)));
+        scene.spawn(&mut world);
+        assert_eq!(*world.resource::<Sky>(), Sky::Uniform(Vec3::splat(0.3)));
     }
 }

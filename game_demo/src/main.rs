@@ -55,6 +55,57 @@ struct Cli {
     /// own, on one timeline. Without it no tracing subscriber is installed.
     #[arg(long, global = true, value_name = "FILE")]
     trace: Option<PathBuf>,
+    /// The scene's sun instead of its own directional lights: `x,y,z` the direction its light
+    /// travels, then its irradiance in W/m² on a surface facing it (e.g. `--sun=0.4,-1,0.3,3`). A
+    /// scene with no lights at all gets a default sun (and Preetham's sky of it) without this.
+    #[arg(long, global = true, value_parser = parse_sun, value_name = "X,Y,Z,IRRADIANCE", allow_hyphen_values = true)]
+    sun: Option<(glam::Vec3, f32)>,
+    /// What rays that leave the scene see, the same in every mode (the background, probe rays,
+    /// the path tracer's paths): a uniform radiance `r,g,b` in W/(m²·sr). Default: black, or
+    /// Preetham's sky of the default sun for a scene with no lights at all.
+    #[arg(long, global = true, value_parser = parse_vec3, value_name = "R,G,B")]
+    sky: Option<glam::Vec3>,
+}
+
+/// The command line's `--sun` and `--sky`, set once in `main` and applied to every scene [`load`]
+/// gives (global flags, so every subcommand takes them).
+#[derive(Clone, Copy, Debug, Default)]
+struct Lighting {
+    sun: Option<(glam::Vec3, f32)>,
+    sky: Option<glam::Vec3>,
+}
+
+static LIGHTING: std::sync::OnceLock<Lighting> = std::sync::OnceLock::new();
+
+impl Lighting {
+    fn get() -> Lighting {
+        LIGHTING.get().copied().unwrap_or_default()
+    }
+
+    /// Puts the `--sun` and `--sky` into `scene`, then lights it with the default daylight if it
+    /// has no light at all, saying so on standard error.
+    fn apply(&self, scene: &mut SceneDescription, name: &str) {
+        if let Some((direction, irradiance)) = self.sun {
+            for node in &mut scene.nodes {
+                node.content.retain(|c| !matches!(c, NodeContent::DirectionalLight(_)));
+            }
+            scene.add_sun(direction, irradiance);
+        }
+        if let Some(radiance) = self.sky {
+            scene.sky = Some(engine::render::Sky::Uniform(radiance));
+        }
+        if scene.light_if_lightless() {
+            let d = engine::scene::DEFAULT_SUN_DIRECTION;
+            eprintln!(
+                "note: '{name}' has no lights: lit by a default sun of {} W/m² (its light travelling {:.2},{:.2},{:.2}) and {} (--sun and --sky set others)",
+                engine::scene::DEFAULT_SUN_IRRADIANCE,
+                d.x,
+                d.y,
+                d.z,
+                if self.sky.is_some() { "the --sky" } else { "Preetham's sky of that sun" }
+            );
+        }
+    }
 }
 
 #[derive(Subcommand)]
@@ -185,9 +236,6 @@ enum Command {
         /// Walking speed (scene units per second, 60 frames a second).
         #[arg(long, default_value_t = 1.5, requires = "walk")]
         walk_speed: f32,
-        /// Sky radiance `r,g,b` of the walk (W/(m²·sr); default black, as the still images').
-        #[arg(long, value_parser = parse_vec3, requires = "walk")]
-        sky: Option<glam::Vec3>,
         /// Leave out the timing at 1920×1080 (the path tracer and each DDGI configuration, for
         /// their GPU-time ratio at equal FLIP at a display's size): slow on a CPU adapter.
         #[arg(long, conflicts_with = "time_series")]
@@ -316,6 +364,12 @@ fn play(args: PlayArgs) -> Result<(), String> {
     }
     if !(args.cascade_spacing.is_finite() && args.cascade_spacing >= 0.1) {
         return Err(format!("--cascade-spacing {} must be at least 0.1 m", args.cascade_spacing));
+    }
+    let lighting = Lighting::get();
+    if lighting.sun.is_some() || lighting.sky.is_some() {
+        return Err(
+            "--sun and --sky light the scenes that `play --scene` shows; the demo level's day–night cycle sets its own sun and sky".into(),
+        );
     }
     let options = play::PlayOptions {
         width: args.width,
@@ -851,6 +905,17 @@ fn parse_dvec3(text: &str) -> Result<glam::DVec3, String> {
     }
 }
 
+/// `--sun x,y,z,irradiance`: a direction (not zero) and an irradiance (not negative).
+fn parse_sun(text: &str) -> Result<(glam::Vec3, f32), String> {
+    let v: Vec<f32> = text.split(',').map(|p| p.trim().parse::<f32>().map_err(|e| format!("'{p}': {e}"))).collect::<Result<_, _>>()?;
+    match v[..] {
+        [x, y, z, e] if v.iter().all(|c| c.is_finite()) && glam::Vec3::new(x, y, z).length() > 1e-6 && e >= 0.0 => {
+            Ok((glam::Vec3::new(x, y, z).normalize(), e))
+        }
+        _ => Err(format!("expected x,y,z,irradiance (a direction not zero, an irradiance ≥ 0, all finite), got '{text}'")),
+    }
+}
+
 fn parse_vec3(text: &str) -> Result<glam::Vec3, String> {
     let v: Vec<f32> = text.split(',').map(|p| p.trim().parse::<f32>().map_err(|e| format!("'{p}': {e}"))).collect::<Result<_, _>>()?;
     match v[..] {
@@ -862,17 +927,23 @@ fn parse_vec3(text: &str) -> Result<glam::Vec3, String> {
 /// `render` and `eval`'s name for the demo level (`play`'s scene, still: nothing animates).
 pub const LEVEL_SCENE: &str = scenes::level::NAME;
 
-/// A built-in scene (of [`scenes::ALL`]) or the demo level by name, or a scene file by path.
+/// A built-in scene (of [`scenes::ALL`]) or the demo level by name, or a scene file by path, with
+/// the command line's `--sun` and `--sky` and, if it has no lights at all, the default daylight
+/// ([`Lighting::apply`]).
 fn load(scene: &str) -> Result<SceneDescription, String> {
-    if let Some(built_in) = lab::eval::built_in_scene(scene) {
-        return Ok(built_in);
-    }
-    let path = std::path::Path::new(scene);
-    if path.extension().is_none() {
-        let names = lab::eval::built_in_scene_names().collect::<Vec<_>>().join(", ");
-        return Err(format!("'{scene}' is neither a built-in scene ({names}) nor a scene file"));
-    }
-    engine::import::load_scene(path).map_err(|e| e.to_string())
+    let mut description = match lab::eval::built_in_scene(scene) {
+        Some(built_in) => built_in,
+        None => {
+            let path = std::path::Path::new(scene);
+            if path.extension().is_none() {
+                let names = lab::eval::built_in_scene_names().collect::<Vec<_>>().join(", ");
+                return Err(format!("'{scene}' is neither a built-in scene ({names}) nor a scene file"));
+            }
+            engine::import::load_scene(path).map_err(|e| e.to_string())?
+        }
+    };
+    Lighting::get().apply(&mut description, scene);
+    Ok(description)
 }
 
 /// Replaces the scene's camera by one at `position` looking at `target` (`--camera-position`,
@@ -1054,10 +1125,22 @@ fn bench_ddgi(
     let way_name = |way: bool| if way { "persistent trace, then ddgi_shade" } else { "thread a ray, trace and shading in ddgi_trace" };
     let grid = if grids.contains(&[32, 8, 32]) { [32, 8, 32] } else { grids[0] };
     for &way in ways {
-        println!("\n## Full probe update, MRays/s ({}; median of {iterations} frames; every probe active)\n", way_name(way));
+        println!("\n## Full probe update, MRays/s ({}; median of {iterations} frames; the rays the GPU counted)\n", way_name(way));
         print_grid_table(&grids, &ray_counts, |g, rays| {
             cell(g, rays, way).map(|c| format!("{:.0} ({:.3} ms)", c.mrays_per_second(), c.update_ms))
         });
+        let skipped: Vec<String> = cells
+            .iter()
+            .filter(|c| c.persistent_trace == way && c.traced_share() < 0.999)
+            .map(|c| {
+                let (grid, rays, nominal) = (grid_name(&c.grid), c.rays, c.nominal_rays);
+                format!("- {grid} × {}: {rays} of {nominal} rays traced ({:.1}%)", c.rays_per_probe, 100.0 * c.traced_share())
+            })
+            .collect();
+        if !skipped.is_empty() {
+            println!("\nProbes were skipped (switched off as dark or inside geometry, or resting): MRays/s count only the rays traced.\n");
+            println!("{}", skipped.join("\n"));
+        }
         println!("\n## GPU ms per pass at {} probes ({}; median)\n", grid_name(&grid), way_name(way));
         let mut labels: Vec<String> = bench::DDGI_UPDATE_PASSES.iter().map(|s| s.to_string()).collect();
         labels.extend(["ddgi_gather".to_string(), "ddgi_composite".to_string(), "gbuffer".to_string(), "direct_lighting".to_string()]);
@@ -1088,7 +1171,8 @@ fn bench_ddgi(
         .map(|c| {
             let passes: serde_json::Map<String, serde_json::Value> = c.passes.iter().map(|(l, ms)| (l.clone(), (*ms).into())).collect();
             serde_json::json!({
-                "probes": c.grid, "rays_per_probe": c.rays_per_probe, "persistent_trace": c.persistent_trace, "rays": c.rays, "update_ms": c.update_ms,
+                "probes": c.grid, "rays_per_probe": c.rays_per_probe, "persistent_trace": c.persistent_trace, "rays": c.rays,
+                "nominal_rays": c.nominal_rays, "update_ms": c.update_ms,
                 "mrays_per_second": c.mrays_per_second(), "pass_ms": passes,
             })
         })
@@ -1615,6 +1699,7 @@ fn write_json(path: Option<&std::path::Path>, value: serde_json::Value) -> Resul
 fn main() -> ExitCode {
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
     let cli = Cli::parse();
+    let _ = LIGHTING.set(Lighting { sun: cli.sun, sky: cli.sky });
     let trace = match cli.trace.as_deref().map(engine::trace::ChromeTrace::start).transpose() {
         Ok(trace) => trace,
         Err(e) => {
@@ -1657,7 +1742,6 @@ fn main() -> ExitCode {
             walk,
             walk_from,
             walk_speed,
-            sky,
             no_display_timing,
             camera,
         } => load(&scene).and_then(|mut description| {
@@ -1711,7 +1795,8 @@ fn main() -> ExitCode {
                 hit_occlusion_reach,
             };
             if walk {
-                let series = eval::walk_series::WalkSeries { start: walk_from, speed: walk_speed, sky: sky.unwrap_or_default() };
+                let series =
+                    eval::walk_series::WalkSeries { start: walk_from, speed: walk_speed, sky: Lighting::get().sky.unwrap_or_default() };
                 eval::walk_series::run(&gpu, &eval_scenes::scene_facts(&scene), description, &options, frames, series)?;
             } else if time_series {
                 eval::time_series::run(&gpu, &eval_scenes::scene_facts(&scene), description, &options, frames)?;

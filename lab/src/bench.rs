@@ -857,7 +857,13 @@ pub struct DdgiCell {
     pub rays_per_probe: u32,
     /// Traced with the persistent trace ([`ddgi::DdgiVolume::persistent_trace`]).
     pub persistent_trace: bool,
+    /// Rays traced per frame, as the GPU counted them (median over the timed frames; the
+    /// `ddgi_rays` counter): what the throughput is reported for.
     pub rays: u64,
+    /// Probes × rays per probe: what every probe tracing its whole budget would give. More than
+    /// [`DdgiCell::rays`] when probes were skipped (switched off as dark or inside geometry, or
+    /// resting under adaptive budgets).
+    pub nominal_rays: u64,
     pub passes: Vec<(String, f64)>,
     pub update_ms: f64,
 }
@@ -872,6 +878,11 @@ impl DdgiCell {
     pub fn pass_ms(&self, label: &str) -> Option<f64> {
         self.passes.iter().find(|(l, _)| l == label).map(|(_, ms)| *ms)
     }
+
+    /// The share of the nominal rays that were traced (1: no probe skipped).
+    pub fn traced_share(&self) -> f64 {
+        if self.nominal_rays == 0 { 1.0 } else { self.rays as f64 / self.nominal_rays as f64 }
+    }
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -881,9 +892,10 @@ fn median(mut v: Vec<f64>) -> f64 {
 /// Runs DDGI on `scene` at every grid × rays cell of the published table, traced each way of
 /// `persistent_traces` ([`ddgi::DdgiVolume::persistent_trace`]; one after the other in each cell),
 /// in one app (the volume's settings changed between cells, so the BVHs are built once): 3 warm-up
-/// frames, then `iterations` timed frames per cell and way. Every probe stays active (classification off), so each
-/// cell traces exactly probes × rays rays per frame. The camera renders `size` pixels, so the
-/// gather's time is the one of that resolution.
+/// frames, then `iterations` timed frames per cell and way. Classification is off, but probes can
+/// still be skipped (switched off as dark, resting under adaptive budgets): each cell reports the
+/// rays the GPU counted ([`DdgiCell::rays`]) beside the nominal probes × rays. The camera renders
+/// `size` pixels, so the gather's time is the one of that resolution.
 pub fn ddgi_throughput(
     gpu: &GpuContext,
     scene: SceneDescription,
@@ -949,8 +961,13 @@ pub fn ddgi_throughput(
                     .map(|f| f.passes.iter().filter(|p| DDGI_UPDATE_PASSES.contains(&p.label.as_str())).filter_map(|p| p.gpu_ms).sum())
                     .collect(),
             );
-            let rays = u64::from(grid[0] * grid[1] * grid[2] * rays_per_probe);
-            cells.push(DdgiCell { grid, rays_per_probe, persistent_trace, rays, passes, update_ms });
+            let nominal_rays = u64::from(grid[0] * grid[1] * grid[2] * rays_per_probe);
+            let counted: Vec<f64> = timed.iter().filter_map(ddgi::rays_traced).collect();
+            if counted.is_empty() {
+                return Err(format!("{}×{}×{} × {rays_per_probe}: the GPU reported no ray count", grid[0], grid[1], grid[2]));
+            }
+            let rays = median(counted).round() as u64;
+            cells.push(DdgiCell { grid, rays_per_probe, persistent_trace, rays, nominal_rays, passes, update_ms });
         }
     }
     bar.finish_and_clear();

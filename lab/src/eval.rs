@@ -456,16 +456,29 @@ fn fnv1a(words: impl IntoIterator<Item = u32>) -> u64 {
 }
 
 /// The cache file of a reference: by `label` (the scene's name), size, paths per pixel and a hash
-/// of the view and the scene's layout — every camera's world transform and field of view and every
-/// node's world transform — so that another camera, or a moved light or object, gets another reference.
+/// of the view and the scene's layout — every camera's world transform and field of view, every
+/// node's world transform, a directional light's colour and irradiance, and the scene's sky when it
+/// has one — so that another camera, a moved or brighter sun, a moved object or another sky gets
+/// another reference.
 pub fn reference_path(cache: &Path, label: &str, scene: &SceneDescription, width: u32, height: u32, spp: u32) -> PathBuf {
     let mut words = Vec::new();
     for (node, world) in scene.nodes.iter().zip(scene.world_transforms()) {
         words.extend(world.to_cols_array().map(f32::to_bits));
-        words.extend(node.content.iter().filter_map(|c| match c {
-            NodeContent::Camera(camera) => Some(camera.yfov.to_bits()),
-            _ => None,
-        }));
+        for content in &node.content {
+            match content {
+                NodeContent::Camera(camera) => words.push(camera.yfov.to_bits()),
+                // Added to the key only where it differs from the white light of irradiance 1 that
+                // the built-in scenes' keys were made without.
+                NodeContent::DirectionalLight(light) if (light.color, light.intensity) != (Vec3::ONE, 1.0) => {
+                    words.extend(light.color.to_array().map(f32::to_bits));
+                    words.push(light.intensity.to_bits());
+                }
+                _ => {}
+            }
+        }
+    }
+    if let Some(sky) = &scene.sky {
+        words.extend(format!("{sky:?}").bytes().map(u32::from));
     }
     let label = label.replace(['/', '\\', '.'], "_");
     cache.join(format!("{label}-{width}x{height}-{spp}spp-{:016x}.exr", fnv1a(words)))
@@ -902,6 +915,14 @@ mod tests {
         }
         assert_ne!(key(&scene), key(&zoomed), "another field of view needs another reference");
 
+        let mut sky = scene.clone();
+        sky.sky = Some(engine::render::Sky::Uniform(Vec3::splat(0.5)));
+        assert_ne!(key(&scene), key(&sky), "another sky needs another reference");
+        let mut sun = scene.clone();
+        sun.add_sun(Vec3::NEG_Y, 2.0);
+        let mut brighter = scene.clone();
+        brighter.add_sun(Vec3::NEG_Y, 3.0);
+        assert_ne!(key(&sun), key(&brighter), "a brighter sun needs another reference");
         assert_ne!(key(&scene), reference_path(cache, "cornell", &scene, 64, 48, 512), "spp is in the key");
         assert_ne!(key(&scene), reference_path(cache, "cornell", &scene, 48, 64, 256), "size is in the key");
     }
