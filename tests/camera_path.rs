@@ -268,3 +268,114 @@ fn auto_exposure_finds_the_same_picture_at_any_brightness_and_adapts_at_its_spee
     let step = evs[1] - evs[0];
     assert!(step > 0.0 && step <= auto.speed_brighten / 60.0 + 1e-4, "EV {evs:?}: one frame's step {step}");
 }
+
+/// A red leaf card (a 4×4 checkerboard of alpha 1 and 0, `AlphaMode::Mask` at 0.5) 5 cm over a
+/// white floor, the sun straight overhead, seen from straight above: the camera sees the card's
+/// solid half and, through its holes, the floor lit through the same holes (shadow rays skip the
+/// cut texels). Without the G-buffer's discard the card would fill the view; without the rays'
+/// alpha test the floor seen through the holes would lie in the card's full shadow.
+#[test]
+fn an_alpha_masked_card_is_cut_out_for_the_camera_and_for_shadow_and_path_rays() {
+    let Some(gpu) = testkit::gpu("an_alpha_masked_card_is_cut_out") else { return };
+    let mut scene = floor_scene(0.8, NodeContent::Empty, Transform::IDENTITY);
+    scene.add_sun(Vec3::NEG_Y, 3.0);
+    let checker: Vec<u8> = (0..16).flat_map(|i| [255, 255, 255, if (i % 4 + i / 4) % 2 == 0 { 255 } else { 0 }]).collect();
+    scene.images.push(engine::scene::Image { name: "checker".into(), width: 4, height: 4, rgba8: checker });
+    let card = Material {
+        base_color: glam::Vec4::new(0.8, 0.05, 0.05, 1.0),
+        base_color_texture: Some(engine::scene::TextureRef { image: engine::scene::Handle::from_index(0), transform: Default::default() }),
+        alpha_mode: engine::scene::AlphaMode::Mask { cutoff: 0.5 },
+        ..Material::diffuse("leaf", Vec3::ONE)
+    };
+    let card = scene.add_material(card);
+    let quad = scene.add_mesh(engine::shapes::quad("leaf", Vec2::splat(2.6)));
+    scene.add_node("leaf", Transform::from_xyz(0.0, 0.05, 0.0), None, vec![NodeContent::Meshes(vec![(quad, card)])]);
+    let settings = HeadlessSettings { width: 64, height: 64, frames: 16, ..Default::default() };
+    let no_taa = |app: &mut engine::bevy_app::App| {
+        app.insert_resource(engine::render::DefaultTemporalAntiAliasing(engine::render::TemporalAntiAliasing::off()));
+    };
+    let direct = engine::headless::render_scene_with(&gpu, scene.clone(), &settings, no_taa).expect("render");
+    let path = pathtrace::PathTraceSettings { samples_per_frame: 4, ..Default::default() };
+    let traced = engine::headless::render_scene_with(&gpu, scene, &settings, |app| {
+        no_taa(app);
+        pathtrace::use_path_tracer(app, path);
+    })
+    .expect("path trace");
+    for (mode, frame) in [("direct", &direct), ("pathtrace", &traced)] {
+        let (mut red, mut lit, mut dark) = (0, 0, 0);
+        for p in frame.hdr.chunks_exact(4) {
+            let (r, g) = (p[0], p[1]);
+            if r > 4.0 * g && r > 0.1 {
+                red += 1;
+            } else if g > 0.3 {
+                lit += 1;
+            } else {
+                dark += 1;
+            }
+        }
+        let n = (frame.width * frame.height) as f32;
+        let (red, lit, dark) = (red as f32 / n, lit as f32 / n, dark as f32 / n);
+        // Half the card's texels are cut; the floor's lit patches show through them.
+        assert!((red - 0.5).abs() < 0.08, "{mode}: the card's solid texels cover {red:.3} of the view (half expected)");
+        assert!((lit - 0.5).abs() < 0.08, "{mode}: lit floor through the holes {lit:.3} of the view (half expected)");
+        assert!(dark < 0.05, "{mode}: {dark:.3} of the view is dark (the card shadows as a solid quad?)");
+    }
+}
+
+/// glTF Asset Generator's seven alpha-mask planes (`../shared/scenes/alpha-mask-planes`): each
+/// plane, seen straight on in front of a white sky, is cut exactly where its texture's alpha
+/// times the base colour factor's is below its cutoff (0.5 by default, 0.4, 0.7, 1.1: all cut,
+/// 0.0: none, and a factor of 0.7 at 0.4 and 0.6), pixel by pixel against the texture itself.
+#[test]
+fn the_alpha_mask_conformance_planes_are_cut_where_their_alpha_is_below_the_cutoff() {
+    let Some(dir) = testkit::shared("the_alpha_mask_conformance_planes", "scenes/alpha-mask-planes") else { return };
+    let Some(gpu) = testkit::gpu("the_alpha_mask_conformance_planes") else { return };
+    let size = 64u32;
+    for i in 0..7 {
+        let path = dir.join(format!("Material_AlphaMask_0{i}.gltf"));
+        let mut scene = engine::import::load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+        let material = scene.materials[0].clone();
+        let engine::scene::AlphaMode::Mask { cutoff } = material.alpha_mode else {
+            panic!("{}: {:?}", path.display(), material.alpha_mode)
+        };
+        let expected_cutoff = [0.5, 0.4, 0.7, 1.1, 0.0, 0.4, 0.6][i];
+        assert_eq!(cutoff, expected_cutoff, "{}", path.display());
+        // The unit plane (z = 0, facing +Z) filling the view from 1.2 in front: the view spans
+        // ±0.45 of it.
+        let half = 0.45f32;
+        let camera = Transform::from_xyz(0.0, 0.0, 1.2).looking_at(Vec3::ZERO, Vec3::Y);
+        scene.add_node("camera", camera, None, vec![NodeContent::Camera(Camera { yfov: 2.0 * (half / 1.2).atan(), ..Default::default() })]);
+        scene.sky = Some(engine::render::Sky::Uniform(Vec3::ONE));
+        let settings = HeadlessSettings { width: size, height: size, frames: 1, ..Default::default() };
+        let frame = engine::headless::render_scene_with(&gpu, scene.clone(), &settings, |app| {
+            app.insert_resource(engine::render::DefaultTemporalAntiAliasing(engine::render::TemporalAntiAliasing::off()));
+        })
+        .expect("render");
+        // The expected mask from the texture: each pixel centre's point on the plane, its uv from
+        // the plane's own corners (uv linear in x and y), the texel's alpha there.
+        let mesh = &scene.meshes[0];
+        let corner =
+            |x: f32, y: f32| mesh.positions.iter().position(|p| (p.x - x).abs() < 1e-4 && (p.y - y).abs() < 1e-4).expect("a corner");
+        let (uv00, uv10, uv01) = (mesh.uvs[corner(-0.5, -0.5)], mesh.uvs[corner(0.5, -0.5)], mesh.uvs[corner(-0.5, 0.5)]);
+        let texture = &scene.images[material.base_color_texture.expect("a base colour texture").image.index() as usize];
+        let (mut agree, mut cut) = (0, 0);
+        for py in 0..size {
+            for px in 0..size {
+                let (x, y) = ((px as f32 + 0.5) / size as f32 * 2.0 - 1.0, 1.0 - (py as f32 + 0.5) / size as f32 * 2.0);
+                let (sx, sy) = (x * half + 0.5, y * half + 0.5);
+                let uv = uv00 + (uv10 - uv00) * sx + (uv01 - uv00) * sy;
+                let (tx, ty) =
+                    ((uv.x.rem_euclid(1.0) * texture.width as f32) as u32, (uv.y.rem_euclid(1.0) * texture.height as f32) as u32);
+                let alpha = f32::from(texture.rgba8[((ty * texture.width + tx) * 4 + 3) as usize]) / 255.0 * material.base_color.w;
+                let expected_cut = alpha < cutoff;
+                let shows_sky = frame.hdr[((py * size + px) * 4) as usize] > 0.5;
+                agree += usize::from(expected_cut == shows_sky);
+                cut += usize::from(shows_sky);
+            }
+        }
+        let n = (size * size) as usize;
+        eprintln!("Material_AlphaMask_0{i}: cutoff {cutoff}, {cut} of {n} pixels cut, {agree} agree with the texture");
+        // Texels that straddle the cutoff may go either way under bilinear filtering.
+        assert!(agree as f32 >= 0.97 * n as f32, "Material_AlphaMask_0{i}: {agree} of {n} pixels agree with the texture's mask");
+    }
+}

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use bevy_ecs::world::World;
 use engine::import::{ImportError, load_scene, validate_mesh};
-use engine::scene::{Camera, DirectionalLight, MeshInstance, NodeContent, PointLight, SceneDescription, SpotLight, UvTransform};
+use engine::scene::{AlphaMode, Camera, DirectionalLight, MeshInstance, NodeContent, PointLight, SceneDescription, SpotLight, UvTransform};
 use glam::{Vec2, Vec3, Vec4};
 
 fn fixtures() -> PathBuf {
@@ -493,4 +493,29 @@ fn a_failed_load_leaves_the_previous_scene_intact() {
     let roots: Vec<String> = world.query::<&SceneRoot>().iter(&world).map(|r| r.name.clone()).collect();
     assert_eq!(roots, ["cornell_box"]);
     assert!(world.get_entity(second).is_ok());
+}
+
+/// OBJ's `d` (dissolve) and `Tr` (one minus it) set the alpha; a material that is see-through is
+/// BLEND (cut below 0.5), an opaque one stays opaque, and a `Tr` out of range is named.
+#[test]
+fn obj_dissolve_and_transparency_set_the_alpha_mode() {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("obj_alpha");
+    std::fs::create_dir_all(&dir).unwrap();
+    let mtl = "newmtl glass\nKd 1 1 1\nd 0.3\n\nnewmtl leaf\nKd 0 1 0\nTr 0.1\n\nnewmtl stone\nKd 0.5 0.5 0.5\n";
+    std::fs::write(dir.join("alpha.mtl"), mtl).unwrap();
+    let mut obj = String::from("mtllib alpha.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\n");
+    for m in ["glass", "leaf", "stone"] {
+        obj += &format!("usemtl {m}\nf 1 2 3\n");
+    }
+    std::fs::write(dir.join("alpha.obj"), &obj).unwrap();
+    let scene = load_scene(&dir.join("alpha.obj")).unwrap_or_else(|e| panic!("{e}"));
+    let get = |name: &str| scene.materials.iter().find(|m| m.name == name).unwrap_or_else(|| panic!("no material {name}"));
+    assert_eq!((get("glass").alpha_mode, get("glass").base_color.w), (AlphaMode::Blend, 0.3));
+    assert_eq!(get("leaf").alpha_mode, AlphaMode::Blend);
+    assert!((get("leaf").base_color.w - 0.9).abs() < 1e-6);
+    assert_eq!((get("stone").alpha_mode, get("stone").base_color.w), (AlphaMode::Opaque, 1.0));
+    std::fs::write(dir.join("alpha.mtl"), "newmtl glass\nTr 2\n").unwrap();
+    std::fs::write(dir.join("alpha.obj"), "mtllib alpha.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl glass\nf 1 2 3\n").unwrap();
+    let error = load_scene(&dir.join("alpha.obj")).expect_err("Tr 2 is refused").to_string();
+    assert!(error.contains("Tr") && error.contains("glass") && error.contains("alpha.obj"), "{error}");
 }

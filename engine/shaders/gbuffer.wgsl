@@ -51,6 +51,10 @@ fn clip_to_uv(clip: vec4<f32>) -> vec2<f32> {
 
 @fragment
 fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> GBufferOut {
+    // Alpha-masked texels are not there.
+    if material_cuts(in.material, in.uv) {
+        discard;
+    }
     // Surfaces are two-sided: the normal faces the viewer.
     var n = safe_normalize(in.normal, vec3<f32>(0.0, 1.0, 0.0));
     if !front_facing {

@@ -283,6 +283,8 @@ struct RtWalk {
     oct_inv4: u32,
     in_blas: bool,
     instance: u32,
+    // The entered instance's material cuts texels (alpha-masked): its candidate hits test the alpha.
+    alpha_tested: bool,
     node_offset: u32,
     triangle_offset: u32,
     // Stack entries in use; those below `spilled` live in the caller's function-memory stack, the
@@ -312,6 +314,7 @@ fn rt_walk_start(ray: Ray) -> RtWalk {
         world_oct,
         false,
         0u,
+        false,
         0u,
         0u,
         0u,
@@ -429,7 +432,7 @@ fn rt_walk_prims(w: ptr<function, RtWalk>, stack: ptr<function, array<vec2<u32>,
                 rt_steps += 1u;
             }
             let h = rt_intersect_triangle(index, (*w).origin, (*w).tri_dir, (*w).ray.tmin, (*w).best.t);
-            if h.hit {
+            if h.hit && !((*w).alpha_tested && rt_alpha_cuts((*w).instance, index, h.barycentrics)) {
                 (*w).best.t = h.t;
                 (*w).best.instance = (*w).instance;
                 (*w).best.barycentrics = h.barycentrics;
@@ -458,6 +461,7 @@ fn rt_walk_prims(w: ptr<function, RtWalk>, stack: ptr<function, array<vec2<u32>,
         (*w).tlas_sp = (*w).sp;
         (*w).in_blas = true;
         (*w).instance = entry.instance;
+        (*w).alpha_tested = materials[instances[entry.instance].material].emissive.w > 0.0;
         (*w).node_offset = entry.node_offset;
         (*w).triangle_offset = entry.triangle_offset;
         let local_from_world = instances[entry.instance].local_from_world;
@@ -492,6 +496,21 @@ fn rt_walk_prims(w: ptr<function, RtWalk>, stack: ptr<function, array<vec2<u32>,
         }
     }
     return false;
+}
+
+// Whether the candidate hit at `barycentrics` of the triangle stored at `index` of blas_triangles,
+// in `instance`, falls on a texel its alpha-masked material cuts out (any-hit alpha test). Static
+// groups hold no alpha-tested instance (engine/src/rt/groups.rs), so the instance is the triangle's.
+fn rt_alpha_cuts(instance: u32, index: u32, barycentrics: vec2<f32>) -> bool {
+    let inst = instances[instance];
+    let blas = blas_info[inst.mesh];
+    let base = blas.first_index + 3u * bitcast<u32>(blas_triangles[index * 3u].w);
+    let a = vertices[indices[base] + blas.base_vertex];
+    let b = vertices[indices[base + 1u] + blas.base_vertex];
+    let c = vertices[indices[base + 2u] + blas.base_vertex];
+    let w = vec3<f32>(1.0 - barycentrics.x - barycentrics.y, barycentrics.x, barycentrics.y);
+    let uv = vec2<f32>(a.u, a.v) * w.x + vec2<f32>(b.u, b.v) * w.y + vec2<f32>(c.u, c.v) * w.z;
+    return material_cuts(inst.material, uv);
 }
 
 // The hit a finished walk found, its primitive (the mesh's triangle index) filled in.

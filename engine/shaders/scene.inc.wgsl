@@ -70,7 +70,8 @@ struct TextureSlot {
 
 struct GpuMaterial {
     base_color: vec4<f32>,
-    // Emitted radiance factor, emissive strength included.
+    // Emitted radiance factor, emissive strength included; w: the alpha below which a texel is cut
+    // (0 for opaque materials: none is).
     emissive: vec4<f32>,
     // metallic, roughness, specular (0: Lambertian), normal map scale.
     pbr: vec4<f32>,
@@ -228,6 +229,18 @@ fn sample_data_slot(slot: TextureSlot, uv: vec2<f32>, fallback: vec4<f32>) -> ve
         return fallback;
     }
     return textureSampleLevel(data_atlas, atlas_sampler, slot_atlas_position(slot, uv), 0.0);
+}
+
+// Whether material `index` cuts the texel at uv out (alpha-masked materials: the base colour's
+// alpha, factor × texture, below the material's cutoff). Opaque materials cut nothing and sample no
+// texture.
+fn material_cuts(index: u32, uv: vec2<f32>) -> bool {
+    let m = materials[index];
+    let cutoff = m.emissive.w;
+    if !(cutoff > 0.0) {
+        return false;
+    }
+    return m.base_color.a * sample_slot(m.base_color_texture, uv).a < cutoff;
 }
 
 struct SurfaceMaterial {

@@ -537,9 +537,12 @@ pub struct TextureRef {
 pub struct Material {
     /// The material's name (from the file, or given by the scene builder), for messages.
     pub name: String,
-    /// Linear base colour factor (RGB) and alpha (kept as imported; every surface renders opaque);
-    /// times the texture.
+    /// Linear base colour factor (RGB) and alpha; times the texture. The alpha cuts the surface
+    /// as `alpha_mode` says (opaque by default: ignored).
     pub base_color: glam::Vec4,
+    /// How the base colour's alpha (factor × texture) cuts the surface, for the camera and for every
+    /// ray alike. Surfaces are always two-sided (glTF's `doubleSided` is every material's).
+    pub alpha_mode: AlphaMode,
     /// Base colour texture (sRGB); `None`: the factor alone.
     pub base_color_texture: Option<TextureRef>,
     /// Emitted radiance factor (linear RGB, W/(m²·sr) before `emissive_strength`); times the texture.
@@ -565,11 +568,45 @@ pub struct Material {
     pub normal_scale: f32,
 }
 
+/// How a material's alpha cuts its surface (glTF's `alphaMode`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum AlphaMode {
+    /// Alpha ignored: every texel is solid (glTF `OPAQUE`). Rays test nothing more.
+    #[default]
+    Opaque,
+    /// Texels whose alpha is below `cutoff` are cut out, from the image and from every ray (probe,
+    /// shadow, contact-occlusion and path-tracer rays test the alpha at each candidate hit): glTF
+    /// `MASK` with its `alphaCutoff` (0.5 by default). Foliage, fences, decals. Costs the rays
+    /// that enter such an instance a texture lookup per candidate hit; other instances pay
+    /// nothing.
+    Mask {
+        /// Alpha below which a texel is cut (0: none is; above 1: all are).
+        cutoff: f32,
+    },
+    /// glTF `BLEND`, drawn as [`AlphaMode::Mask`] at 0.5: a deferred renderer keeps one surface a
+    /// pixel, and DDGI's probes need the same answer every frame, so a texel is either there or
+    /// not (stochastic transparency would add noise to both). Cut-out leaves and fences marked
+    /// BLEND look right; a glass pane of alpha 0.3 disappears.
+    Blend,
+}
+
+impl AlphaMode {
+    /// Alpha below which a texel is cut: 0 for opaque materials (nothing is).
+    pub fn cutoff(self) -> f32 {
+        match self {
+            AlphaMode::Opaque => 0.0,
+            AlphaMode::Mask { cutoff } => cutoff,
+            AlphaMode::Blend => 0.5,
+        }
+    }
+}
+
 impl Default for Material {
     fn default() -> Self {
         Self {
             name: String::new(),
             base_color: glam::Vec4::ONE,
+            alpha_mode: AlphaMode::Opaque,
             base_color_texture: None,
             emissive: Vec3::ZERO,
             emissive_texture: None,
@@ -997,6 +1034,11 @@ impl Material {
         }
         if !self.emissive_strength.is_finite() {
             return Err(non_finite(item, "emissive_strength", self.emissive_strength));
+        }
+        if let AlphaMode::Mask { cutoff } = self.alpha_mode
+            && !cutoff.is_finite()
+        {
+            return Err(non_finite(item, "alpha_mode.cutoff", cutoff));
         }
         if self.emissive_strength < 0.0 {
             return Err(SceneDataError::OutOfRange {

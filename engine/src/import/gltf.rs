@@ -26,8 +26,8 @@ use glam::{Mat4, Quat, Vec2, Vec3, Vec4};
 
 use super::{Budget, ImportError, fmt_vec2, fmt_vec3};
 use crate::scene::{
-    Camera, DirectionalLight, Handle, Material, Mesh, NodeContent, PointLight, SceneDescription, SceneNode, SpotLight, TextureRef,
-    Transform, UvTransform,
+    AlphaMode, Camera, DirectionalLight, Handle, Material, Mesh, NodeContent, PointLight, SceneDescription, SceneNode, SpotLight,
+    TextureRef, Transform, UvTransform,
 };
 
 /// Imports a `.gltf` or `.glb` file whose content is `bytes`.
@@ -830,6 +830,19 @@ impl<'a> Importer<'a> {
             return Err(self.invalid(&what, format!("non-finite baseColorFactor {base_color}")));
         }
         let base_color_texture = pbr.base_color_texture().map(|info| self.texture(&info, &what, "baseColorTexture")).transpose()?;
+        // Surfaces are drawn two-sided whatever `doubleSided` says (a single-sided leaf would cast
+        // a shadow from one side only, which no renderer here models).
+        let alpha_mode = match material.alpha_mode() {
+            ::gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+            ::gltf::material::AlphaMode::Mask => {
+                let cutoff = material.alpha_cutoff().unwrap_or(0.5);
+                if !(cutoff.is_finite() && cutoff >= 0.0) {
+                    return Err(self.invalid(&what, format!("invalid alphaCutoff {cutoff}")));
+                }
+                AlphaMode::Mask { cutoff }
+            }
+            ::gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+        };
         let emissive = Vec3::from_array(material.emissive_factor());
         if !emissive.is_finite() || emissive.min_element() < 0.0 {
             return Err(self.invalid(&what, format!("invalid emissiveFactor {}", fmt_vec3(emissive))));
@@ -878,6 +891,7 @@ impl<'a> Importer<'a> {
         Ok(Material {
             name: material.name().map_or_else(|| format!("material {index}"), str::to_string),
             base_color,
+            alpha_mode,
             base_color_texture,
             emissive,
             emissive_texture,

@@ -20,7 +20,7 @@ use std::path::{Path, PathBuf};
 use glam::{Vec2, Vec3};
 
 use super::{Budget, ImportError};
-use crate::scene::{Handle, Material, Mesh, NodeContent, SceneDescription, TextureRef, Transform, UvTransform};
+use crate::scene::{AlphaMode, Handle, Material, Mesh, NodeContent, SceneDescription, TextureRef, Transform, UvTransform};
 
 /// A material library as loaded for `tobj`, with the folder its textures are relative to.
 struct Library {
@@ -303,11 +303,22 @@ impl Importer<'_> {
         let what = format!("material '{}' (in '{library}')", source.name);
 
         let diffuse = Vec3::from_array(source.diffuse.unwrap_or([1.0; 3]));
-        let alpha = source.dissolve.unwrap_or(1.0);
+        // `d` (dissolve) is the alpha; `Tr` (transparency), which some exporters write instead, is
+        // one minus it.
+        let transparency = match source.unknown_param.get("Tr") {
+            None => None,
+            Some(text) => match text.trim().parse::<f32>() {
+                Ok(v) if v.is_finite() && (0.0..=1.0).contains(&v) => Some(v),
+                _ => return Err(self.invalid(&what, format!("Tr '{text}' is not a number between 0 and 1"))),
+            },
+        };
+        let alpha = source.dissolve.or(transparency.map(|t| 1.0 - t)).unwrap_or(1.0);
         let base_color = diffuse.extend(alpha);
         if !base_color.is_finite() || base_color.min_element() < 0.0 {
             return Err(self.invalid(&what, format!("invalid Kd/d {base_color}")));
         }
+        // A see-through material is glTF's BLEND: cut where its alpha is below 0.5.
+        let alpha_mode = if alpha < 1.0 { AlphaMode::Blend } else { AlphaMode::Opaque };
         let emissive =
             source.emissive.or_else(|| source.unknown_param.get("Ke").and_then(|ke| parse_color(ke))).map_or(Vec3::ZERO, Vec3::from_array);
         if !emissive.is_finite() || emissive.min_element() < 0.0 {
@@ -331,6 +342,7 @@ impl Importer<'_> {
         let material = Material {
             name: source.name.clone(),
             base_color,
+            alpha_mode,
             base_color_texture,
             emissive,
             emissive_texture,

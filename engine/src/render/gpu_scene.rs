@@ -148,6 +148,8 @@ pub struct GpuScene {
     /// Scene data left out of the upload, by where it was found (see [`GpuScene::errors`]).
     geometry_errors: Vec<SceneDataError>,
     material_errors: Vec<SceneDataError>,
+    /// Per material index: whether it cuts texels by alpha ([`crate::scene::AlphaMode`]).
+    alpha_tested: Vec<bool>,
     instance_errors: EntityHashMap<SceneDataError>,
     frame_errors: Vec<SceneDataError>,
     logged: std::collections::HashSet<String>,
@@ -203,6 +205,7 @@ impl GpuScene {
             frame: 0,
             geometry_errors: Vec::new(),
             material_errors: Vec::new(),
+            alpha_tested: Vec::new(),
             instance_errors: EntityHashMap::default(),
             frame_errors: Vec::new(),
             logged: Default::default(),
@@ -251,6 +254,13 @@ impl GpuScene {
     /// Every live instance as (slot, mesh index, world transform).
     pub fn live_instances(&self) -> Vec<(u32, u32, Affine3A)> {
         self.slots.placement.iter().enumerate().filter_map(|(i, p)| p.map(|(m, w)| (i as u32, m, w))).collect()
+    }
+
+    /// Whether the instance in `slot` is drawn with a material that cuts texels by alpha (its rays
+    /// test the alpha at every candidate hit; it never joins a static group).
+    pub fn instance_alpha_tested(&self, slot: u32) -> bool {
+        let material = self.slots.data.get(slot as usize).map(|d| d.material as usize);
+        material.and_then(|m| self.alpha_tested.get(m)).copied().unwrap_or(false)
     }
 
     /// Mesh index and world transform of the instance in `slot`, if it is live.
@@ -368,7 +378,7 @@ impl GpuScene {
                 }
                 GpuMaterial {
                     base_color: m.base_color.to_array(),
-                    emissive: emissive.extend(1.0).to_array(),
+                    emissive: emissive.extend(m.alpha_mode.cutoff()).to_array(),
                     pbr: [m.metallic, m.roughness, m.specular, m.normal_scale],
                     base_color_texture: slot(&m.base_color_texture),
                     emissive_texture: slot(&m.emissive_texture),
@@ -378,6 +388,7 @@ impl GpuScene {
             })
             .collect();
         self.material_errors = errors;
+        self.alpha_tested = data.iter().map(|m| m.emissive[3] > 0.0).collect();
         self.has_emissive = materials.iter().any(|(_, m)| m.emissive_strength != 0.0 && m.emissive != Vec3::ZERO);
         self.materials.write(gpu, bytemuck::cast_slice(&data));
     }

@@ -89,9 +89,10 @@ pub(crate) struct TextureSlot {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub(crate) struct GpuMaterial {
-    /// Linear base colour factor (RGB; alpha unused).
+    /// Linear base colour factor (RGB) and alpha.
     pub base_color: [f32; 4],
-    /// Emitted radiance factor (W/(m²·sr), RGB), emissive strength included; w unused.
+    /// Emitted radiance factor (W/(m²·sr), RGB), emissive strength included; w: the alpha below
+    /// which a texel is cut ([`crate::scene::AlphaMode::cutoff`]; 0 for opaque materials).
     pub emissive: [f32; 4],
     /// metallic, roughness, specular, normal scale.
     pub pbr: [f32; 4],

@@ -862,7 +862,10 @@ impl RayTracingScene {
     fn rebuild_tlas(&mut self, gpu: &GpuContext, scene: &GpuScene) {
         self.rebuild_requested = false;
         let instances = scene.live_instances();
-        if self.update_static_groups(&instances) {
+        // Alpha-tested instances keep their own TLAS leaf: the traversal's alpha test reads the
+        // entered instance's material and mesh.
+        let groupable: Vec<_> = instances.iter().filter(|(slot, _, _)| !scene.instance_alpha_tested(*slot)).copied().collect();
+        if self.update_static_groups(&groupable) {
             self.upload_blas(gpu, scene);
         }
         let grouped: std::collections::HashSet<u32> =
