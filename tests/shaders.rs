@@ -97,8 +97,11 @@ fn bindings_are_reflected_by_name_per_entry_point() {
     let group1 = &map.groups[&1];
     assert_eq!(group1.len(), 5, "{group1:?}");
     assert!(group1.contains_key("radiance_out"));
-    // The lighting pass does not rasterize: vertices are unused and so not part of its layout.
-    assert!(!map.groups[&0].contains_key("vertices"));
+    // The lighting pass reads vertices only for its shadow rays' alpha test; the TAA pass, which
+    // traces nothing, leaves them (and every other scene binding but the view) out of its layout.
+    assert!(map.groups[&0].contains_key("vertices"));
+    let taa = shader::parse("taa.wgsl").expect("parse").used_bindings(&["main"]);
+    assert!(taa.groups.get(&0).is_none_or(|g| !g.contains_key("vertices") && !g.contains_key("materials")), "{:?}", taa.groups.get(&0));
     let gbuffer = shader::parse("gbuffer.wgsl").expect("parse").used_bindings(&["vs_main", "fs_main"]);
     assert!(gbuffer.groups[&0].contains_key("vertices") && gbuffer.groups[&0].contains_key("materials"));
 }

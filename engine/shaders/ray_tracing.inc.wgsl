@@ -432,7 +432,7 @@ fn rt_walk_prims(w: ptr<function, RtWalk>, stack: ptr<function, array<vec2<u32>,
                 rt_steps += 1u;
             }
             let h = rt_intersect_triangle(index, (*w).origin, (*w).tri_dir, (*w).ray.tmin, (*w).best.t);
-            if h.hit && !((*w).alpha_tested && rt_alpha_cuts((*w).instance, index, h.barycentrics)) {
+            if h.hit && !(SCENE_HAS_ALPHA_TEST && (*w).alpha_tested && rt_alpha_cuts((*w).instance, index, h.barycentrics)) {
                 (*w).best.t = h.t;
                 (*w).best.instance = (*w).instance;
                 (*w).best.barycentrics = h.barycentrics;
@@ -461,7 +461,7 @@ fn rt_walk_prims(w: ptr<function, RtWalk>, stack: ptr<function, array<vec2<u32>,
         (*w).tlas_sp = (*w).sp;
         (*w).in_blas = true;
         (*w).instance = entry.instance;
-        (*w).alpha_tested = materials[instances[entry.instance].material].emissive.w > 0.0;
+        (*w).alpha_tested = SCENE_HAS_ALPHA_TEST && materials[instances[entry.instance].material].emissive.w > 0.0;
         (*w).node_offset = entry.node_offset;
         (*w).triangle_offset = entry.triangle_offset;
         let local_from_world = instances[entry.instance].local_from_world;

@@ -102,10 +102,12 @@ struct GpuLight {
     _pad2: u32,
 }
 
-// Pipeline constants: a pipeline built for a scene without spot lights or without emissive
-// materials sets these to false, and the spot cone or the emission lookup is compiled out.
+// Pipeline constants: a pipeline built for a scene without spot lights, without emissive
+// materials or without alpha-masked ones sets these to false, and the spot cone, the emission
+// lookup or the alpha test (the G-buffer's discard, the traversal's any-hit test) is compiled out.
 override SCENE_HAS_SPOT_LIGHTS: bool = true;
 override SCENE_HAS_EMISSIVE: bool = true;
+override SCENE_HAS_ALPHA_TEST: bool = true;
 
 @group(0) @binding(0) var<uniform> view: ViewUniform;
 @group(0) @binding(1) var<storage, read> lights: array<GpuLight>;
@@ -235,6 +237,9 @@ fn sample_data_slot(slot: TextureSlot, uv: vec2<f32>, fallback: vec4<f32>) -> ve
 // alpha, factor × texture, below the material's cutoff). Opaque materials cut nothing and sample no
 // texture.
 fn material_cuts(index: u32, uv: vec2<f32>) -> bool {
+    if !SCENE_HAS_ALPHA_TEST {
+        return false;
+    }
     let m = materials[index];
     let cutoff = m.emissive.w;
     if !(cutoff > 0.0) {

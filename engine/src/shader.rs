@@ -455,19 +455,35 @@ pub fn render_program(
     label: &str,
     targets: RenderTargets<'_>,
 ) -> Result<Program<wgpu::RenderPipeline>, ShaderError> {
+    render_program_with_constants(device, file, label, targets, &[])
+}
+
+/// [`render_program`] with values for the shader's `override` constants (both stages).
+pub fn render_program_with_constants(
+    device: &wgpu::Device,
+    file: &str,
+    label: &str,
+    targets: RenderTargets<'_>,
+    constants: &[(&str, f64)],
+) -> Result<Program<wgpu::RenderPipeline>, ShaderError> {
     let parsed = parse(file)?;
     let module = parsed.create_module(device);
     let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
         label: Some(label),
         layout: None,
-        vertex: wgpu::VertexState { module: &module, entry_point: Some("vs_main"), compilation_options: Default::default(), buffers: &[] },
+        vertex: wgpu::VertexState {
+            module: &module,
+            entry_point: Some("vs_main"),
+            compilation_options: wgpu::PipelineCompilationOptions { constants, ..Default::default() },
+            buffers: &[],
+        },
         primitive: targets.primitive,
         depth_stencil: targets.depth,
         multisample: Default::default(),
         fragment: Some(wgpu::FragmentState {
             module: &module,
             entry_point: Some("fs_main"),
-            compilation_options: Default::default(),
+            compilation_options: wgpu::PipelineCompilationOptions { constants, ..Default::default() },
             targets: targets.colors,
         }),
         multiview_mask: None,

@@ -218,10 +218,12 @@ enum KernelUse {
     HitIds,
 }
 
-/// The bench kernel's module, entry point and `override` values for `variant`.
-fn kernel_pipeline(variant: TraceVariant, usage: KernelUse) -> (&'static str, &'static str, Vec<(&'static str, f64)>) {
+/// The bench kernel's module, entry point and `override` values for `variant`, compiled with the
+/// traversal's alpha test when the scene has alpha-masked materials (`alpha_test`), as DDGI's
+/// passes are.
+fn kernel_pipeline(variant: TraceVariant, usage: KernelUse, alpha_test: bool) -> (&'static str, &'static str, Vec<(&'static str, f64)>) {
     let count_work = usage == KernelUse::CountWork;
-    let mut constants = vec![("BENCH_GROUP", f64::from(variant.workgroup_size))];
+    let mut constants = vec![("BENCH_GROUP", f64::from(variant.workgroup_size)), ("SCENE_HAS_ALPHA_TEST", f64::from(u8::from(alpha_test)))];
     if count_work {
         constants.push(("RT_COUNT_WORK", 1.0));
     }
@@ -325,7 +327,8 @@ impl TraceKernel {
                 gpu.adapter_name()
             ));
         }
-        let (file, entry, constants) = kernel_pipeline(variant, usage);
+        let alpha_test = app.world().resource::<GpuScene>().has_alpha_test;
+        let (file, entry, constants) = kernel_pipeline(variant, usage, alpha_test);
         let constants = constants.as_slice();
         let program = engine::shader::register(SHADERS)
             .and_then(|()| compute_program_with_constants(&gpu.device, file, entry, "trace", constants))
@@ -1153,7 +1156,7 @@ mod tests {
                                 subgroup_fetch,
                                 ..Default::default()
                             };
-                            let (file, entry, constants) = kernel_pipeline(variant, usage);
+                            let (file, entry, constants) = kernel_pipeline(variant, usage, true);
                             entries.insert((file, entry));
                             let parsed = if file == subgroup.name { &subgroup } else { &plain };
                             assert_eq!(file, parsed.name);
@@ -1168,7 +1171,7 @@ mod tests {
             for workgroup_size in [32, 64, 128, 256] {
                 for usage in [KernelUse::Time, KernelUse::CountWork, KernelUse::HitIds] {
                     let variant = TraceVariant { workgroup_size, packet: Some(packet), ..Default::default() };
-                    let (file, entry, constants) = kernel_pipeline(variant, usage);
+                    let (file, entry, constants) = kernel_pipeline(variant, usage, true);
                     entries.insert((file, entry));
                     let parsed = if file == subgroup.name { &subgroup } else { &plain };
                     parsed.validate_compute_variant(entry, &constants).unwrap_or_else(|e| panic!("{e}"));

@@ -134,6 +134,9 @@ pub struct GpuScene {
     pub light_data: Vec<GpuLight>,
     /// Which light kinds the scene has, so passes can leave out what it does not need.
     pub has_spot_lights: bool,
+    /// Whether any material cuts texels by alpha (pipelines built for a scene without leave the
+    /// alpha test out: `SCENE_HAS_ALPHA_TEST`).
+    pub has_alpha_test: bool,
     /// Whether any material emits light (shaders may leave out the emission lookup when none does).
     pub has_emissive: bool,
     /// This frame's view as uploaded (camera matrices, position, exposure, jitter).
@@ -206,6 +209,7 @@ impl GpuScene {
             geometry_errors: Vec::new(),
             material_errors: Vec::new(),
             alpha_tested: Vec::new(),
+            has_alpha_test: false,
             instance_errors: EntityHashMap::default(),
             frame_errors: Vec::new(),
             logged: Default::default(),
@@ -389,6 +393,7 @@ impl GpuScene {
             .collect();
         self.material_errors = errors;
         self.alpha_tested = data.iter().map(|m| m.emissive[3] > 0.0).collect();
+        self.has_alpha_test = self.alpha_tested.contains(&true);
         self.has_emissive = materials.iter().any(|(_, m)| m.emissive_strength != 0.0 && m.emissive != Vec3::ZERO);
         self.materials.write(gpu, bytemuck::cast_slice(&data));
     }

@@ -26,7 +26,7 @@ use serde::Serialize;
 use crate::app::{Prepare, Render, Time};
 use crate::gpu::GpuContext;
 use crate::graph::{FrameReport, GpuTimer, Handle, RenderGraph, Texture as GraphTexture, TextureDesc, TransientPool};
-use crate::shader::{Program, RenderTargets, compute_program, compute_program_with_constants, render_program};
+use crate::shader::{Program, RenderTargets, compute_program, compute_program_with_constants, render_program, render_program_with_constants};
 pub use crate::sky::Sky;
 pub use exposure::{AutoExposure, DefaultAutoExposure, ExposureState};
 pub use gpu_scene::{GpuScene, RenderSize, prepare_gpu_scene};
@@ -94,7 +94,9 @@ impl Plugin for RenderPlugin {
 /// The pipelines of the camera path.
 #[derive(Resource)]
 pub(crate) struct CameraPipelines {
-    pub gbuffer: Arc<Program<wgpu::RenderPipeline>>,
+    /// The G-buffer pass without (`[0]`) and with (`[1]`) the alpha test: a scene without
+    /// alpha-masked materials keeps the early depth test a `discard` would cost.
+    pub gbuffer: [Arc<Program<wgpu::RenderPipeline>>; 2],
     pub direct_lighting: Arc<Program<wgpu::ComputePipeline>>,
     /// The tonemap pass with each [`DisplayTransform`] (in the order of its variants), with the
     /// camera's exposure (`[0]`) or the auto-exposure's (`[1]`).
@@ -130,18 +132,16 @@ impl CameraPipelines {
     /// Builds every pipeline of the camera path.
     pub fn new(gpu: &GpuContext) -> Result<Self, crate::shader::ShaderError> {
         let color = |format| Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL });
-        let gbuffer = render_program(
-            &gpu.device,
-            "gbuffer.wgsl",
-            "gbuffer",
-            RenderTargets {
+        let gbuffer = |alpha_test: f64| {
+            let targets = RenderTargets {
                 colors: &[color(NORMAL_FORMAT), color(ALBEDO_FORMAT), color(EMISSIVE_FORMAT), color(MOTION_FORMAT)],
                 depth: Some(depth_test()),
                 primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
-            },
-        )?;
+            };
+            render_program_with_constants(&gpu.device, "gbuffer.wgsl", "gbuffer", targets, &[("SCENE_HAS_ALPHA_TEST", alpha_test)]).map(Arc::new)
+        };
         Ok(Self {
-            gbuffer: Arc::new(gbuffer),
+            gbuffer: [gbuffer(0.0)?, gbuffer(1.0)?],
             direct_lighting: Arc::new(compute_program(&gpu.device, "direct_lighting.wgsl", "main", "direct_lighting")?),
             tonemap: {
                 let variant = |display: f64, auto: f64| {
@@ -540,7 +540,7 @@ impl CameraFrame<'_> {
             let mut pass = graph.add_pass("gbuffer");
             let targets = [pass.write(&mut normal), pass.write(&mut albedo), pass.write(&mut emissive), pass.write(&mut motion)];
             let depth_target = pass.write(&mut depth);
-            let program = pipelines.gbuffer.clone();
+            let program = pipelines.gbuffer[usize::from(scene.has_alpha_test)].clone();
             let scene_reads = pass.read_named(&program.bindings, 0);
             let index_buffer = scene.indices.buffer.clone();
             let draws = scene.draws.clone();

@@ -236,7 +236,11 @@ impl DdgiFrame<'_> {
     /// latency whatever the count, so several cascades traced one after the other cost that
     /// latency several times over.
     pub fn add_volume_updates(&mut self, graph: &mut RenderGraph, frame: &CameraFrame) -> Vec<VolumeHandles> {
-        let specialization = Specialization { spot_lights: frame.scene.has_spot_lights, emissive: frame.scene.has_emissive };
+        let specialization = Specialization {
+            spot_lights: frame.scene.has_spot_lights,
+            emissive: frame.scene.has_emissive,
+            alpha_test: frame.scene.has_alpha_test,
+        };
         let count = self.volumes.volumes.len();
         let mut handles: Vec<VolumeHandles> = Vec::new();
         let mut updating = Vec::new();

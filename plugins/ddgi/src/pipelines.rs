@@ -20,6 +20,7 @@ pub(crate) type ComputeProgram = Arc<Program<wgpu::ComputePipeline>>;
 pub(crate) struct Specialization {
     pub spot_lights: bool,
     pub emissive: bool,
+    pub alpha_test: bool,
 }
 
 impl Specialization {
@@ -30,6 +31,9 @@ impl Specialization {
         }
         if !self.emissive {
             parts.push("no emission lookup (no emissive materials)");
+        }
+        if !self.alpha_test {
+            parts.push("no alpha test (no alpha-masked materials)");
         }
         if parts.is_empty() { String::new() } else { format!("specialized: {}", parts.join(", ")) }
     }
@@ -134,8 +138,11 @@ impl DdgiPipelines {
         if let Some(p) = self.specialized.get(&(s, kernel)) {
             return Ok(p.clone());
         }
-        let constants =
-            [("SCENE_HAS_SPOT_LIGHTS", f64::from(u8::from(s.spot_lights))), ("SCENE_HAS_EMISSIVE", f64::from(u8::from(s.emissive)))];
+        let constants = [
+            ("SCENE_HAS_SPOT_LIGHTS", f64::from(u8::from(s.spot_lights))),
+            ("SCENE_HAS_EMISSIVE", f64::from(u8::from(s.emissive))),
+            ("SCENE_HAS_ALPHA_TEST", f64::from(u8::from(s.alpha_test))),
+        ];
         let (file, entry) = kernel.entry();
         let program = Arc::new(compute_program_with_constants(&gpu.device, file, entry, entry, &constants)?);
         self.specialized.insert((s, kernel), program.clone());
