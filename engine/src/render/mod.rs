@@ -26,7 +26,9 @@ use serde::Serialize;
 use crate::app::{Prepare, Render, Time};
 use crate::gpu::GpuContext;
 use crate::graph::{FrameReport, GpuTimer, Handle, RenderGraph, Texture as GraphTexture, TextureDesc, TransientPool};
-use crate::shader::{Program, RenderTargets, compute_program, compute_program_with_constants, render_program, render_program_with_constants};
+use crate::shader::{
+    Program, RenderTargets, compute_program, compute_program_with_constants, render_program, render_program_with_constants,
+};
 pub use crate::sky::Sky;
 pub use exposure::{AutoExposure, DefaultAutoExposure, ExposureState};
 pub use gpu_scene::{GpuScene, RenderSize, prepare_gpu_scene};
@@ -138,7 +140,8 @@ impl CameraPipelines {
                 depth: Some(depth_test()),
                 primitive: wgpu::PrimitiveState { cull_mode: None, ..Default::default() },
             };
-            render_program_with_constants(&gpu.device, "gbuffer.wgsl", "gbuffer", targets, &[("SCENE_HAS_ALPHA_TEST", alpha_test)]).map(Arc::new)
+            render_program_with_constants(&gpu.device, "gbuffer.wgsl", "gbuffer", targets, &[("SCENE_HAS_ALPHA_TEST", alpha_test)])
+                .map(Arc::new)
         };
         Ok(Self {
             gbuffer: [gbuffer(0.0)?, gbuffer(1.0)?],
