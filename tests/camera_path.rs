@@ -283,7 +283,11 @@ fn an_alpha_masked_card_is_cut_out_for_the_camera_and_for_shadow_and_path_rays()
     scene.images.push(engine::scene::Image { name: "checker".into(), width: 4, height: 4, rgba8: checker });
     let card = Material {
         base_color: glam::Vec4::new(0.8, 0.05, 0.05, 1.0),
-        base_color_texture: Some(engine::scene::TextureRef { image: engine::scene::Handle::from_index(0), transform: Default::default() }),
+        base_color_texture: Some(engine::scene::TextureRef {
+            image: engine::scene::Handle::from_index(0),
+            transform: Default::default(),
+            filter: Default::default(),
+        }),
         alpha_mode: engine::scene::AlphaMode::Mask { cutoff: 0.5 },
         ..Material::diffuse("leaf", Vec3::ONE)
     };
@@ -378,4 +382,35 @@ fn the_alpha_mask_conformance_planes_are_cut_where_their_alpha_is_below_the_cuto
         // Texels that straddle the cutoff may go either way under bilinear filtering.
         assert!(agree as f32 >= 0.97 * n as f32, "Material_AlphaMask_0{i}: {agree} of {n} pixels agree with the texture's mask");
     }
+}
+
+/// A 2×2 red and blue checker texture magnified over a quad that fills the view: sampled nearest
+/// (glTF `NEAREST`), every pixel is one of the two colours; bilinear, the texel borders blend them.
+#[test]
+fn a_texture_sampled_nearest_keeps_its_texel_edges() {
+    let Some(gpu) = testkit::gpu("a_texture_sampled_nearest_keeps_its_texel_edges") else { return };
+    let blended = |filter: engine::scene::TextureFilter| {
+        let mut scene = floor_scene(0.8, NodeContent::Empty, Transform::IDENTITY);
+        scene.add_sun(Vec3::NEG_Y, 3.0);
+        scene.images.push(engine::scene::Image {
+            name: "checker".into(),
+            width: 2,
+            height: 2,
+            rgba8: vec![255, 0, 0, 255, 0, 0, 255, 255, 0, 0, 255, 255, 255, 0, 0, 255],
+        });
+        let texture = engine::scene::TextureRef { image: engine::scene::Handle::from_index(0), transform: Default::default(), filter };
+        let card = scene.add_material(Material { base_color_texture: Some(texture), ..Material::diffuse("checker", Vec3::splat(0.8)) });
+        let quad = scene.add_mesh(engine::shapes::quad("checker", Vec2::splat(2.6)));
+        scene.add_node("checker", Transform::from_xyz(0.0, 0.05, 0.0), None, vec![NodeContent::Meshes(vec![(quad, card)])]);
+        let settings = HeadlessSettings { width: 64, height: 64, frames: 1, ..Default::default() };
+        let frame = engine::headless::render_scene_with(&gpu, scene, &settings, |app| {
+            app.insert_resource(engine::render::DefaultTemporalAntiAliasing(engine::render::TemporalAntiAliasing::off()));
+        })
+        .expect("render");
+        // Pixels with both red and blue well above zero: a blend of the two texels.
+        frame.hdr.chunks_exact(4).filter(|p| p[0].min(p[2]) > 0.1 * p[0].max(p[2])).count()
+    };
+    let (nearest, linear) = (blended(engine::scene::TextureFilter::Nearest), blended(engine::scene::TextureFilter::Linear));
+    assert_eq!(nearest, 0, "nearest sampling blended {nearest} pixels");
+    assert!(linear > 64 * 64 / 4, "bilinear sampling should blend the texels across the view: {linear} pixels");
 }

@@ -121,6 +121,10 @@ fn gltf_hierarchy_transforms_and_content() {
     assert_eq!(textured.base_color, Vec4::new(1.0, 0.5, 0.25, 1.0));
     let texture = textured.base_color_texture.expect("base colour texture");
     assert_eq!(texture.transform, UvTransform { offset: Vec2::new(0.5, 0.25), rotation: 0.3, scale: Vec2::new(2.0, 3.0) });
+    // Its sampler's magFilter is NEAREST (9728); a texture without a sampler is bilinear (pbr.gltf).
+    assert_eq!(texture.filter, engine::scene::TextureFilter::Nearest);
+    let pbr = load("pbr.gltf");
+    assert!(pbr.materials.iter().filter_map(|m| m.base_color_texture).all(|t| t.filter == engine::scene::TextureFilter::Linear));
     let image = &scene.images[texture.image.index() as usize];
     assert_eq!((image.name.as_str(), image.width, image.height), ("checker", 2, 2));
     assert_eq!(image.rgba8.len(), 16);

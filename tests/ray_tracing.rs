@@ -329,7 +329,13 @@ fn hits_report_the_material_with_texture_and_texture_transform() {
     s.images.push(Image { name: "checker".into(), width: 2, height: 2, rgba8: texels.concat() });
     let q = s.add_mesh(quad);
     let factor = glam::Vec4::new(1.0, 0.5, 1.0, 1.0);
-    let texture = |offset: Vec2| Some(TextureRef { image: Handle::from_index(0), transform: UvTransform { offset, ..Default::default() } });
+    let texture = |offset: Vec2| {
+        Some(TextureRef {
+            image: Handle::from_index(0),
+            transform: UvTransform { offset, ..Default::default() },
+            filter: Default::default(),
+        })
+    };
     let plain = s.add_material(Material {
         base_color: factor,
         base_color_texture: texture(Vec2::ZERO),

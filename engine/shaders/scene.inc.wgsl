@@ -62,6 +62,8 @@ struct GpuInstance {
 
 // A texture inside the atlas: uv' = (dot(uv_x.xy, uv) + uv_x.z, dot(uv_y.xy, uv) + uv_y.z), wrapped,
 // then mapped to rect (x, y, width, height in atlas coordinates). rect.z <= 0: no texture.
+// (uv_x.w, uv_y.w): the image's size in texels when it is sampled nearest (uv' snapped to the
+// centre of its texel), 0 for bilinear sampling.
 struct TextureSlot {
     uv_x: vec4<f32>,
     uv_y: vec4<f32>,
@@ -212,7 +214,11 @@ fn instance_normal_to_world(instance: u32, n: vec3<f32>) -> vec3<f32> {
 // Where a texture slot puts `uv` in the atlas (the same in both atlases).
 fn slot_atlas_position(slot: TextureSlot, uv: vec2<f32>) -> vec2<f32> {
     let t = vec2<f32>(dot(slot.uv_x.xy, uv) + slot.uv_x.z, dot(slot.uv_y.xy, uv) + slot.uv_y.z);
-    let wrapped = fract(t);
+    var wrapped = fract(t);
+    let texels = vec2<f32>(slot.uv_x.w, slot.uv_y.w);
+    if texels.x > 0.0 && texels.y > 0.0 {
+        wrapped = (min(floor(wrapped * texels), texels - 1.0) + 0.5) / texels;
+    }
     let half_texel = 0.5 / vec2<f32>(textureDimensions(texture_atlas));
     return slot.rect.xy + clamp(wrapped * slot.rect.zw, half_texel, max(slot.rect.zw - half_texel, half_texel));
 }

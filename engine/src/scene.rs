@@ -526,6 +526,19 @@ pub struct TextureRef {
     pub image: Handle<Image>,
     /// How the mesh's texture coordinates are transformed before the lookup.
     pub transform: UvTransform,
+    /// How texels are filtered when magnified (glTF's sampler `magFilter`).
+    pub filter: TextureFilter,
+}
+
+/// How a texture's texels are filtered when magnified. Every texture is sampled at its full
+/// resolution (no mipmaps), so this is glTF's `magFilter`; `minFilter` is not read.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum TextureFilter {
+    /// Bilinear: smooth between texel centres (glTF `LINEAR`, and the default without a sampler).
+    #[default]
+    Linear,
+    /// The nearest texel: sharp texel edges, for pixel art and exact masks (glTF `NEAREST`).
+    Nearest,
 }
 
 /// A surface's material: glTF's metallic-roughness model ([`crate::brdf`]) with emission. Base
@@ -858,8 +871,7 @@ impl SceneDescription {
             let mut images = world.get_resource_or_insert_with(Assets::<Image>::default);
             self.images.into_iter().map(|i| images.add(i)).collect()
         };
-        let remap =
-            |t: Option<TextureRef>| t.map(|t| TextureRef { image: image_handles[t.image.index() as usize], transform: t.transform });
+        let remap = |t: Option<TextureRef>| t.map(|t| TextureRef { image: image_handles[t.image.index() as usize], ..t });
         let material_handles: Vec<Handle<Material>> = {
             let mut materials = world.get_resource_or_insert_with(Assets::<Material>::default);
             self.materials

@@ -205,11 +205,11 @@ mod tests {
         let mut scene = SceneDescription { name: "textured".into(), ..Default::default() };
         scene.images.push(OurImage { name: "checker".into(), width: 2, height: 1, rgba8: vec![255, 0, 0, 255, 0, 0, 255, 255] });
         let uv = UvTransform { offset: Vec2::new(0.25, 0.5), rotation: std::f32::consts::FRAC_PI_2, scale: Vec2::new(2.0, 3.0) };
-        let map = Some(TextureRef { image: Handle::from_index(0), transform: uv });
+        let map = Some(TextureRef { image: Handle::from_index(0), transform: uv, filter: Default::default() });
         let material = OurMaterial {
             base_color_texture: map,
             emissive_texture: map,
-            normal_texture: Some(TextureRef { image: Handle::from_index(0), transform: UvTransform::default() }),
+            normal_texture: Some(TextureRef { image: Handle::from_index(0), transform: UvTransform::default(), filter: Default::default() }),
             ..OurMaterial::diffuse("painted", Vec3::ONE)
         };
         let material = scene.add_material(material);

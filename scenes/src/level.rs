@@ -365,7 +365,7 @@ impl Builder {
         let remap = |t: Option<engine::scene::TextureRef>| {
             t.and_then(|t| {
                 let image = *images.get(t.image.index() as usize)?;
-                Some(engine::scene::TextureRef { image: engine::scene::Handle::from_index(image as u32), transform: t.transform })
+                Some(engine::scene::TextureRef { image: engine::scene::Handle::from_index(image as u32), ..t })
             })
         };
         let materials: Vec<usize> = scene

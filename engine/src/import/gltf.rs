@@ -27,7 +27,7 @@ use glam::{Mat4, Quat, Vec2, Vec3, Vec4};
 use super::{Budget, ImportError, fmt_vec2, fmt_vec3};
 use crate::scene::{
     AlphaMode, Camera, DirectionalLight, Handle, Material, Mesh, NodeContent, PointLight, SceneDescription, SceneNode, SpotLight,
-    TextureRef, Transform, UvTransform,
+    TextureFilter, TextureRef, Transform, UvTransform,
 };
 
 /// Imports a `.gltf` or `.glb` file whose content is `bytes`.
@@ -930,7 +930,11 @@ impl<'a> Importer<'a> {
             return Err(self.invalid(format!("{material} {slot}"), format!("non-finite KHR_texture_transform {transform:?}")));
         }
         let image = self.image(texture.source().index())?;
-        Ok(TextureRef { image: Handle::from_index(image as u32), transform })
+        let filter = match texture.sampler().mag_filter() {
+            Some(::gltf::texture::MagFilter::Nearest) => TextureFilter::Nearest,
+            _ => TextureFilter::Linear,
+        };
+        Ok(TextureRef { image: Handle::from_index(image as u32), transform, filter })
     }
 
     /// The scene image of a glTF image, decoded on first use.

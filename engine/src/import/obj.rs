@@ -373,7 +373,7 @@ impl Importer<'_> {
                 index
             }
         };
-        Ok(TextureRef { image: Handle::from_index(image as u32), transform: UvTransform::default() })
+        Ok(TextureRef { image: Handle::from_index(image as u32), transform: UvTransform::default(), filter: Default::default() })
     }
 }
 

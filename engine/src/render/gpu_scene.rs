@@ -14,7 +14,7 @@ use crate::gpu::GpuContext;
 use crate::graph::NamedResource;
 use crate::scene::{
     Assets, Camera, DirectionalLight, GlobalTransform, Image, Material, Mesh, MeshInstance, Name, PointLight, SceneDataError, SpotLight,
-    TextureRef, validate_affine, validate_light,
+    TextureFilter, TextureRef, validate_affine, validate_light,
 };
 
 /// The largest storage buffer the adapter binds (bytes): `min(max_storage_buffer_binding_size,
@@ -352,12 +352,17 @@ impl GpuScene {
         self.atlas_rects = packed.rects;
     }
 
-    fn upload_materials(&mut self, gpu: &GpuContext, materials: &Assets<Material>) {
+    fn upload_materials(&mut self, gpu: &GpuContext, materials: &Assets<Material>, images: &Assets<Image>) {
         let slot = |t: &Option<TextureRef>| -> TextureSlot {
             let Some(t) = t else { return TextureSlot::zeroed() };
             let Some(rect) = self.atlas_rects.get(t.image.index() as usize) else { return TextureSlot::zeroed() };
             let [x, y] = t.transform.rows();
-            TextureSlot { uv_x: x.extend(0.0).to_array(), uv_y: y.extend(0.0).to_array(), rect: *rect }
+            // Nearest sampling snaps to texel centres in the shader, which needs the image's size.
+            let texels = match (t.filter, images.get(t.image)) {
+                (TextureFilter::Nearest, Some(image)) => [image.width as f32, image.height as f32],
+                _ => [0.0, 0.0],
+            };
+            TextureSlot { uv_x: x.extend(texels[0]).to_array(), uv_y: y.extend(texels[1]).to_array(), rect: *rect }
         };
         let mut errors = Vec::new();
         let data: Vec<GpuMaterial> = materials
@@ -737,7 +742,7 @@ pub fn prepare_gpu_scene(
         scene.upload_atlas(&gpu, &images, needs_data_atlas());
     }
     if seen.map(|s| (s.1, s.2)) != Some((generations.1, generations.2)) {
-        scene.upload_materials(&gpu, &materials);
+        scene.upload_materials(&gpu, &materials, &images);
     }
     scene.seen_generations = Some(generations);
 

@@ -77,9 +77,11 @@ pub(crate) struct GpuInstance {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub(crate) struct TextureSlot {
-    /// First row of the texture-coordinate transform (glTF's `KHR_texture_transform`); w unused.
+    /// First row of the texture-coordinate transform (glTF's `KHR_texture_transform`); w: the
+    /// image's width in texels when it is sampled nearest ([`crate::scene::TextureFilter`]), else 0.
     pub uv_x: [f32; 4],
-    /// Second row of the texture-coordinate transform; w unused.
+    /// Second row of the texture-coordinate transform; w: the image's height in texels when it is
+    /// sampled nearest, else 0.
     pub uv_y: [f32; 4],
     /// Atlas rectangle (x, y, width, height) in atlas coordinates; width 0 means no texture.
     pub rect: [f32; 4],

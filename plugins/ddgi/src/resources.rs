@@ -597,7 +597,7 @@ mod tests {
         let white = images.add(Image { name: "white".into(), width: 2, height: 1, rgba8: vec![255; 8] });
         let textured = |name: &str, image| Material {
             name: name.into(),
-            base_color_texture: Some(TextureRef { image, transform: UvTransform::default() }),
+            base_color_texture: Some(TextureRef { image, transform: UvTransform::default(), filter: Default::default() }),
             ..Default::default()
         };
         let mut materials = Assets::<Material>::default();
