@@ -2,7 +2,7 @@
 // GGX where the material has a specular lobe) of every punctual light, each tested for occlusion
 // with a shadow ray (hard shadows). Pixels with no surface show the sky (and
 // the sun's disk) along their view ray.
-#include "ray_tracing.inc.wgsl"
+#include "rt_alpha.inc.wgsl"
 
 @group(1) @binding(0) var gbuffer_depth: texture_depth_2d;
 @group(1) @binding(1) var gbuffer_normal: texture_2d<f32>;

@@ -1,5 +1,10 @@
 // The ray-tracing core: closest-hit and any-hit traversal of the two-level BVH.
 //
+// The alpha test of candidate hits (rt_instance_alpha_tested, rt_alpha_cuts) is the includer's to
+// choose: `#include "rt_alpha.inc.wgsl"` (masked materials cut texels out of every ray) or
+// `#include "rt_opaque.inc.wgsl"` (every surface solid: a pipeline that must stay within a small
+// GPU's storage buffers, since the test reads materials, vertices and indices).
+//
 // TLAS and BLASes (one per mesh): 8-wide compressed BVHs (CWBVH, Ylitie, Karras and Laine 2017),
 // walked in one loop with node groups in ray-octant order. The TLAS's leaves are instances; the ray
 // is taken into instance space with the instance's inverse transform and its direction is NOT
@@ -461,7 +466,7 @@ fn rt_walk_prims(w: ptr<function, RtWalk>, stack: ptr<function, array<vec2<u32>,
         (*w).tlas_sp = (*w).sp;
         (*w).in_blas = true;
         (*w).instance = entry.instance;
-        (*w).alpha_tested = SCENE_HAS_ALPHA_TEST && materials[instances[entry.instance].material].emissive.w > 0.0;
+        (*w).alpha_tested = SCENE_HAS_ALPHA_TEST && rt_instance_alpha_tested(entry.instance);
         (*w).node_offset = entry.node_offset;
         (*w).triangle_offset = entry.triangle_offset;
         let local_from_world = instances[entry.instance].local_from_world;
@@ -496,21 +501,6 @@ fn rt_walk_prims(w: ptr<function, RtWalk>, stack: ptr<function, array<vec2<u32>,
         }
     }
     return false;
-}
-
-// Whether the candidate hit at `barycentrics` of the triangle stored at `index` of blas_triangles,
-// in `instance`, falls on a texel its alpha-masked material cuts out (any-hit alpha test). Static
-// groups hold no alpha-tested instance (engine/src/rt/groups.rs), so the instance is the triangle's.
-fn rt_alpha_cuts(instance: u32, index: u32, barycentrics: vec2<f32>) -> bool {
-    let inst = instances[instance];
-    let blas = blas_info[inst.mesh];
-    let base = blas.first_index + 3u * bitcast<u32>(blas_triangles[index * 3u].w);
-    let a = vertices[indices[base] + blas.base_vertex];
-    let b = vertices[indices[base + 1u] + blas.base_vertex];
-    let c = vertices[indices[base + 2u] + blas.base_vertex];
-    let w = vec3<f32>(1.0 - barycentrics.x - barycentrics.y, barycentrics.x, barycentrics.y);
-    let uv = vec2<f32>(a.u, a.v) * w.x + vec2<f32>(b.u, b.v) * w.y + vec2<f32>(c.u, c.v) * w.z;
-    return material_cuts(inst.material, uv);
 }
 
 // The hit a finished walk found, its primitive (the mesh's triangle index) filled in.

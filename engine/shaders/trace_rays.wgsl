@@ -1,5 +1,5 @@
 // Traces a buffer of rays against the scene (tests against the CPU reference, the trace benchmark).
-#include "ray_tracing.inc.wgsl"
+#include "rt_alpha.inc.wgsl"
 
 // Mirrors RayHit with the flags packed: front_face in bit 0.
 struct TraceResult {

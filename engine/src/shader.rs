@@ -32,6 +32,8 @@ pub const ENGINE_SHADERS: &[ShaderModule] = &[
     ("scene.inc.wgsl", include_str!("../shaders/scene.inc.wgsl")),
     ("brdf.inc.wgsl", include_str!("../shaders/brdf.inc.wgsl")),
     ("ray_tracing.inc.wgsl", include_str!("../shaders/ray_tracing.inc.wgsl")),
+    ("rt_alpha.inc.wgsl", include_str!("../shaders/rt_alpha.inc.wgsl")),
+    ("rt_opaque.inc.wgsl", include_str!("../shaders/rt_opaque.inc.wgsl")),
     ("trace_rays.wgsl", include_str!("../shaders/trace_rays.wgsl")),
     ("tlas_refit.wgsl", include_str!("../shaders/tlas_refit.wgsl")),
     ("gbuffer.wgsl", include_str!("../shaders/gbuffer.wgsl")),
@@ -292,6 +294,24 @@ impl ParsedShader {
             }
             _ => None,
         })
+    }
+
+    /// The storage buffers the entry points read or write (what wgpu counts against
+    /// `max_storage_buffers_per_shader_stage`).
+    pub fn storage_buffers_used(&self, entry_points: &[&str]) -> u32 {
+        let mut used = std::collections::BTreeSet::new();
+        for (index, ep) in self.module.entry_points.iter().enumerate() {
+            if !entry_points.contains(&ep.name.as_str()) {
+                continue;
+            }
+            let info = self.info.get_entry_point(index);
+            for (handle, var) in self.module.global_variables.iter() {
+                if matches!(var.space, naga::AddressSpace::Storage { .. }) && !info[handle].is_empty() {
+                    used.insert(handle);
+                }
+            }
+        }
+        used.len() as u32
     }
 
     /// The resource bindings that the given entry points use: `group → (name → binding)`.

@@ -2,7 +2,7 @@
 // spherical Fibonacci directions under a random rotation, traced for the closest hit. The kernels'
 // bodies (bench_main, bench_persistent); their entry points are in bench_trace.wgsl and, with
 // subgroup operations, bench_trace_subgroup.wgsl, which each define bench_postpone_triangles.
-#include "ray_tracing.inc.wgsl"
+#include "rt_alpha.inc.wgsl"
 
 struct BenchParams {
     // Rotation applied to every direction (columns).

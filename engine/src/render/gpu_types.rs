@@ -168,9 +168,9 @@ pub fn gpu_structs() -> Vec<crate::shader::HostStruct> {
             base_color, emissive, pbr, base_color_texture, emissive_texture, metallic_roughness_texture, normal_texture
         }),
         layout!(GpuLight in "scene.inc.wgsl" { position, kind, direction, range, radiance, spot_scale, spot_offset, _pad0, _pad1, _pad2 }),
-        layout!(GpuBlas in "ray_tracing.inc.wgsl" { node_offset, triangle_offset, node_count, triangle_count, first_index, base_vertex, _pad0, _pad1 }),
-        layout!(TlasEntry in "ray_tracing.inc.wgsl" { instance, node_offset, triangle_offset, start_node }),
-        layout!(Ray in "ray_tracing.inc.wgsl" { origin, tmin, direction, tmax }),
+        layout!(GpuBlas in "rt_alpha.inc.wgsl" { node_offset, triangle_offset, node_count, triangle_count, first_index, base_vertex, _pad0, _pad1 }),
+        layout!(TlasEntry in "rt_alpha.inc.wgsl" { instance, node_offset, triangle_offset, start_node }),
+        layout!(Ray in "rt_alpha.inc.wgsl" { origin, tmin, direction, tmax }),
         layout!(TlasRefitParams in "tlas_refit.wgsl" { moved, inner, leaves, wide }),
         layout!(TlasRefitLeaf in "tlas_refit.wgsl" { lo, leaf, hi, _pad }),
         layout!(TraceResult in "trace_rays.wgsl" { t, instance, primitive, flags, barycentrics, any_hit, _pad, albedo, emissive }),

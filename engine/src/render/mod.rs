@@ -130,6 +130,29 @@ pub enum DisplayTransform {
     AgX,
 }
 
+/// The direct-lighting pass: its shadow rays test masked materials' alpha
+/// (`rt_alpha.inc.wgsl`) where the device binds the storage buffers that needs; on a smaller GPU
+/// (WebGPU's default of 8 a stage) the same pass built on `rt_opaque.inc.wgsl` (every surface casts
+/// a solid shadow in direct light; a warning says so once).
+fn direct_lighting_program(gpu: &GpuContext) -> Result<Program<wgpu::ComputePipeline>, crate::shader::ShaderError> {
+    const FILE: &str = "direct_lighting.wgsl";
+    const OPAQUE: &str = "direct_lighting_opaque.wgsl";
+    let needed = crate::shader::parse(FILE)?.storage_buffers_used(&["main"]);
+    let available = gpu.device.limits().max_storage_buffers_per_shader_stage;
+    if needed <= available {
+        return compute_program(&gpu.device, FILE, "main", "direct_lighting");
+    }
+    static WARNED: std::sync::Once = std::sync::Once::new();
+    WARNED.call_once(|| {
+        log::warn!(
+            "direct light: the alpha test of shadow rays needs {needed} storage buffers a stage, this GPU binds {available}: masked materials cast solid shadows in direct light"
+        )
+    });
+    let source = crate::shader::source(FILE)?.replace("#include \"rt_alpha.inc.wgsl\"", "#include \"rt_opaque.inc.wgsl\"");
+    crate::shader::register_generated(OPAQUE, source)?;
+    compute_program(&gpu.device, OPAQUE, "main", "direct_lighting")
+}
+
 impl CameraPipelines {
     /// Builds every pipeline of the camera path.
     pub fn new(gpu: &GpuContext) -> Result<Self, crate::shader::ShaderError> {
@@ -145,7 +168,7 @@ impl CameraPipelines {
         };
         Ok(Self {
             gbuffer: [gbuffer(0.0)?, gbuffer(1.0)?],
-            direct_lighting: Arc::new(compute_program(&gpu.device, "direct_lighting.wgsl", "main", "direct_lighting")?),
+            direct_lighting: Arc::new(direct_lighting_program(gpu)?),
             tonemap: {
                 let variant = |display: f64, auto: f64| {
                     compute_program_with_constants(

@@ -7,7 +7,7 @@
 // origin + spacing · (x, y, z) + its relocation offset. Each probe owns one tile of each atlas: an
 // octahedral map of N × N interior texels (N = irradiance_texels or distance_texels) framed by a
 // one-texel border that repeats the map's opposite edges, so bilinear filtering wraps correctly.
-#include "ray_tracing.inc.wgsl"
+#include "rt_alpha.inc.wgsl"
 #include "ddgi_constants.inc.wgsl"
 
 struct DdgiVolumeGpu {

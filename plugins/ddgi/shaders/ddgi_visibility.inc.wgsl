@@ -3,7 +3,7 @@
 // the contact occlusion of the probes' light (ddgi::DdgiContactOcclusion), traced at every pixel
 // or at one pixel of each 2×2 block and brought back to full resolution by depth and normal.
 #include "ddgi_camera.inc.wgsl"
-#include "ray_tracing.inc.wgsl"
+#include "rt_alpha.inc.wgsl"
 
 // `count` stratified cosine-distributed rays from surface point p (normal n), of reach `reach`,
 // turned by a per-pixel angle: the share that escapes (x) and the mean over all of the sky's

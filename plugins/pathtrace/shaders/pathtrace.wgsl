@@ -4,7 +4,7 @@
 // by next-event estimation with shadow rays, the sky along escaping paths, Russian roulette after
 // a few bounces, an optional bounce cap. Each dispatch adds `samples` paths
 // per pixel to a float accumulation buffer; the output is their mean.
-#include "ray_tracing.inc.wgsl"
+#include "rt_alpha.inc.wgsl"
 
 struct PathTraceParams {
     // Index of the first sample of this dispatch (samples already accumulated).
