@@ -265,10 +265,10 @@ pub fn pyramid(name: &str, base: &[Vec2], y0: f32, apex: Vec3) -> Mesh {
     out.0
 }
 
-/// A sphere of `radius` about the origin made of an icosahedron whose triangles are split in four
-/// `subdivisions` times (20 · 4ⁿ flat triangles: 20, 80, 320, …), the corners on the sphere.
-/// Scale it with [`merge`] for an ellipsoid. At most 4 subdivisions (5,120 triangles).
-pub fn icosphere(name: &str, radius: f32, subdivisions: u32) -> Mesh {
+/// The regular icosahedron inscribed in the unit sphere: its 12 corners and its 20 faces (corner
+/// indices, counter-clockwise seen from outside). The start of every geodesic sphere ([`icosphere`],
+/// and the smooth ones the built-in scenes make).
+pub fn icosahedron() -> ([Vec3; 12], [[u32; 3]; 20]) {
     let t = (1.0 + 5f32.sqrt()) * 0.5;
     let corners = [
         Vec3::new(-1.0, t, 0.0),
@@ -285,7 +285,7 @@ pub fn icosphere(name: &str, radius: f32, subdivisions: u32) -> Mesh {
         Vec3::new(-t, 0.0, 1.0),
     ]
     .map(Vec3::normalize);
-    const FACES: [[usize; 3]; 20] = [
+    let faces = [
         [0, 11, 5],
         [0, 5, 1],
         [0, 1, 7],
@@ -307,7 +307,15 @@ pub fn icosphere(name: &str, radius: f32, subdivisions: u32) -> Mesh {
         [8, 6, 7],
         [9, 8, 1],
     ];
-    let mut triangles: Vec<[Vec3; 3]> = FACES.iter().map(|f| f.map(|i| corners[i])).collect();
+    (corners, faces)
+}
+
+/// A sphere of `radius` about the origin made of an icosahedron whose triangles are split in four
+/// `subdivisions` times (20 · 4ⁿ flat triangles: 20, 80, 320, …), the corners on the sphere.
+/// Scale it with [`merge`] for an ellipsoid. At most 4 subdivisions (5,120 triangles).
+pub fn icosphere(name: &str, radius: f32, subdivisions: u32) -> Mesh {
+    let (corners, faces) = icosahedron();
+    let mut triangles: Vec<[Vec3; 3]> = faces.iter().map(|f| f.map(|i| corners[i as usize])).collect();
     for _ in 0..subdivisions.min(4) {
         triangles = triangles
             .iter()

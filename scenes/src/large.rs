@@ -179,46 +179,9 @@ fn add_lathe(mesh: &mut Mesh, origin: Vec3, profile: &[Ring], segments: usize, f
 /// A geodesic sphere of unit radius: an icosahedron whose faces are split in four `subdivisions`
 /// times (20·4ⁿ triangles), with normals along the positions.
 fn icosphere(name: &str, subdivisions: u32) -> Mesh {
-    let t = (1.0 + 5f32.sqrt()) / 2.0;
-    let mut positions: Vec<Vec3> = [
-        (-1.0, t, 0.0),
-        (1.0, t, 0.0),
-        (-1.0, -t, 0.0),
-        (1.0, -t, 0.0),
-        (0.0, -1.0, t),
-        (0.0, 1.0, t),
-        (0.0, -1.0, -t),
-        (0.0, 1.0, -t),
-        (t, 0.0, -1.0),
-        (t, 0.0, 1.0),
-        (-t, 0.0, -1.0),
-        (-t, 0.0, 1.0),
-    ]
-    .into_iter()
-    .map(|(x, y, z)| Vec3::new(x, y, z).normalize())
-    .collect();
-    let mut faces: Vec<[u32; 3]> = vec![
-        [0, 11, 5],
-        [0, 5, 1],
-        [0, 1, 7],
-        [0, 7, 10],
-        [0, 10, 11],
-        [1, 5, 9],
-        [5, 11, 4],
-        [11, 10, 2],
-        [10, 7, 6],
-        [7, 1, 8],
-        [3, 9, 4],
-        [3, 4, 2],
-        [3, 2, 6],
-        [3, 6, 8],
-        [3, 8, 9],
-        [4, 9, 5],
-        [2, 4, 11],
-        [6, 2, 10],
-        [8, 6, 7],
-        [9, 8, 1],
-    ];
+    let (corners, faces) = engine::shapes::icosahedron();
+    let mut positions: Vec<Vec3> = corners.to_vec();
+    let mut faces: Vec<[u32; 3]> = faces.to_vec();
     for _ in 0..subdivisions {
         let mut midpoints: HashMap<(u32, u32), u32> = HashMap::new();
         let mut midpoint = |a: u32, b: u32, positions: &mut Vec<Vec3>| -> u32 {
