@@ -109,9 +109,7 @@ fn bindings_are_reflected_by_name_per_entry_point() {
     // Built on rt_opaque.inc.wgsl instead (a GPU of WebGPU's 8 storage buffers a stage), it reads
     // neither and fits.
     let full = parsed.storage_buffers_used(&["main"]);
-    let opaque_source = shader::source("direct_lighting.wgsl").unwrap().replace("\"rt_alpha.inc.wgsl\"", "\"rt_opaque.inc.wgsl\"");
-    shader::register_generated("direct_lighting_opaque.wgsl", opaque_source).unwrap();
-    let opaque = shader::parse("direct_lighting_opaque.wgsl").expect("parse");
+    let opaque = shader::parse(engine::render::register_opaque_direct_lighting().unwrap()).expect("parse");
     let opaque_map = opaque.used_bindings(&["main"]);
     assert!(!opaque_map.groups[&0].contains_key("vertices") && !opaque_map.groups[&0].contains_key("materials"));
     assert!(

@@ -136,7 +136,6 @@ pub enum DisplayTransform {
 /// a solid shadow in direct light; a warning says so once).
 fn direct_lighting_program(gpu: &GpuContext) -> Result<Program<wgpu::ComputePipeline>, crate::shader::ShaderError> {
     const FILE: &str = "direct_lighting.wgsl";
-    const OPAQUE: &str = "direct_lighting_opaque.wgsl";
     let needed = crate::shader::parse(FILE)?.storage_buffers_used(&["main"]);
     let available = gpu.device.limits().max_storage_buffers_per_shader_stage;
     if needed <= available {
@@ -148,9 +147,17 @@ fn direct_lighting_program(gpu: &GpuContext) -> Result<Program<wgpu::ComputePipe
             "direct light: the alpha test of shadow rays needs {needed} storage buffers a stage, this GPU binds {available}: masked materials cast solid shadows in direct light"
         )
     });
-    let source = crate::shader::source(FILE)?.replace("#include \"rt_alpha.inc.wgsl\"", "#include \"rt_opaque.inc.wgsl\"");
+    compute_program(&gpu.device, register_opaque_direct_lighting()?, "main", "direct_lighting")
+}
+
+/// Registers `direct_lighting_opaque.wgsl`, the direct-lighting pass built on `rt_opaque.inc.wgsl`
+/// (no alpha test, fewer storage buffers: what a small GPU gets), and returns its name.
+pub fn register_opaque_direct_lighting() -> Result<&'static str, crate::shader::ShaderError> {
+    const OPAQUE: &str = "direct_lighting_opaque.wgsl";
+    let source =
+        crate::shader::source("direct_lighting.wgsl")?.replace("#include \"rt_alpha.inc.wgsl\"", "#include \"rt_opaque.inc.wgsl\"");
     crate::shader::register_generated(OPAQUE, source)?;
-    compute_program(&gpu.device, OPAQUE, "main", "direct_lighting")
+    Ok(OPAQUE)
 }
 
 impl CameraPipelines {
