@@ -17,7 +17,7 @@ use workspace_tests::cpu_rays::{fibonacci_directions, intersect};
 
 /// The small test scenes checked here; `cathedral` and `forest` (benchmark scale) are covered by
 /// `tests/large_scenes.rs`.
-const SMALL_SCENES: [&str; 4] = ["cornell", "ceiling_opening", "door_room", "color_bleed"];
+const SMALL_SCENES: [&str; 5] = ["cornell", "ceiling_opening", "door_room", "door_room_thin", "color_bleed"];
 
 /// Rays cast from each interior point: Fibonacci directions cover the sphere evenly.
 const RAY_COUNT: usize = 2000;
@@ -478,7 +478,7 @@ fn closed_rooms_are_closed_except_through_their_openings() {
                 origins.push(node_position(&desc, "sun_patch") + up);
                 origins.push(node_position(&desc, "dark_corner") + up);
             }
-            "door_room" => {
+            "door_room" | "door_room_thin" => {
                 // The camera stands outside: only interior points.
                 let corner = node_position(&desc, "interior_corner") + up;
                 let door = node_position(&desc, "door");
@@ -497,7 +497,7 @@ fn closed_rooms_are_closed_except_through_their_openings() {
         }
         for origin in origins {
             let escaped = assert_closed_except(name, origin, &tris, openings);
-            if name == "door_room" || name == "cornell" {
+            if name.starts_with("door_room") || name == "cornell" {
                 assert!(escaped.iter().sum::<usize>() > 0, "{name}: the opening is seen from {origin}");
             }
         }
@@ -640,10 +640,19 @@ fn ceiling_opening_camera_sees_both_halves() {
 // door_room
 // ---------------------------------------------------------------------------------------------
 
+/// Both door rooms: the thick-walled one and its thin-walled variant.
+const DOOR_ROOMS: [&str; 2] = ["door_room", "door_room_thin"];
+
 #[test]
-fn door_room_leaks_only_through_the_door() {
-    let desc = scene("door_room");
-    let door = (entry("door_room").openings)()[0];
+fn door_rooms_leak_only_through_the_door() {
+    for name in DOOR_ROOMS {
+        door_room_leaks_only_through_the_door(name);
+    }
+}
+
+fn door_room_leaks_only_through_the_door(name: &str) {
+    let desc = scene(name);
+    let door = (entry(name).openings)()[0];
     assert_eq!(door.name, "door");
     let door_node = node_position(&desc, "door");
     assert!(door_node.abs_diff_eq((door.min + door.max) * 0.5, 1e-5), "door node at the opening's centre");
@@ -664,8 +673,14 @@ fn door_room_leaks_only_through_the_door() {
 }
 
 #[test]
-fn door_room_sun_lights_ground_and_a_patch_inside_but_not_the_corner() {
-    let desc = scene("door_room");
+fn door_rooms_sun_lights_ground_and_a_patch_inside_but_not_the_corner() {
+    for name in DOOR_ROOMS {
+        door_room_sun_lights_ground_and_a_patch_inside_but_not_the_corner(name);
+    }
+}
+
+fn door_room_sun_lights_ground_and_a_patch_inside_but_not_the_corner(name: &str) {
+    let desc = scene(name);
     let tris = all_triangles(&desc);
     let to_sun = -sun_direction(&desc);
     assert!(to_sun.y > 0.0);

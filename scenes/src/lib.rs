@@ -6,6 +6,7 @@
 //! | `cornell`         | colour bleeding and soft indirect light in the classic reference box   |
 //! | `ceiling_opening` | a half lit only indirectly, behind a thick divider lit on one face     |
 //! | `door_room`       | light leaking into a closed room whose only way in is a door           |
+//! | `door_room_thin`  | the same with walls 1/25 of a scene-wide volume's spacing: any grid    |
 //! | `color_bleed`     | indirect light that follows a moving spot light (probe update speed)   |
 //! | `cathedral`       | ≈73,000 static triangles, a closed interior lit through its windows    |
 //! | `forest`          | ≈21.6 million instanced triangles over a hilly terrain                 |
@@ -92,6 +93,14 @@ pub static ALL: &[SceneEntry] = &[
         tour: None,
     },
     SceneEntry {
+        name: "door_room_thin",
+        build: rooms::door_room_thin,
+        // One volume over the whole scene, as a new user's first volume is.
+        gi_bounds: || None,
+        openings: || &[rooms::THIN_DOOR],
+        tour: None,
+    },
+    SceneEntry {
         name: "color_bleed",
         build: rooms::color_bleed,
         gi_bounds: || Some((rooms::BLEED_ROOM_MIN, rooms::BLEED_ROOM_MAX)),
@@ -146,7 +155,7 @@ mod tests {
     fn every_listed_scene_exists_and_only_those() {
         assert_eq!(
             names().collect::<Vec<_>>(),
-            ["cornell", "ceiling_opening", "door_room", "color_bleed", "cathedral", "forest", "open_world"]
+            ["cornell", "ceiling_opening", "door_room", "door_room_thin", "color_bleed", "cathedral", "forest", "open_world"]
         );
         for entry in ALL {
             let desc = (entry.build)();

@@ -253,6 +253,20 @@ pub(crate) const DOOR: Opening = Opening {
     max: Vec3::new(1.5, DOOR_ROOM_MIN.y + 2.0, DOOR_ROOM_MAX.z + WALL_THICKNESS),
 };
 
+/// Interior of the `door_room_thin` room: 6 m × 6 m, 3 m high, its floor 5 cm above the ground.
+const THIN_ROOM_MIN: Vec3 = Vec3::new(-3.0, 0.05, -3.0);
+const THIN_ROOM_MAX: Vec3 = Vec3::new(3.0, 3.05, 3.0);
+/// Its walls, floor and roof: 1/25 of the spacing of the grid a volume over the whole scene gets
+/// by default (16 probes along the 40 m ground: 2.5 m).
+pub const THIN_WALL_THICKNESS: f32 = 0.1;
+
+/// The thin room's door: 1 m × 2 m through the +Z wall, off-centre towards +X.
+pub(crate) const THIN_DOOR: Opening = Opening {
+    name: "door",
+    min: Vec3::new(0.5, THIN_ROOM_MIN.y, THIN_ROOM_MAX.z),
+    max: Vec3::new(1.5, THIN_ROOM_MIN.y + 2.0, THIN_ROOM_MAX.z + THIN_WALL_THICKNESS),
+};
+
 /// The sun shines 40° above the horizon from the door's side (towards -Z, turned 15° towards +X):
 /// it lights the ground and the front wall, and through the door a patch of floor running from
 /// the door about 2.3 m into the room, away from the dark corner.
@@ -262,6 +276,8 @@ const DOOR_SUN_HEADING_DEGREES: f32 = 15.0;
 const DOOR_SUN_INTENSITY: f32 = 6.0;
 /// A floor point inside the sun patch (its ray towards the sun passes near the door's middle).
 const DOOR_SUN_PATCH: Vec3 = Vec3::new(1.3, DOOR_ROOM_MIN.y, 0.8);
+/// The same in the thin room, whose door stands 1 m further out.
+const THIN_SUN_PATCH: Vec3 = Vec3::new(1.3, THIN_ROOM_MIN.y, 1.9);
 
 /// The camera stands outside on the line from the interior corner through the door's centre, this
 /// fraction of that distance beyond the door, so the corner is seen through the door with the sunlit
@@ -279,27 +295,43 @@ const DOOR_CAMERA_EXPOSURE: f32 = 1.5;
 /// door opening's centre, in the middle of the wall), `interior_corner` (the darkest interior floor
 /// point, in the -X, -Z corner) and `sun_patch` (a directly lit floor point inside).
 pub fn door_room() -> SceneDescription {
-    let mut desc = SceneDescription { name: "door_room".into(), ..Default::default() };
+    door_room_with("door_room", DOOR_ROOM_MIN, DOOR_ROOM_MAX, WALL_THICKNESS, DOOR, DOOR_SUN_PATCH)
+}
+
+/// [`door_room`]'s thin-walled variant: a 6 m × 6 m room, 3 m high, whose walls, floor and roof
+/// are 0.1 m thick, 1/25 of the 2.5 m spacing a probe volume over the whole scene (the 40 m
+/// ground) gets by default, so that most cells of such a grid straddle a wall. Same door, sun,
+/// camera placement and empty nodes as [`door_room`]; its probe volume is the whole scene's.
+///
+/// Tests what a new user's first scene does: thin walls against any probe grid (`eval
+/// --grid-sweep`), the sunlit outside never lighting the dark corner through them.
+pub fn door_room_thin() -> SceneDescription {
+    door_room_with("door_room_thin", THIN_ROOM_MIN, THIN_ROOM_MAX, THIN_WALL_THICKNESS, THIN_DOOR, THIN_SUN_PATCH)
+}
+
+fn door_room_with(name: &str, room_min: Vec3, room_max: Vec3, thickness: f32, door_opening: Opening, sun_patch: Vec3) -> SceneDescription {
+    let mut desc = SceneDescription { name: name.into(), ..Default::default() };
     let ground = desc.add_material(Material::diffuse("ground", GROUND_ALBEDO));
     let wall = desc.add_material(Material::diffuse("wall", WHITE));
     let floor = desc.add_material(Material::diffuse("floor", FLOOR_ALBEDO));
 
     desc.add_mesh_node("ground", Transform::IDENTITY, quad("ground", Vec2::splat(GROUND_SIZE)), ground);
 
-    let shell = Shell::around(DOOR_ROOM_MIN, DOOR_ROOM_MAX, WALL_THICKNESS);
+    let shell = Shell::around(room_min, room_max, thickness);
     let mut parts = vec![shell.slab_part(X, false), shell.slab_part(X, true), shell.slab_part(Y, true), shell.slab_part(Z, false)];
-    parts.extend(shell.slab_with_hole(Z, true, DOOR.min, DOOR.max));
+    parts.extend(shell.slab_with_hole(Z, true, door_opening.min, door_opening.max));
     desc.add_mesh_node("room", Transform::IDENTITY, merge("room", &parts), wall);
     let floor_mesh = merge("floor", &[shell.slab_part(Y, false)]);
     desc.add_mesh_node("floor", Transform::IDENTITY, floor_mesh, floor);
 
-    let door = (DOOR.min + DOOR.max) * 0.5;
+    let door = (door_opening.min + door_opening.max) * 0.5;
     desc.add_node("door", Transform::from_translation(door), None, vec![NodeContent::Empty]);
-    let corner = Vec3::new(DOOR_ROOM_MIN.x + CORNER_INSET, DOOR_ROOM_MIN.y, DOOR_ROOM_MIN.z + CORNER_INSET);
+    let corner = Vec3::new(room_min.x + CORNER_INSET, room_min.y, room_min.z + CORNER_INSET);
     desc.add_node("interior_corner", Transform::from_translation(corner), None, vec![NodeContent::Empty]);
-    desc.add_node("sun_patch", Transform::from_translation(DOOR_SUN_PATCH), None, vec![NodeContent::Empty]);
 
     let direction = sun_direction(DOOR_SUN_ELEVATION_DEGREES.to_radians(), DOOR_SUN_HEADING_DEGREES.to_radians());
+    desc.add_node("sun_patch", Transform::from_translation(sun_patch), None, vec![NodeContent::Empty]);
+
     let sun = DirectionalLight { color: SUN_COLOR, intensity: DOOR_SUN_INTENSITY };
     desc.add_node("sun", sun_transform(door, direction), None, vec![NodeContent::DirectionalLight(sun)]);
 
