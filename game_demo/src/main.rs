@@ -28,6 +28,7 @@ const EVAL_EXAMPLES: &str = "Examples:
   game_demo eval --scene cornell                                     # report.md, strips, error_vs_time.png
   game_demo eval --scene cathedral --experiments                     # densities and the weight ablation
   game_demo eval --scene door_room --time-series                     # error per frame after the door opens
+  game_demo eval --scene door_room_thin --grid-sweep                 # FLIP and leaks at every probe grid
   game_demo eval --scene open_world --time-series --walk --cascades 8 --sky 0.35,0.45,0.6
   game_demo eval --scene cornell --offset 1e5,1e5,1e5                # large-world coordinates";
 
@@ -193,6 +194,17 @@ enum Command {
         /// Chebyshev → normal bias → contact occlusion).
         #[arg(long, conflicts_with = "time_series")]
         experiments: bool,
+        /// Instead: DDGI at its defaults at every probe grid from 4×2×4 to 32×16×32 (and the grid
+        /// it fits itself), each against the reference: mean FLIP and the dark-region ratio (the
+        /// image's dark part against the reference's: a leak through a wall raises it), in
+        /// grid_sweep.md with a plot.
+        #[arg(long, conflicts_with_all = ["time_series", "experiments"])]
+        grid_sweep: bool,
+        /// With --grid-sweep: the volume's settings from a JSON file (any DdgiVolume fields, the
+        /// others at their defaults, as the overlay saves them) instead of the defaults; the grid
+        /// still comes from the sweep.
+        #[arg(long, requires = "grid_sweep")]
+        volume_settings: Option<PathBuf>,
         /// Output folder (default: out/eval/<scene>, or out/eval/<scene>/time_series).
         #[arg(long)]
         out: Option<PathBuf>,
@@ -1730,6 +1742,8 @@ fn main() -> ExitCode {
             hit_occlusion,
             hit_occlusion_reach,
             experiments,
+            grid_sweep,
+            volume_settings,
             out,
             cache,
             offset,
@@ -1800,6 +1814,19 @@ fn main() -> ExitCode {
                 eval::walk_series::run(&gpu, &eval_scenes::scene_facts(&scene), description, &options, frames, series)?;
             } else if time_series {
                 eval::time_series::run(&gpu, &eval_scenes::scene_facts(&scene), description, &options, frames)?;
+            } else if grid_sweep {
+                let base = match &volume_settings {
+                    Some(path) => {
+                        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+                        let volume: ddgi::DdgiVolume = serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))?;
+                        volume.validate().map_err(|e| format!("{}: {e}", path.display()))?;
+                        volume
+                    }
+                    None => ddgi::DdgiVolume::default(),
+                };
+                eval::grid_sweep::run(&gpu, &eval_scenes::scene_facts(&scene), description, &options, &base)?;
+                println!("report: {}", options.out.join("grid_sweep.md").display());
+                return Ok(());
             } else {
                 eval::run(&gpu, &eval_scenes::scene_facts(&scene), description, &options)?;
             }

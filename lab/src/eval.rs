@@ -6,6 +6,7 @@
 //!
 //! The configurations and how each one renders are all in [`Config`].
 
+pub mod grid_sweep;
 pub mod time_series;
 pub mod walk_series;
 
@@ -406,7 +407,20 @@ fn render(
     height: u32,
     seed: u32,
 ) -> Result<RenderedFrame, String> {
-    let settings = HeadlessSettings { width, height, frames: config.frames(), ..Default::default() };
+    render_frames(gpu, scene, config, width, height, seed, config.frames())
+}
+
+/// [`render`] for `frames` frames instead of the configuration's own count.
+fn render_frames(
+    gpu: &GpuContext,
+    scene: &SceneDescription,
+    config: &Config,
+    width: u32,
+    height: u32,
+    seed: u32,
+    frames: u32,
+) -> Result<RenderedFrame, String> {
+    let settings = HeadlessSettings { width, height, frames, ..Default::default() };
     let bar = crate::progress::bar(u64::from(settings.frames), config.name(), "frames");
     let frame = render_scene_with(gpu, scene.clone(), &settings, |app| {
         config.configure(app, seed);

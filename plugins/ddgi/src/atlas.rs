@@ -85,7 +85,9 @@ fn save_rgb(path: &Path, size: UVec2, rgb: &[u8]) -> Result<(), String> {
 /// Writes `irradiance.png` (radiance E/π of a white surface, sRGB) and `irradiance.exr` (linear
 /// E), `distance.png` (mean distance over the distance scale, grey) and `ray_directions.png` (one
 /// row per probe, one column per ray, direction × 0.5 + 0.5; rays a probe did not trace black,
-/// as of the last probe readback) into `dir`.
+/// as of the last probe readback) and `probes.csv` (one row per probe: grid coordinates, world
+/// position, relocation offset, state bits, luma and rays, as of the last probe readback) into
+/// `dir`.
 pub fn write_atlas_images(gpu: &GpuContext, volume: &VolumeGpu, dir: &Path) -> Result<Vec<PathBuf>, String> {
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let irradiance = read_irradiance(gpu, volume);
@@ -117,5 +119,41 @@ pub fn write_atlas_images(gpu: &GpuContext, volume: &VolumeGpu, dir: &Path) -> R
         }
     }
     save_rgb(&rpath, UVec2::new(m, probes), &rgb)?;
-    Ok(vec![path, exr, dpath, rpath])
+    let ppath = dir.join("probes.csv");
+    std::fs::write(&ppath, probes_csv(volume)).map_err(|e| format!("{}: {e}", ppath.display()))?;
+    Ok(vec![path, exr, dpath, rpath, ppath])
+}
+
+/// The probes of `volume` as CSV, one row each, as of the last probe readback: `index, gx, gy, gz`
+/// (grid coordinates), `x, y, z` (world position in render space, relocation included), `ox, oy,
+/// oz` (the relocation offset), `inactive, relocated, empty` (state bits as 0/1), `luma`, `rays`.
+pub fn probes_csv(volume: &VolumeGpu) -> String {
+    use crate::gpu::{PROBE_EMPTY, PROBE_INACTIVE, PROBE_RELOCATED};
+    let layout = &volume.layout;
+    let mut csv = String::from("index,gx,gy,gz,x,y,z,ox,oy,oz,inactive,relocated,empty,luma,rays\n");
+    for (i, data) in volume.probe_data.iter().enumerate().take(layout.probe_count as usize) {
+        let index = i as u32;
+        let grid = layout.probe_grid(index);
+        let offset = Vec3::from(data.offset);
+        let p = layout.grid_position(index) + offset;
+        let bit = |b: u32| u32::from(data.state & b != 0);
+        csv += &format!(
+            "{index},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            grid.x,
+            grid.y,
+            grid.z,
+            p.x,
+            p.y,
+            p.z,
+            offset.x,
+            offset.y,
+            offset.z,
+            bit(PROBE_INACTIVE),
+            bit(PROBE_RELOCATED),
+            bit(PROBE_EMPTY),
+            data.luma,
+            data.ray_count
+        );
+    }
+    csv
 }
