@@ -20,6 +20,15 @@ fn ddgi_cage_base(grid: vec3<f32>) -> vec3<i32> {
     return clamp(vec3<i32>(floor(grid)), vec3<i32>(0), max_base);
 }
 
+// The extent of a cell along unit direction d (world units): its spacing along an axis, and between
+// the spacings for other directions. The normal and view biases are shares of it, so that on a
+// cell much longer than it is high (a grid over a wide flat scene) a wall's lookup point moves off
+// the wall by a share of the spacing across the wall, not of the cell's height (measured on
+// door_room_thin: BENCHMARKS.md, "Thin walls at every grid").
+fn ddgi_cell_extent(d: vec3<f32>) -> f32 {
+    return length(d * ddgi_volume.spacing);
+}
+
 // Corner i (0–7) of a cage: its offset from the lowest corner.
 fn ddgi_cage_step(i: u32) -> vec3<u32> {
     return vec3<u32>(i & 1u, (i >> 1u) & 1u, (i >> 2u) & 1u);
@@ -50,7 +59,7 @@ fn ddgi_sample_irradiance_pair(p: vec3<f32>, n: vec3<f32>, to_viewer: vec3<f32>,
     let v = ddgi_volume;
     var biased = p;
     if ddgi_has(DDGI_WEIGHT_NORMAL_BIAS) {
-        biased = p + n * v.normal_bias + to_viewer * v.view_bias;
+        biased = p + n * (v.normal_bias * ddgi_cell_extent(n)) + to_viewer * (v.view_bias * ddgi_cell_extent(to_viewer));
     }
     let grid = ddgi_grid_coords(biased);
     let base = ddgi_cage_base(grid);

@@ -23,7 +23,10 @@ pub(crate) struct DdgiVolumeGpu {
     pub ray_rotation: [[f32; 4]; 3],
     pub sky_radiance: [f32; 3],
     pub hysteresis: f32,
+    /// [`DdgiVolume::normal_bias`] as it is (a share of the cell's extent along the normal: the
+    /// sampling function scales it, `ddgi_cell_extent`).
     pub normal_bias: f32,
+    /// [`DdgiVolume::view_bias`] as it is (a share of the cell's extent along the view direction).
     pub view_bias: f32,
     pub distance_sharpness: f32,
     pub max_ray_distance: f32,
@@ -435,8 +438,8 @@ impl DdgiVolumeGpu {
             ray_rotation: [column(rotation.x_axis), column(rotation.y_axis), column(rotation.z_axis)],
             sky_radiance: sky.unwrap_or_default().to_array(),
             hysteresis: volume.hysteresis,
-            normal_bias: volume.normal_bias * min_spacing,
-            view_bias: volume.view_bias * min_spacing,
+            normal_bias: volume.normal_bias,
+            view_bias: volume.view_bias,
             distance_sharpness: volume.distance_sharpness,
             max_ray_distance: volume.max_ray_distance.unwrap_or(UNBOUNDED_RAY),
             distance_scale: layout.distance_scale(),

@@ -262,10 +262,14 @@ pub struct DdgiVolume {
     /// Weight of the old value when blending in a frame's rays, in [0, 1]: close to 1 is stable but
     /// slow to follow changes; 0 takes each frame's (noisy) value as is.
     pub hysteresis: f32,
-    /// Offset of the lookup point along the surface normal, as a fraction of the smallest probe
-    /// spacing. Too small: self-shadowing blotches; too large: leaks through thin walls.
+    /// Offset of the lookup point along the surface normal, as a fraction of the cell's extent
+    /// along the normal (the spacing along an axis-aligned normal: a wall's lookup moves by a share
+    /// of the spacing across it, whatever the cell's height). Too small: self-shadowing blotches,
+    /// and probes just behind a thin wall pass the visibility test; too large: the lookup leaves
+    /// a narrow space. No cost.
     pub normal_bias: f32,
-    /// Offset of the lookup point towards the viewer, as a fraction of the smallest probe spacing.
+    /// Offset of the lookup point towards the viewer, as a fraction of the cell's extent along the
+    /// view direction (as `normal_bias`). No cost.
     pub view_bias: f32,
     /// Exponent of the cosine weighting of hit distances in the distance update (50 in the
     /// literature): higher keeps visibility edges sharp.

@@ -617,21 +617,45 @@ fn door_room_matches_the_reference_and_its_dark_corner_does_not_leak() {
     assert!(flip < 0.75 * direct, "DDGI ({flip}) must remove a quarter of direct light's error ({direct}) at least");
     // The camera looks at the interior corner through the door: it is the centre of the image.
     let ddgi = centre_luminance(&frame.hdr, REFERENCE_SIZE, 3);
-    let reference_linear: Vec<f32> = reference
-        .as_raw()
-        .chunks_exact(4)
-        .flat_map(|p| {
-            [engine::color::srgb8_to_linear(p[0]), engine::color::srgb8_to_linear(p[1]), engine::color::srgb8_to_linear(p[2]), 1.0]
-        })
-        .collect();
     // The reference PNG holds exposure × radiance (the camera's exposure is 1.5).
-    let expected = centre_luminance(&reference_linear, REFERENCE_SIZE, 3) / 1.5;
+    let expected = centre_luminance(&linear_reference(&reference), REFERENCE_SIZE, 3) / 1.5;
     eprintln!("door_room: mean FLIP {flip:.4}; interior corner luminance DDGI {ddgi:.4}, reference {expected:.4}");
     assert!(flip < DOOR_ROOM_FLIP_BOUND, "mean FLIP {flip} ≥ {DOOR_ROOM_FLIP_BOUND}");
     // Light leaking through the walls would brighten the corner; over-eager visibility weights
     // would black it out. Measured: 0.0100 against 0.0150.
     assert!(ddgi < 1.5 * expected, "the dark corner leaks: {ddgi} against {expected}");
     assert!(ddgi > 0.5 * expected, "the dark corner lost its indirect light: {ddgi} against {expected}");
+}
+
+/// The thin-walled door room (walls 1/25 of the fitted spacing, one volume over the whole 40 m
+/// scene) at grids that lit its dark corner 2.6–4× too bright when the normal and view biases were
+/// shares of the smallest spacing: the probes just outside the walls passed the visibility test.
+/// Each grid with the bound on the corner's luminance over the reference's: measured on lavapipe
+/// (2026-12-06) before → after the biases became shares of the cell's extent along the normal and
+/// the view: 32×8×32 3.81 → 1.48 (probes 2.5 cm outside the walls), 16×16×16 4.29 → 2.39 and
+/// 12×6×12 2.76 → 2.10 (the cells' height a fifth of their width). What is left at the last two
+/// is no leak: the probes nearest the corner inside the room are 1.3–1.65 m from it, and the
+/// corner takes their light (15×8×15, 0.23 m from it: 1.23).
+const THIN_WALL_GRIDS: [([u32; 3], f32); 3] = [([32, 8, 32], 1.8), ([16, 16, 16], 2.8), ([12, 6, 12], 2.5)];
+
+#[test]
+fn thin_walls_do_not_leak_at_grids_that_did() {
+    let Some(gpu) = gpu("thin_walls_do_not_leak_at_grids_that_did") else { return };
+    for (grid, bound) in THIN_WALL_GRIDS {
+        let (flip, _, frame, reference) = against_reference(&gpu, "door_room_thin", UVec3::from(grid), 240);
+        let ddgi = centre_luminance(&frame.hdr, REFERENCE_SIZE, 3);
+        let expected = centre_luminance(&linear_reference(&reference), REFERENCE_SIZE, 3) / 1.5;
+        let ratio = ddgi / expected;
+        eprintln!("door_room_thin at {grid:?}: mean FLIP {flip:.4}; dark corner {ddgi:.4} against {expected:.4} ({ratio:.2}×)");
+        assert!(ratio < bound, "{grid:?}: the dark corner leaks: {ratio:.2}× the reference's (bound {bound})");
+        assert!(ratio > 0.6, "{grid:?}: the dark corner lost its indirect light: {ratio:.2}× the reference's");
+    }
+}
+
+/// A reference PNG (sRGB of exposure × radiance) as linear RGBA.
+fn linear_reference(reference: &image::RgbaImage) -> Vec<f32> {
+    use engine::color::srgb8_to_linear;
+    reference.as_raw().chunks_exact(4).flat_map(|p| [srgb8_to_linear(p[0]), srgb8_to_linear(p[1]), srgb8_to_linear(p[2]), 1.0]).collect()
 }
 
 #[test]
