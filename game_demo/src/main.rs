@@ -200,9 +200,9 @@ enum Command {
         /// grid_sweep.md with a plot.
         #[arg(long, conflicts_with_all = ["time_series", "experiments"])]
         grid_sweep: bool,
-        /// With --grid-sweep: the volume's settings from a JSON file (any DdgiVolume fields, the
-        /// others at their defaults, as the overlay saves them) instead of the defaults; the grid
-        /// still comes from the sweep.
+        /// With --grid-sweep: the settings of the first volume of a settings file as the overlay
+        /// saves them (`{"volumes": [{…DdgiVolume fields…}]}`, missing fields at their defaults)
+        /// instead of the defaults; the grid still comes from the sweep.
         #[arg(long, requires = "grid_sweep")]
         volume_settings: Option<PathBuf>,
         /// Output folder (default: out/eval/<scene>, or out/eval/<scene>/time_series).
@@ -1816,12 +1816,12 @@ fn main() -> ExitCode {
                 eval::time_series::run(&gpu, &eval_scenes::scene_facts(&scene), description, &options, frames)?;
             } else if grid_sweep {
                 let base = match &volume_settings {
-                    Some(path) => {
-                        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-                        let volume: ddgi::DdgiVolume = serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))?;
-                        volume.validate().map_err(|e| format!("{}: {e}", path.display()))?;
-                        volume
-                    }
+                    Some(path) => ddgi_overlay::settings::load(path)
+                        .map_err(|e| e.to_string())?
+                        .volumes
+                        .into_iter()
+                        .next()
+                        .ok_or_else(|| format!("{}: the settings hold no volume (`volumes` is empty)", path.display()))?,
                     None => ddgi::DdgiVolume::default(),
                 };
                 eval::grid_sweep::run(&gpu, &eval_scenes::scene_facts(&scene), description, &options, &base)?;

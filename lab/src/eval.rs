@@ -399,19 +399,9 @@ pub fn spp_at_equal_flip(ladder: &[(f64, f64)], flip: f64) -> Option<(f64, Ladde
     let t = (ln(flip) - ln(f0)) / (ln(f) - ln(f0));
     Some(((ln(spp0) + t * (ln(spp) - ln(spp0))).exp().clamp(spp0, spp), LadderPosition::Within))
 }
-fn render(
-    gpu: &GpuContext,
-    scene: &SceneDescription,
-    config: &Config,
-    width: u32,
-    height: u32,
-    seed: u32,
-) -> Result<RenderedFrame, String> {
-    render_frames(gpu, scene, config, width, height, seed, config.frames())
-}
 
-/// [`render`] for `frames` frames instead of the configuration's own count.
-fn render_frames(
+/// `config` on `scene`, `frames` frames (usually [`Config::frames`]), the last one returned.
+fn render(
     gpu: &GpuContext,
     scene: &SceneDescription,
     config: &Config,
@@ -512,7 +502,8 @@ pub fn reference(
     let key = reference_path(cache, label, scene, width, height, spp);
     let (image, cached) = cached_image(&key, width, height, || {
         println!("reference: path tracing {spp} paths per pixel…");
-        Ok(render(gpu, scene, &Config::PathTrace { spp }, width, height, REFERENCE_SEED)?.hdr)
+        let config = Config::PathTrace { spp };
+        Ok(render(gpu, scene, &config, width, height, REFERENCE_SEED, config.frames())?.hdr)
     })?;
     if cached {
         println!("reference: cached {}", key.display());
@@ -665,7 +656,7 @@ pub fn run(gpu: &GpuContext, facts: &SceneFacts, scene: SceneDescription, option
     // configuration needs it.
     let mut timing_ms_per_spp: Option<Option<f64>> = None;
     for config in list {
-        let frame = render(gpu, &scene, &config, width, height, seed)?;
+        let frame = render(gpu, &scene, &config, width, height, seed, config.frames())?;
         let error = compare(&reference, &frame.hdr, width, height, EXPOSURE);
         let (per_frame, total) = gpu_ms(&frame);
         let ldr = tonemap_to_srgb8(&frame.hdr, EXPOSURE);
@@ -678,7 +669,7 @@ pub fn run(gpu: &GpuContext, facts: &SceneFacts, scene: SceneDescription, option
                 (_, known) => known.flatten(),
             };
             let large = match options.timing_size {
-                Some([w, h]) => gpu_ms(&render(gpu, &scene, &config, w, h, seed)?).0,
+                Some([w, h]) => gpu_ms(&render(gpu, &scene, &config, w, h, seed, config.frames())?).0,
                 None => None,
             };
             equal_flip(&rows, f64::from(error.mean_flip), per_frame, timed, large)
@@ -721,7 +712,8 @@ pub fn run(gpu: &GpuContext, facts: &SceneFacts, scene: SceneDescription, option
 /// The path tracer's GPU ms per path per pixel at `[width, height]`: [`TIMING_SPP`] paths per
 /// pixel timed there, over [`TIMING_SPP`] (every path costs the same).
 fn time_path_tracer(gpu: &GpuContext, scene: &SceneDescription, [width, height]: [u32; 2], seed: u32) -> Result<Option<f64>, String> {
-    let frame = render(gpu, scene, &Config::PathTrace { spp: TIMING_SPP }, width, height, seed)?;
+    let config = Config::PathTrace { spp: TIMING_SPP };
+    let frame = render(gpu, scene, &config, width, height, seed, config.frames())?;
     Ok(gpu_ms(&frame).1.map(|total| total / f64::from(TIMING_SPP)))
 }
 

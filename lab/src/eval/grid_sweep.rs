@@ -95,13 +95,13 @@ pub fn run(
     let reference = reference(gpu, &facts.name, &scene, width, height, reference_spp, cache)?;
     let reference_ldr = tonemap_to_srgb8(&reference, EXPOSURE);
     let seed = pathtrace::PathTraceSettings::default().seed;
-    let direct = tonemap_to_srgb8(&render(gpu, &scene, &Config::Direct, width, height, seed)?.hdr, EXPOSURE);
+    let direct = tonemap_to_srgb8(&render(gpu, &scene, &Config::Direct, width, height, seed, Config::Direct.frames())?.hdr, EXPOSURE);
     let mut rows = Vec::new();
     for grid in SWEEP_GRIDS {
         let volume = ddgi::DdgiVolume { probe_counts: grid.map(Into::into), bounds: None, ..base.clone() };
         let name = format!("grid_{}", grid_name(grid).replace('×', "x"));
         let config = Config::ddgi(name.clone(), facts, volume).placed_at(scene.origin);
-        let frame = super::render_frames(gpu, &scene, &config, width, height, seed, SWEEP_FRAMES)?;
+        let frame = render(gpu, &scene, &config, width, height, seed, SWEEP_FRAMES)?;
         let ldr = tonemap_to_srgb8(&frame.hdr, EXPOSURE);
         let (mean_flip, map) = flip_rgb8(&reference_ldr, &ldr, width, height);
         save_strip(&out.join(format!("{name}.png")), &[direct.clone(), ldr, reference_ldr.clone(), magma(&map)], width, height)?;
