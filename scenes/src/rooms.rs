@@ -328,10 +328,9 @@ fn door_room_with(name: &str, room_min: Vec3, room_max: Vec3, thickness: f32, do
     desc.add_node("door", Transform::from_translation(door), None, vec![NodeContent::Empty]);
     let corner = Vec3::new(room_min.x + CORNER_INSET, room_min.y, room_min.z + CORNER_INSET);
     desc.add_node("interior_corner", Transform::from_translation(corner), None, vec![NodeContent::Empty]);
-
-    let direction = sun_direction(DOOR_SUN_ELEVATION_DEGREES.to_radians(), DOOR_SUN_HEADING_DEGREES.to_radians());
     desc.add_node("sun_patch", Transform::from_translation(sun_patch), None, vec![NodeContent::Empty]);
 
+    let direction = sun_direction(DOOR_SUN_ELEVATION_DEGREES.to_radians(), DOOR_SUN_HEADING_DEGREES.to_radians());
     let sun = DirectionalLight { color: SUN_COLOR, intensity: DOOR_SUN_INTENSITY };
     desc.add_node("sun", sun_transform(door, direction), None, vec![NodeContent::DirectionalLight(sun)]);
 

@@ -634,8 +634,9 @@ fn door_room_matches_the_reference_and_its_dark_corner_does_not_leak() {
 /// the visibility test. Each grid with the bound on the dark corner's luminance (the image's
 /// centre) over the reference's. The corner measured so (lavapipe, 2026-12-06, against a 1,024-spp
 /// reference): 16×8×16 9.22× before the change, 3.11× after; after it 32×8×32 1.76×, 12×6×12
-/// 2.47×; by this test (its 4,096-spp reference) 32×8×32 1.69×, 16×16×16 2.93×. What is left is no leak: the probes nearest the corner inside the room are 1.3–1.65 m
-/// from it, and the corner takes their light (15×8×15, 0.23 m from it: 1.29×).
+/// 2.47×; by this test (its 4,096-spp reference) 32×8×32 1.69×, 16×16×16 2.93×. What is left is
+/// no leak: the probes nearest the corner inside the room are 1.3–1.65 m from it, and the corner
+/// takes their light (15×8×15, 0.23 m from it: 1.29×).
 const THIN_WALL_GRIDS: [([u32; 3], f32); 3] = [([32, 8, 32], 2.2), ([16, 16, 16], 4.0), ([12, 6, 12], 3.0)];
 
 #[test]
