@@ -523,3 +523,49 @@ fn obj_dissolve_and_transparency_set_the_alpha_mode() {
     let error = load_scene(&dir.join("alpha.obj")).expect_err("Tr 2 is refused").to_string();
     assert!(error.contains("Tr") && error.contains("glass") && error.contains("alpha.obj"), "{error}");
 }
+
+/// OBJ's `map_d`: the mask's alpha (its grey level when it has no alpha channel, its alpha channel
+/// when it has one) is baked into the base colour texture at `map_Kd`'s resolution, the colours
+/// kept; a mask without `map_Kd` gives a white texture of the mask's size; the material is cut
+/// (BLEND); a missing mask is named.
+#[test]
+fn obj_map_d_cuts_the_base_colour_texture() {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("obj_map_d");
+    std::fs::create_dir_all(&dir).unwrap();
+    // A 4×4 red-green gradient and a 2×2 grey checkerboard mask (no alpha channel).
+    let color = image::RgbImage::from_fn(4, 4, |x, y| image::Rgb([60 * x as u8, 60 * y as u8, 7]));
+    color.save(dir.join("leaf.png")).unwrap();
+    let grey = image::GrayImage::from_fn(2, 2, |x, y| image::Luma([if (x + y) % 2 == 0 { 255 } else { 0 }]));
+    grey.save(dir.join("mask.png")).unwrap();
+    // A mask with an alpha channel: its alpha counts, not its (white) colour.
+    let rgba = image::RgbaImage::from_fn(2, 1, |x, _| image::Rgba([255, 255, 255, if x == 0 { 0 } else { 200 }]));
+    rgba.save(dir.join("alpha_mask.png")).unwrap();
+    let mtl = "newmtl leaf\nKd 1 1 1\nmap_Kd leaf.png\nmap_d mask.png\n\nnewmtl fence\nKd 1 1 1\nmap_d -imfchan l alpha_mask.png\n";
+    std::fs::write(dir.join("masked.mtl"), mtl).unwrap();
+    let obj =
+        "mtllib masked.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nusemtl leaf\nf 1/1 2/2 3/3\nusemtl fence\nf 1/1 2/2 3/3\n";
+    std::fs::write(dir.join("masked.obj"), obj).unwrap();
+    let scene = load_scene(&dir.join("masked.obj")).unwrap_or_else(|e| panic!("{e}"));
+    let get = |name: &str| scene.materials.iter().find(|m| m.name == name).unwrap_or_else(|| panic!("no material {name}"));
+    let texture = |name: &str| &scene.images[get(name).base_color_texture.as_ref().expect("a base colour texture").image.index() as usize];
+
+    assert_eq!(get("leaf").alpha_mode, AlphaMode::Blend);
+    let leaf = texture("leaf");
+    assert_eq!((leaf.width, leaf.height), (4, 4), "map_Kd's resolution");
+    for y in 0..4u32 {
+        for x in 0..4u32 {
+            let t = &leaf.rgba8[4 * (y * 4 + x) as usize..][..4];
+            let expected_alpha = if (x / 2 + y / 2) % 2 == 0 { 255 } else { 0 };
+            assert_eq!(t, [60 * x as u8, 60 * y as u8, 7, expected_alpha], "texel ({x}, {y})");
+        }
+    }
+    assert_eq!(get("fence").alpha_mode, AlphaMode::Blend);
+    let fence = texture("fence");
+    assert_eq!((fence.width, fence.height), (2, 1));
+    assert_eq!(fence.rgba8, [255, 255, 255, 0, 255, 255, 255, 200]);
+
+    std::fs::write(dir.join("masked.mtl"), "newmtl leaf\nmap_d missing_mask.png\n").unwrap();
+    std::fs::write(dir.join("masked.obj"), "mtllib masked.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl leaf\nf 1 2 3\n").unwrap();
+    let error = load_scene(&dir.join("masked.obj")).expect_err("a missing mask is refused").to_string();
+    assert!(error.contains("missing_mask.png") && error.contains("masked.obj"), "{error}");
+}

@@ -1,8 +1,9 @@
 //! Wavefront OBJ/MTL importer (through `tobj`, triangulated, one index per vertex).
 //!
 //! Every OBJ object/group (per material) becomes one node holding one mesh. From MTL: `Kd` → base
-//! colour (`d` → alpha), `map_Kd` → base colour texture, `Ke` → emissive, `map_Ke` → emissive
-//! texture, `Pm`/`Pr` (the MTL PBR extension) → metallic and roughness with glTF's specular lobe
+//! colour (`d` → alpha), `map_Kd` → base colour texture, `map_d` → its alpha (baked into the
+//! base colour texture: the map's alpha channel where it has one, else its grey level, at
+//! `map_Kd`'s resolution), `Ke` → emissive, `map_Ke` → emissive texture, `Pm`/`Pr` (the MTL PBR extension) → metallic and roughness with glTF's specular lobe
 //! (materials without them are Lambertian); texture paths are relative to the `.mtl` file's folder,
 //! libraries relative to the `.obj`.
 //! OBJ texture coordinates have their origin at the bottom-left, so `v` is flipped to glTF's
@@ -318,13 +319,16 @@ impl Importer<'_> {
             return Err(self.invalid(&what, format!("invalid Kd/d {base_color}")));
         }
         // A see-through material is glTF's BLEND: cut where its alpha is below 0.5.
-        let alpha_mode = if alpha < 1.0 { AlphaMode::Blend } else { AlphaMode::Opaque };
+        let alpha_mode = if alpha < 1.0 || source.dissolve_texture.is_some() { AlphaMode::Blend } else { AlphaMode::Opaque };
         let emissive =
             source.emissive.or_else(|| source.unknown_param.get("Ke").and_then(|ke| parse_color(ke))).map_or(Vec3::ZERO, Vec3::from_array);
         if !emissive.is_finite() || emissive.min_element() < 0.0 {
             return Err(self.invalid(&what, format!("invalid Ke {}", super::fmt_vec3(emissive))));
         }
-        let base_color_texture = source.diffuse_texture.as_deref().map(|t| self.texture(&dir, t)).transpose()?;
+        let base_color_texture = match source.dissolve_texture.as_deref() {
+            None => source.diffuse_texture.as_deref().map(|t| self.texture(&dir, t)).transpose()?,
+            Some(mask) => Some(self.masked_texture(&dir, source.diffuse_texture.as_deref(), mask)?),
+        };
         let emissive_texture = source.unknown_param.get("map_Ke").map(|t| self.texture(&dir, t)).transpose()?;
         // The MTL PBR extension (Exocortex): Pm metallic, Pr roughness; a material with either gets
         // glTF's specular lobe, one with neither stays Lambertian.
@@ -365,15 +369,75 @@ impl Importer<'_> {
         let image = match self.images.get(&path) {
             Some(&image) => image,
             None => {
-                let bytes = super::read_referenced(self.file, "texture image", &name, &path)?;
-                let image = super::decode_image(self.file, &format!("texture image '{name}'"), name.clone(), &bytes)?;
-                self.scene.images.push(image);
-                let index = self.scene.images.len() - 1;
-                self.images.insert(path, index);
-                index
+                let image = self.decode(&name, &path)?;
+                self.add_image(path, image)
             }
         };
         Ok(TextureRef { image: Handle::from_index(image as u32), transform: UvTransform::default(), filter: Default::default() })
+    }
+
+    /// The base colour texture of a material with `map_d`: `map_Kd`'s colours (white without one)
+    /// with the mask's alpha, at `map_Kd`'s resolution (the mask's without one), the mask sampled
+    /// at the nearest texel. Made once per pair of files.
+    fn masked_texture(&mut self, dir: &Path, color: Option<&str>, mask: &str) -> Result<TextureRef, ImportError> {
+        let mask_name = texture_file(mask);
+        let color_name = color.map(texture_file);
+        let key = PathBuf::from(format!(
+            "{}\0map_d\0{}",
+            color_name.as_deref().map_or(PathBuf::new(), |c| dir.join(c)).display(),
+            dir.join(&mask_name).display()
+        ));
+        if let Some(&image) = self.images.get(&key) {
+            return Ok(TextureRef {
+                image: Handle::from_index(image as u32),
+                transform: UvTransform::default(),
+                filter: Default::default(),
+            });
+        }
+        let mask_image = self.decode(&mask_name, &dir.join(&mask_name))?;
+        let mut image = match &color_name {
+            Some(name) => self.decode(name, &dir.join(name))?,
+            None => crate::scene::Image {
+                name: mask_name.clone(),
+                width: mask_image.width,
+                height: mask_image.height,
+                rgba8: vec![255; mask_image.rgba8.len()],
+            },
+        };
+        image.name = format!("{} (alpha from map_d {mask_name})", image.name);
+        bake_mask(&mut image, &mask_image);
+        let index = self.add_image(key, image);
+        Ok(TextureRef { image: Handle::from_index(index as u32), transform: UvTransform::default(), filter: Default::default() })
+    }
+
+    fn decode(&self, name: &str, path: &Path) -> Result<crate::scene::Image, ImportError> {
+        let bytes = super::read_referenced(self.file, "texture image", name, path)?;
+        super::decode_image(self.file, &format!("texture image '{name}'"), name.to_string(), &bytes)
+    }
+
+    fn add_image(&mut self, key: PathBuf, image: crate::scene::Image) -> usize {
+        self.scene.images.push(image);
+        let index = self.scene.images.len() - 1;
+        self.images.insert(key, index);
+        index
+    }
+}
+
+/// Writes `mask`'s alpha into `image`'s alpha channel: the mask's own alpha where any of its texels
+/// is see-through, else its grey level (the red channel: MTL's `map_d` is a scalar map), sampled at
+/// the nearest texel when the two sizes differ. The colour's own alpha is multiplied in.
+fn bake_mask(image: &mut crate::scene::Image, mask: &crate::scene::Image) {
+    let channel = if mask.rgba8.chunks_exact(4).any(|t| t[3] < 255) { 3 } else { 0 };
+    let (w, h) = (image.width as usize, image.height as usize);
+    let (mw, mh) = (mask.width as usize, mask.height as usize);
+    for y in 0..h {
+        let my = (y * mh / h.max(1)).min(mh - 1);
+        for x in 0..w {
+            let mx = (x * mw / w.max(1)).min(mw - 1);
+            let a = mask.rgba8[4 * (my * mw + mx) + channel];
+            let texel = &mut image.rgba8[4 * (y * w + x) + 3];
+            *texel = ((u32::from(*texel) * u32::from(a) + 127) / 255) as u8;
+        }
     }
 }
 
