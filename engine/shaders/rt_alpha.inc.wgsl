@@ -5,7 +5,7 @@
 
 // Whether the instance is drawn with a material that cuts texels (read once as a ray enters it).
 fn rt_instance_alpha_tested(instance: u32) -> bool {
-    return materials[instances[instance].material].emissive.w > 0.0;
+    return material_is_masked(instances[instance].material);
 }
 
 // Whether the candidate hit at `barycentrics` of the triangle stored at `index` of blas_triangles,

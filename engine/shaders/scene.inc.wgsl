@@ -239,6 +239,12 @@ fn sample_data_slot(slot: TextureSlot, uv: vec2<f32>, fallback: vec4<f32>) -> ve
     return textureSampleLevel(data_atlas, atlas_sampler, slot_atlas_position(slot, uv), 0.0);
 }
 
+// Whether material `index` is alpha-masked (its cutoff above 0): a card, a leaf, a fence — a
+// single surface seen from both sides, never the skin of a closed solid.
+fn material_is_masked(index: u32) -> bool {
+    return SCENE_HAS_ALPHA_TEST && materials[index].emissive.w > 0.0;
+}
+
 // Whether material `index` cuts the texel at uv out (alpha-masked materials: the base colour's
 // alpha, factor × texture, below the material's cutoff). Opaque materials cut nothing and sample no
 // texture.
@@ -246,12 +252,11 @@ fn material_cuts(index: u32, uv: vec2<f32>) -> bool {
     if !SCENE_HAS_ALPHA_TEST {
         return false;
     }
-    let m = materials[index];
-    let cutoff = m.emissive.w;
-    if !(cutoff > 0.0) {
+    if !material_is_masked(index) {
         return false;
     }
-    return m.base_color.a * sample_slot(m.base_color_texture, uv).a < cutoff;
+    let m = materials[index];
+    return m.base_color.a * sample_slot(m.base_color_texture, uv).a < m.emissive.w;
 }
 
 struct SurfaceMaterial {

@@ -42,7 +42,7 @@ fn ddgi_hit_open_share(i: u32, origin: vec3<f32>, n: vec3<f32>) -> f32 {
 }
 
 // Shades ray i (`ray_info`, traced as ddgi_ray(ray_info)) at its closest hit, back faces included
-// (they mark probes inside geometry): its emission, direct light (a shadow ray per light, through
+// (they mark probes inside geometry; masked materials' are shaded as front faces): its emission, direct light (a shadow ray per light, through
 // the BRDF) and indirect light from the previous frame's probes, into ddgi_radiance[i].
 fn ddgi_shade_ray(i: u32, ray_info: DdgiRay, hit: RayHit) {
     let ray = ddgi_ray(ray_info);
@@ -57,8 +57,9 @@ fn ddgi_shade_ray(i: u32, ray_info: DdgiRay, hit: RayHit) {
         ddgi_radiance[i] = vec4<f32>(min(sanitize_radiance(sky), vec3<f32>(DDGI_MAX_IRRADIANCE)), DDGI_MISS);
         return;
     }
-    if !hit.front_face {
-        // Back faces are black.
+    if !hit.front_face && !material_is_masked(instances[hit.instance].material) {
+        // Back faces are black: they mark probes inside closed geometry. A masked material's
+        // surface (a leaf card, a fence) is one sheet seen from both sides, shaded on either.
         ddgi_radiance[i] = vec4<f32>(0.0, 0.0, 0.0, -hit.t * DDGI_BACKFACE_SCALE);
         return;
     }
