@@ -221,12 +221,13 @@ fn a_walk_measures_every_frame_against_its_own_view_with_the_scrolls_marked() {
     let frames = 6;
     let scene = cornell();
     let extent = scene.bounds().map(|(lo, hi)| (hi - lo).max_element()).expect("bounds");
-    // Two cascades of 8×6×8, the coarse one wide enough to reach the box from the camera 4.3 units
-    // in front of it; carried sideways a tenth of the box a frame, the camera crosses cells of both.
+    // Two cascades of 8×6×8, half and all of the box wide (cascades are kept over the scene, so a
+    // box wider than the scene would stay put); carried sideways a tenth of the box a frame, the
+    // camera crosses cells of both.
     let cascades = ddgi::DdgiCascades {
         count: Some(2),
         probe_counts: glam::UVec3::new(8, 6, 8),
-        spacing: 0.75,
+        spacing: extent / 16.0,
         blend_cells: 1.0,
         ..Default::default()
     };

@@ -86,7 +86,9 @@ struct DdgiVolumeGpu {
     // Near-field occlusion rays at each probe ray's hit (0: off), and their reach in world units.
     hit_occlusion_rays: u32,
     hit_occlusion_reach: f32,
-    _pad3: u32,
+    // Non-zero: the coarsest cascade of its camera. Nothing takes over at its edge, so the gather
+    // weights it as a fixed volume there (full weight up to half a cell beyond its outer probes).
+    cascade_outermost: u32,
     _pad4: u32,
     _pad5: u32,
 }

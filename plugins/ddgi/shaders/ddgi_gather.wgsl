@@ -6,11 +6,12 @@
 // A fixed volume: 1 inside its bounds (half a cell beyond the outer probes), fading to 0 one cell
 // outside. A cascade (cascade_blend > 0): 1 more than cascade_blend cells inside its outer probes,
 // falling to 0 at them, so that the next cascade out takes over while this one still has probes
-// on both sides of the point.
+// on both sides of the point — except the coarsest, which nothing takes over from: it is weighted
+// as a fixed volume (a band inside it would darken every point there).
 fn ddgi_volume_weight(p: vec3<f32>) -> f32 {
     let v = ddgi_volume;
     let cell = max(v.spacing, vec3<f32>(1e-30));
-    if v.cascade_blend > 0.0 {
+    if v.cascade_blend > 0.0 && v.cascade_outermost == 0u {
         let lo = v.origin;
         let hi = v.origin + v.spacing * (vec3<f32>(v.counts) - 1.0);
         let inside = min(p - lo, hi - p) / cell;

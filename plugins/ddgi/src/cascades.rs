@@ -1,11 +1,12 @@
 //! Probe volumes that follow the camera: [`DdgiCascades`] on a camera (or as a resource, for the
 //! first camera) keeps N nested volumes centred on it, each with twice the probe spacing of the one
-//! inside it. When the camera crosses a cell of a cascade, that cascade *scrolls*: its bounds move
+//! inside it, each kept over the scene (a box wider than the scene along an axis is centred on it
+//! there: [`DdgiCascades::level_bounds`]). When the camera crosses a cell of a cascade, that cascade *scrolls*: its bounds move
 //! by whole cells, which the prepare stage turns into a toroidal shift of the probe indices
 //! ([`crate::DdgiLayout::scroll`]) — the probes that stay keep their maps, the planes that entered
 //! are reset and converge fast ([`crate::DdgiVolume::warm_up`]). The gather takes the finest
 //! cascade that covers a point and blends into the next one across a band of
-//! [`DdgiCascades::blend_cells`] cells; far cascades update less often; fixed volumes keep working
+//! [`DdgiCascades::blend_cells`] cells (the coarsest lights points at full weight to its edge); far cascades update less often; fixed volumes keep working
 //! and are gathered first.
 
 use bevy_ecs::prelude::*;
@@ -130,19 +131,45 @@ impl DdgiCascades {
     }
 
     /// The world-space box of cascade `level` for a camera at `camera` (world coordinates), given
-    /// its current box's lowest corner (`None`: not placed yet): the grid snapped to whole cells
-    /// around the camera, moved only when the camera is more than three quarters of a cell from
-    /// its centre (so that a camera on a cell boundary does not scroll back and forth).
-    pub fn level_bounds(&self, level: u32, camera: DVec3, current: Option<DVec3>) -> (DVec3, DVec3) {
+    /// its current box's lowest corner (`None`: not placed yet) and the scene's world-space bounds
+    /// (`None`: unknown): the grid snapped to whole cells around the camera, moved only when the
+    /// camera is more than three quarters of a cell from its centre (so that a camera on a cell
+    /// boundary does not scroll back and forth), then kept over the scene — along an axis where
+    /// the box is wider than the scene it is centred on the scene, elsewhere it does not reach past
+    /// the scene's side by more than the cells it needs to light that side at full weight (none
+    /// for the `outermost` cascade, which lights points at full weight up to its box). So no
+    /// probe is spent in empty space the camera looks over (half of a camera-centred box is under
+    /// the ground or in the sky), and a cascade as wide as the scene covers all of it wherever the
+    /// camera stands. The camera stays inside the box when it is inside the scene.
+    pub fn level_bounds(
+        &self,
+        level: u32,
+        outermost: bool,
+        camera: DVec3,
+        current: Option<DVec3>,
+        scene: Option<(DVec3, DVec3)>,
+    ) -> (DVec3, DVec3) {
         let cell = self.level_spacing(level);
         let half = self.probe_counts.as_dvec3() * 0.5 * cell;
-        if let Some(lo) = current
-            && ((camera - (lo + half)).abs().cmple(DVec3::splat(0.75 * cell))).all()
-        {
-            return (lo, lo + half * 2.0);
+        let size = half * 2.0;
+        let mut lo = match current {
+            Some(lo) if ((camera - (lo + half)).abs().cmple(DVec3::splat(0.75 * cell))).all() => lo,
+            _ => ((camera - half) / cell).round() * cell,
+        };
+        if let Some((scene_lo, scene_hi)) = scene.filter(|(a, b)| a.is_finite() && b.is_finite() && a.cmple(*b).all()) {
+            // Past the scene's side: half a cell to the outer probe, then the blend band.
+            let margin = if outermost { 0.0 } else { (0.5 + f64::from(self.blend_cells)).ceil() * cell };
+            for axis in 0..3 {
+                let (a, b) = (scene_lo[axis] - margin, scene_hi[axis] + margin);
+                lo[axis] = if size[axis] >= b - a {
+                    ((0.5 * (a + b) - half[axis]) / cell).round() * cell
+                } else {
+                    // Whole cells, so that the box still scrolls; inside [a, b] after rounding.
+                    lo[axis].clamp((a / cell).floor() * cell, ((b - size[axis]) / cell).ceil() * cell)
+                };
+            }
         }
-        let lo = ((camera - half) / cell).round() * cell;
-        (lo, lo + half * 2.0)
+        (lo, lo + size)
     }
 }
 
@@ -159,6 +186,9 @@ pub struct DdgiCascade {
     pub level: u32,
     /// The blend band, in this cascade's cells.
     pub blend_cells: f32,
+    /// The coarsest of its camera's cascades: nothing takes over at its edge, so it lights points
+    /// at full weight up to half a cell beyond its outer probes, as a fixed volume does.
+    pub outermost: bool,
 }
 
 /// Prepare stage, before the volumes are prepared: spawns each camera's cascades (again when their
@@ -187,9 +217,14 @@ pub fn follow_ddgi_cascades(
     {
         followed.push((e, shared.0.clone(), origin + t.translation().as_dvec3()));
     }
-    // The scene's extent, only for cascades whose count comes from it: prepare keeps it up to date
-    // (computed here on the first frame, before prepare has).
-    let mut extent: Option<Option<f32>> = None;
+    // The scene's world-space box: prepare keeps it up to date (computed here on the first frame,
+    // before prepare has).
+    let scene_box = if followed.is_empty() {
+        None
+    } else {
+        state.scene_box().or_else(|| state.scene_bounds(&scene, &meshes)).map(|(lo, hi)| (origin + lo.as_dvec3(), origin + hi.as_dvec3()))
+    };
+    let extent = scene_box.map(|(lo, hi)| (hi - lo).max_element() as f32);
     for (camera, cascades, position) in followed {
         if let Err(e) = cascades.validate() {
             let message = format!("DDGI cascades of camera {camera}: {e}; they are off");
@@ -204,15 +239,7 @@ pub fn follow_ddgi_cascades(
             }
             continue;
         }
-        let count = match cascades.count {
-            Some(_) => cascades.resolved_count(None),
-            None => {
-                let scene_extent = *extent.get_or_insert_with(|| {
-                    state.scene_extent().or_else(|| state.scene_bounds(&scene, &meshes).map(|(lo, hi)| (hi - lo).max_element()))
-                });
-                cascades.resolved_count(scene_extent)
-            }
-        };
+        let count = cascades.resolved_count(extent);
         let mine: Vec<Entity> = volumes.iter().filter(|(_, c, _)| c.camera == camera).map(|(e, _, _)| e).collect();
         let template = |level: u32| DdgiVolume {
             probe_counts: Some(cascades.probe_counts),
@@ -228,15 +255,15 @@ pub fn follow_ddgi_cascades(
             || volumes
                 .iter()
                 .filter(|(_, c, _)| c.camera == camera)
-                .any(|(_, c, _)| c.level >= count || c.blend_cells != cascades.blend_cells);
+                .any(|(_, c, _)| c.level >= count || c.blend_cells != cascades.blend_cells || c.outermost != (c.level + 1 == count));
         if stale {
             for &e in &mine {
                 commands.entity(e).try_despawn();
             }
             for level in 0..count {
-                let (lo, hi) = cascades.level_bounds(level, position, None);
+                let (lo, hi) = cascades.level_bounds(level, level + 1 == count, position, None, scene_box);
                 let volume = DdgiVolume { bounds: Some((lo, hi)), ..template(level) };
-                let cascade = DdgiCascade { camera, level, blend_cells: cascades.blend_cells };
+                let cascade = DdgiCascade { camera, level, blend_cells: cascades.blend_cells, outermost: level + 1 == count };
                 commands.spawn((volume, cascade, Name(format!("ddgi_cascade_{level}"))));
             }
             continue;
@@ -251,7 +278,7 @@ pub fn follow_ddgi_cascades(
             .collect();
         for (_, c, mut volume) in volumes.iter_mut().filter(|(_, c, _)| c.camera == camera) {
             let current = volume.bounds.map(|(lo, _)| lo);
-            let (lo, hi) = cascades.level_bounds(c.level, position, current);
+            let (lo, hi) = cascades.level_bounds(c.level, c.outermost, position, current, scene_box);
             let t = template(c.level);
             let budget = match cascades.frame_budget {
                 Some(total) if updates(c.level) => Some(budget_share(total, c.level, &demands)),
@@ -291,6 +318,32 @@ pub fn budget_share(total: u32, level: u32, demands: &[(u32, Option<f64>)]) -> u
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_cascade_box_stays_over_the_scene_and_around_the_camera() {
+        // A 40 × 18 × 20 m interior, the camera near one end at eye height (the cathedral's case).
+        let cascades = DdgiCascades::fitted(2, UVec3::new(16, 8, 16), 40.0, DdgiVolume::default());
+        let scene = (DVec3::new(-10.0, 0.0, -20.0), DVec3::new(10.0, 18.0, 20.0));
+        let camera = DVec3::new(0.0, 1.7, 18.0);
+        // The coarsest (2.5 m cells, 40 × 20 × 40 m) covers the whole scene wherever the camera is.
+        let (lo, hi) = cascades.level_bounds(1, true, camera, None, Some(scene));
+        assert!(lo.cmple(scene.0).all() && hi.cmpge(scene.1).all(), "{lo} {hi}");
+        // Camera-centred it would have left the far end and the vault out.
+        let (lo_free, hi_free) = cascades.level_bounds(1, true, camera, None, None);
+        assert!(lo_free.z > scene.0.z && hi_free.y < scene.1.y);
+        // The finer one (1.25 m cells, 20 × 10 × 20 m) keeps the camera, stays on whole cells, and
+        // reaches past the floor by the cells that light it at full weight, not by half its height.
+        let cell = cascades.level_spacing(0);
+        let (lo, hi) = cascades.level_bounds(0, false, camera, None, Some(scene));
+        assert!(lo.cmple(camera).all() && hi.cmpge(camera).all(), "{lo} {hi}");
+        assert!(((lo / cell).round() * cell - lo).abs().max_element() < 1e-9);
+        let margin = (0.5 + f64::from(cascades.blend_cells)).ceil() * cell;
+        assert!(lo.y >= scene.0.y - margin - 1e-9 && lo.y <= scene.0.y - (0.5 + f64::from(cascades.blend_cells)) * cell, "{lo}");
+        assert!(hi.z <= scene.1.z + margin + 1e-9);
+        // No scene (or a broken one): centred on the camera as before.
+        let nan = Some((DVec3::NAN, DVec3::ONE));
+        assert_eq!(cascades.level_bounds(0, false, camera, None, nan), cascades.level_bounds(0, false, camera, None, None));
+    }
 
     #[test]
     fn the_frame_budget_follows_what_each_cascade_asked_for() {

@@ -65,7 +65,9 @@ pub(crate) struct DdgiVolumeGpu {
     /// [`crate::DdgiVolume::hit_occlusion_rays`] (0: off), and their reach in world units.
     pub hit_occlusion_rays: u32,
     pub hit_occlusion_reach: f32,
-    pub _pad3: u32,
+    /// Non-zero: the coarsest cascade of its camera ([`crate::DdgiCascade::outermost`]), weighted
+    /// as a fixed volume at its edge.
+    pub cascade_outermost: u32,
     pub _pad4: u32,
     pub _pad5: u32,
 }
@@ -406,9 +408,10 @@ impl DdgiVolumeGpu {
         rotation: glam::Mat3,
         sky: Option<glam::Vec3>,
         recheck: bool,
-        cascade_blend: f32,
+        cascade: (f32, bool),
         wake_boxes: u32,
     ) -> Self {
+        let (cascade_blend, cascade_outermost) = cascade;
         let w = volume.weights;
         let a = &volume.adaptive;
         let flags = [
@@ -471,7 +474,7 @@ impl DdgiVolumeGpu {
             drift_rate: if a.enabled { a.drift_rate } else { 1.0 },
             hit_occlusion_rays: volume.hit_occlusion_rays,
             hit_occlusion_reach: volume.hit_occlusion_reach * min_spacing,
-            _pad3: 0,
+            cascade_outermost: u32::from(cascade_outermost),
             _pad4: 0,
             _pad5: 0,
         }
@@ -501,7 +504,7 @@ pub fn gpu_structs() -> Vec<engine::shader::HostStruct> {
             firefly_threshold, backface_threshold, min_frontface_distance, recheck, irradiance_atlas_size, distance_atlas_size,
             min_rays, recheck_rays, error_target, error_decay, error_smoothing, error_floor, dark_fraction, frame_budget,
             max_rest_frames, rest_error, hysteresis_exponent, rest_smoothing, scroll, cascade_blend, wake_boxes, wake_resting, drift_rate,
-            hit_occlusion_rays, hit_occlusion_reach, _pad3, _pad4, _pad5,
+            hit_occlusion_rays, hit_occlusion_reach, cascade_outermost, _pad4, _pad5,
         }),
         layout!(DdgiProbeData in "ddgi_common.inc.wgsl" {
             offset, state, error, ray_count, ray_offset, luma, pinned_rays, pinned_state, empty_rays, rest, settled_error, updates,

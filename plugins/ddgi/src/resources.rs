@@ -90,6 +90,8 @@ pub struct VolumeGpu {
     pub order: (u32, Entity),
     /// The blend band of a cascade, in cells (0 for a fixed volume).
     pub cascade_blend: f32,
+    /// The coarsest cascade of its camera ([`crate::DdgiCascade::outermost`]).
+    pub cascade_outermost: bool,
     /// The rays the budget pass asked for at the volume's last update that has come back from the
     /// GPU, before a frame budget scaled them down (its counters' `total_rays / budget_scale`):
     /// what the cascades' shared budget is divided by ([`crate::DdgiCascades::frame_budget`]).
@@ -156,6 +158,7 @@ impl VolumeGpu {
             last_scroll: None,
             order: (0, Entity::PLACEHOLDER),
             cascade_blend: 0.0,
+            cascade_outermost: false,
             demanded_rays: None,
             calm: crate::calm::DdgiCalm::default(),
             recheck_pending: false,
@@ -255,6 +258,8 @@ pub struct DdgiGpuVolumes {
     mesh_bounds: HashMap<u32, Option<(Vec3, Vec3)>>,
     /// The largest extent of the scene's instances, kept up to date while they change.
     scene_extent: Option<f32>,
+    /// The render-space bounds of the scene's instances, kept with `scene_extent`.
+    scene_box: Option<(Vec3, Vec3)>,
     /// Each instance slot's last box (render space), for the wake-up around movers.
     instance_boxes: HashMap<u32, (Vec3, Vec3)>,
     scene_extent_known: bool,
@@ -323,6 +328,12 @@ impl DdgiGpuVolumes {
     /// The largest extent of the scene's instances' bounds (`None`: no geometry).
     pub fn scene_extent(&self) -> Option<f32> {
         self.scene_extent
+    }
+
+    /// The render-space bounds of the scene's instances as prepare last saw them (`None`: not
+    /// known yet, or an empty scene).
+    pub fn scene_box(&self) -> Option<(Vec3, Vec3)> {
+        self.scene_box
     }
 
     /// Any volume's settings error (for tools that run a single volume).
@@ -477,7 +488,8 @@ pub fn prepare_ddgi_volumes(
     let lighting_changed = state.last_lighting.as_ref() != Some(&lighting);
     state.last_lighting = Some(lighting);
     if scene_changed || !state.scene_extent_known {
-        state.scene_extent = state.scene_bounds(&scene, &meshes).map(|(lo, hi)| (hi - lo).max_element());
+        state.scene_box = state.scene_bounds(&scene, &meshes);
+        state.scene_extent = state.scene_box.map(|(lo, hi)| (hi - lo).max_element());
         state.scene_extent_known = true;
     }
     for (entity, volume, cascade) in list {
@@ -545,6 +557,7 @@ pub fn prepare_ddgi_volumes(
         v.settings = volume.clone();
         v.order = (cascade.map_or(0, |c| c.level + 1), entity);
         v.cascade_blend = cascade.map_or(0.0, |c| c.blend_cells.max(1e-3));
+        v.cascade_outermost = cascade.is_some_and(|c| c.outermost);
         let origin_moved = origin != v.render_origin;
         v.follow_render_origin(origin, limits);
         let scrolled = scroll.is_some_and(|cells| v.scroll(&gpu, cells, limits) > 0 || cells != IVec3::ZERO);
@@ -578,7 +591,15 @@ pub fn prepare_ddgi_volumes(
         v.recheck_pending |= structure_changed || wake_all || (interval > 0 && v.frames % interval == 0);
         let recheck = v.recheck_pending;
         let rotation = random_rotation(&mut v.rng);
-        let mut uniform = DdgiVolumeGpu::new(volume, &v.layout, rotation, volume.sky_radiance, recheck, v.cascade_blend, wake_boxes);
+        let mut uniform = DdgiVolumeGpu::new(
+            volume,
+            &v.layout,
+            rotation,
+            volume.sky_radiance,
+            recheck,
+            (v.cascade_blend, v.cascade_outermost),
+            wake_boxes,
+        );
         uniform.wake_resting = u32::from(changed_everywhere);
         gpu.queue.write_buffer(&v.uniform, 0, bytemuck::bytes_of(&uniform));
     }
