@@ -1,13 +1,14 @@
 //! Probe volumes that follow the camera: [`DdgiCascades`] on a camera (or as a resource, for the
 //! first camera) keeps N nested volumes centred on it, each with twice the probe spacing of the one
 //! inside it, each kept over the scene (a box wider than the scene along an axis is centred on it
-//! there: [`DdgiCascades::level_bounds`]). When the camera crosses a cell of a cascade, that cascade *scrolls*: its bounds move
-//! by whole cells, which the prepare stage turns into a toroidal shift of the probe indices
-//! ([`crate::DdgiLayout::scroll`]) — the probes that stay keep their maps, the planes that entered
-//! are reset and converge fast ([`crate::DdgiVolume::warm_up`]). The gather takes the finest
-//! cascade that covers a point and blends into the next one across a band of
-//! [`DdgiCascades::blend_cells`] cells (the coarsest lights points at full weight to its edge); far cascades update less often; fixed volumes keep working
-//! and are gathered first.
+//! there: [`DdgiCascades::level_bounds`]). When the camera crosses a cell of a cascade, that
+//! cascade *scrolls*: its bounds move by whole cells, which the prepare stage turns into a
+//! toroidal shift of the probe indices ([`crate::DdgiLayout::scroll`]) — the probes that stay keep
+//! their maps, the planes that entered are reset and converge fast
+//! ([`crate::DdgiVolume::warm_up`]). The gather takes the finest cascade that covers a point and
+//! blends into the next one across a band of [`DdgiCascades::blend_cells`] cells (the coarsest
+//! lights points at full weight to its edge); far cascades update less often; fixed volumes keep
+//! working and are gathered first.
 
 use bevy_ecs::prelude::*;
 use engine::render::gpu_scene::GpuScene;
@@ -222,7 +223,7 @@ pub fn follow_ddgi_cascades(
     let scene_box = if followed.is_empty() {
         None
     } else {
-        state.scene_box().or_else(|| state.scene_bounds(&scene, &meshes)).map(|(lo, hi)| (origin + lo.as_dvec3(), origin + hi.as_dvec3()))
+        state.scene_box().or_else(|| state.scene_bounds(&scene, &meshes).map(|(lo, hi)| (origin + lo.as_dvec3(), origin + hi.as_dvec3())))
     };
     let extent = scene_box.map(|(lo, hi)| (hi - lo).max_element() as f32);
     for (camera, cascades, position) in followed {
@@ -255,7 +256,7 @@ pub fn follow_ddgi_cascades(
             || volumes
                 .iter()
                 .filter(|(_, c, _)| c.camera == camera)
-                .any(|(_, c, _)| c.level >= count || c.blend_cells != cascades.blend_cells || c.outermost != (c.level + 1 == count));
+                .any(|(_, c, _)| c.level >= count || c.blend_cells != cascades.blend_cells);
         if stale {
             for &e in &mine {
                 commands.entity(e).try_despawn();

@@ -256,10 +256,9 @@ pub struct DdgiGpuVolumes {
     errors: HashMap<Entity, String>,
     /// Local bounds of each mesh, computed once.
     mesh_bounds: HashMap<u32, Option<(Vec3, Vec3)>>,
-    /// The largest extent of the scene's instances, kept up to date while they change.
-    scene_extent: Option<f32>,
-    /// The render-space bounds of the scene's instances, kept with `scene_extent`.
-    scene_box: Option<(Vec3, Vec3)>,
+    /// The world-space bounds of the scene's instances, kept up to date while they change (in the
+    /// world, so that they stay right when the render origin moves).
+    scene_box: Option<(DVec3, DVec3)>,
     /// Each instance slot's last box (render space), for the wake-up around movers.
     instance_boxes: HashMap<u32, (Vec3, Vec3)>,
     scene_extent_known: bool,
@@ -327,12 +326,12 @@ impl DdgiGpuVolumes {
 
     /// The largest extent of the scene's instances' bounds (`None`: no geometry).
     pub fn scene_extent(&self) -> Option<f32> {
-        self.scene_extent
+        self.scene_box.map(|(lo, hi)| (hi - lo).max_element() as f32)
     }
 
-    /// The render-space bounds of the scene's instances as prepare last saw them (`None`: not
-    /// known yet, or an empty scene).
-    pub fn scene_box(&self) -> Option<(Vec3, Vec3)> {
+    /// The world-space bounds of the scene's instances as prepare last saw them (`None`: not known
+    /// yet, or an empty scene).
+    pub fn scene_box(&self) -> Option<(DVec3, DVec3)> {
         self.scene_box
     }
 
@@ -488,8 +487,7 @@ pub fn prepare_ddgi_volumes(
     let lighting_changed = state.last_lighting.as_ref() != Some(&lighting);
     state.last_lighting = Some(lighting);
     if scene_changed || !state.scene_extent_known {
-        state.scene_box = state.scene_bounds(&scene, &meshes);
-        state.scene_extent = state.scene_box.map(|(lo, hi)| (hi - lo).max_element());
+        state.scene_box = state.scene_bounds(&scene, &meshes).map(|(lo, hi)| (origin + lo.as_dvec3(), origin + hi.as_dvec3()));
         state.scene_extent_known = true;
     }
     for (entity, volume, cascade) in list {
