@@ -856,21 +856,43 @@ struct DdgiArgs {
     /// Reach of those rays, a share of the smallest probe spacing (DdgiVolume::hit_occlusion_reach).
     #[arg(long, default_value_t = ddgi::DdgiVolume::default().hit_occlusion_reach)]
     hit_occlusion_reach: f32,
-    /// Camera-following cascades instead of one volume over the scene (0: today's fixed volume):
-    /// N nested volumes of --cascade-probes probes each, centred on the camera, each with twice the
-    /// spacing of the one inside it, the coarsest as wide as the scene.
-    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=8))]
-    cascades: u32,
+    /// Camera-following cascades instead of one volume over the scene: N nested volumes of
+    /// --cascade-probes probes each, centred on the camera, each with twice the spacing of the one
+    /// inside it, the coarsest as wide as the scene; 0: one volume. Default (and without
+    /// --probes): fitted to the scene (ddgi::DdgiLighting::fitted): one volume, unless its probes
+    /// would be more than ddgi::MAX_FITTED_SPACING (4 m) apart, then cascades whose finest
+    /// spacing is at most 1 m. --probes X,Y,Z alone means one volume of that grid.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=8))]
+    cascades: Option<u32>,
 }
 
 impl DdgiArgs {
-    /// With `--cascades N`: the cascades for `scene` ([`ddgi::DdgiCascades::fitted`] to its largest
-    /// horizontal extent).
-    fn cascades(&self, scene: &SceneDescription) -> Option<ddgi::DdgiCascades> {
-        (self.cascades > 0).then(|| {
-            let extent = scene.bounds().map_or(1.0, |(lo, hi)| (hi - lo).x.max((hi - lo).z));
-            ddgi::DdgiCascades::fitted(self.cascades, self.cascade_probes, extent, self.volume())
-        })
+    /// How to light `scene`: `--cascades N` ([`ddgi::DdgiCascades::fitted`] to its largest
+    /// horizontal extent), one volume (`--cascades 0` or `--probes`), else the scene-fitted rule.
+    fn lighting(&self, scene: &SceneDescription) -> ddgi::DdgiLighting {
+        let bounds = scene.bounds().map(|(lo, hi)| (scene.origin + lo.as_dvec3(), scene.origin + hi.as_dvec3()));
+        match self.cascades {
+            Some(n) if n > 0 => {
+                let extent = bounds.map_or(1.0, |(lo, hi)| (hi - lo).x.max((hi - lo).z) as f32);
+                ddgi::DdgiLighting::Cascades(ddgi::DdgiCascades::fitted(n, self.cascade_probes, extent, self.volume()))
+            }
+            Some(_) => ddgi::DdgiLighting::Volume(self.volume()),
+            None => match bounds {
+                Some(b) => {
+                    let lighting = ddgi::DdgiLighting::Fitted(self.volume()).resolve(b);
+                    if matches!(lighting, ddgi::DdgiLighting::Cascades(_)) {
+                        eprintln!(
+                            "DDGI fitted to the scene: one volume's probes would be {:.1} apart (over {} m), so {} (--cascades 0 for one volume)",
+                            ddgi::fit::fitted_spacing(b),
+                            ddgi::MAX_FITTED_SPACING,
+                            lighting.describe()
+                        );
+                    }
+                    lighting
+                }
+                None => ddgi::DdgiLighting::Volume(self.volume()),
+            },
+        }
     }
 
     fn volume(&self) -> ddgi::DdgiVolume {
@@ -1022,8 +1044,8 @@ fn render(args: RenderArgs) -> Result<(), String> {
     let frame = if ddgi_mode {
         let volume = args.ddgi.volume();
         volume.validate().map_err(|e| e.to_string())?;
-        let cascades = args.ddgi.cascades(&scene);
-        if let Some(c) = &cascades {
+        let lighting = args.ddgi.lighting(&scene);
+        if let ddgi::DdgiLighting::Cascades(c) = &lighting {
             c.validate().map_err(|e| e.to_string())?;
         }
         let output = if args.mode == ModeArg::Indirect { ddgi::DdgiOutput::Indirect } else { ddgi::DdgiOutput::Full };
@@ -1042,10 +1064,7 @@ fn render(args: RenderArgs) -> Result<(), String> {
             |app| {
                 app.insert_resource(display).insert_resource(occlusion);
                 camera_settings(app);
-                match cascades {
-                    Some(c) => ddgi::use_ddgi_cascades(app, c, output),
-                    None => ddgi::use_ddgi(app, volume, output),
-                }
+                ddgi::use_ddgi_lighting(app, lighting, output);
             },
             |world| {
                 let volumes = world.resource::<ddgi::DdgiGpuVolumes>();

@@ -624,9 +624,25 @@ impl Config {
         }
     }
 
-    /// The configurations of `list` for `scene` (placed where it is), with `cascades` added.
+    /// The configurations of `list` for `scene` (placed where it is), with `cascades` added. A DDGI
+    /// volume without a grid of its own is the scene-fitted default, and follows its rule
+    /// ([`ddgi::DdgiLighting::fitted`], over the volume's bounds or the scene's): over a large
+    /// scene it becomes cascades, under the same name.
     pub fn for_scene(list: Vec<Config>, scene: &SceneDescription, cascades: Option<&ddgi::DdgiCascades>) -> Vec<Config> {
-        list.into_iter().chain(cascades.map(Config::ddgi_cascades)).map(|c| c.placed_at(scene.origin)).collect()
+        let scene_box = scene.bounds().map(|(lo, hi)| (lo.as_dvec3(), hi.as_dvec3()));
+        list.into_iter()
+            .map(|c| match (c, scene_box) {
+                (Config::Ddgi { name, volume, occlusion, taa }, Some(b)) if volume.probe_counts.is_none() => {
+                    match ddgi::DdgiLighting::Fitted((*volume).clone()).resolve(b) {
+                        ddgi::DdgiLighting::Cascades(c) => Config::DdgiCascades { name, cascades: Box::new(c) },
+                        _ => Config::Ddgi { name, volume, occlusion, taa },
+                    }
+                }
+                (c, _) => c,
+            })
+            .chain(cascades.map(Config::ddgi_cascades))
+            .map(|c| c.placed_at(scene.origin))
+            .collect()
     }
 
     /// The cascaded configuration of `cascades`, named by its count and grid.

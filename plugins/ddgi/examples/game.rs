@@ -13,7 +13,7 @@ use std::path::PathBuf;
 use bevy_app::{App, Update};
 use bevy_ecs::prelude::*;
 use clap::Parser;
-use ddgi::{DdgiOutput, DdgiVolume, use_ddgi};
+use ddgi::{DdgiLighting, DdgiOutput, DdgiVolume, use_ddgi_lighting};
 use engine::app::Time;
 use engine::gpu::{GpuContext, GpuOptions};
 use engine::headless::{HeadlessSettings, read_frame, run_frames, scene_app};
@@ -102,8 +102,9 @@ fn spawn_box(world: &mut World, index: usize, at: Vec3) {
 /// The game in `app` (which has the engine and the camera path): DDGI over the scene, the
 /// player's light at `light`, the boxes already dropped, and the game's systems.
 fn setup_game(app: &mut App, light: Vec3, boxes: Boxes) {
-    let volume = DdgiVolume { bounds: scene_entry().gi_box(), ..Default::default() };
-    use_ddgi(app, volume, DdgiOutput::Full);
+    // Fitted to the scene: one volume over the room (cascades only for a scene too large for it).
+    let lighting = DdgiLighting::Fitted(DdgiVolume { bounds: scene_entry().gi_box(), ..Default::default() });
+    use_ddgi_lighting(app, lighting, DdgiOutput::Full);
     let light =
         (PlayerLight, PointLight { color: Vec3::new(0.3, 0.5, 1.0), intensity: 5.0, range: None }, Transform::from_translation(light));
     app.world_mut().spawn(light);

@@ -4,7 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use clap::Parser;
-use ddgi::{DdgiOutput, DdgiVolume, use_ddgi};
+use ddgi::{DdgiLighting, DdgiOutput, DdgiVolume, use_ddgi_lighting};
 use engine::gpu::{GpuContext, GpuOptions};
 use engine::headless::{HeadlessSettings, render_scene_with};
 
@@ -25,12 +25,13 @@ pub struct Args {
 pub fn run(args: Args) -> Result<(), Box<dyn std::error::Error>> {
     let built_in = scenes::find(&args.scene);
     let scene = built_in.map_or_else(|| engine::import::load_scene(Path::new(&args.scene)), |entry| Ok((entry.build)()))?;
-    // One volume of DdgiVolume's default probes over the scene (a built-in scene's own GI bounds).
+    // Fitted to the scene (a built-in scene's own GI bounds): one volume of the default grid, or
+    // camera-following cascades where that grid's probes would be over 4 m apart.
     let bounds = built_in.and_then(|entry| (entry.gi_bounds)()).map(|(lo, hi)| (lo.as_dvec3(), hi.as_dvec3()));
-    let volume = DdgiVolume { bounds, ..Default::default() };
+    let lighting = DdgiLighting::Fitted(DdgiVolume { bounds, ..Default::default() });
     let gpu = GpuContext::new(GpuOptions::default())?;
     let settings = HeadlessSettings { width: args.size, height: args.size, frames: args.frames, ..Default::default() };
-    let frame = render_scene_with(&gpu, scene, &settings, |app| use_ddgi(app, volume, DdgiOutput::Full))?;
+    let frame = render_scene_with(&gpu, scene, &settings, |app| use_ddgi_lighting(app, lighting, DdgiOutput::Full))?;
     Ok(frame.write(&args.out)?)
 }
 

@@ -58,7 +58,8 @@
 //! ## In the ECS
 //!
 //! Add [`DdgiPlugin`], spawn an entity with a [`DdgiVolume`] (its settings), and select the
-//! `"ddgi"` frame script ([`use_ddgi`] does both). Each probe becomes an entity with a
+//! `"ddgi"` frame script ([`use_ddgi`] does both; [`use_ddgi_lighting`] with
+//! `DdgiLighting::default()` picks one volume or cascades to fit the scene). Each probe becomes an entity with a
 //! [`DdgiProbe`] mirroring its GPU state. The passes, each with its own timing span:
 //! `ddgi_budget → ddgi_trace → ddgi_probe_update` (maps, atlas tiles, relocation
 //! and classification in one pass) — each one pass over every volume that updates in the frame,
@@ -68,8 +69,10 @@
 //!
 //! ## Minimal setup
 //!
-//! Load a scene, light it with one volume fitted to its bounds, and write the last of 120 frames
-//! (`out/image.png`, `out/image.exr`, `out/timings.json`); [`prelude`] has what an app needs:
+//! Load a scene, light it as fits its size (one volume over a room, a house or a cathedral;
+//! cascades that follow the camera over a village: [`DdgiLighting`]), and write the last of 120
+//! frames (`out/image.png`, `out/image.exr`, `out/timings.json`); [`prelude`] has what an app
+//! needs:
 //!
 //! ```rust,no_run
 //! use std::path::Path;
@@ -79,10 +82,10 @@
 //!
 //! fn main() -> Result<(), Box<dyn std::error::Error>> {
 //!     let scene = engine::import::load_scene(Path::new("level.glb"))?;
-//!     let volume = DdgiVolume::default();
+//!     let lighting = DdgiLighting::default();
 //!     let gpu = GpuContext::new(GpuOptions::default())?;
 //!     let settings = HeadlessSettings { width: 1280, height: 720, frames: 120, ..Default::default() };
-//!     let frame = render_scene_with(&gpu, scene, &settings, |app| use_ddgi(app, volume, DdgiOutput::Full))?;
+//!     let frame = render_scene_with(&gpu, scene, &settings, |app| use_ddgi_lighting(app, lighting, DdgiOutput::Full))?;
 //!     Ok(frame.write(Path::new("out"))?)
 //! }
 //! ```
@@ -93,6 +96,7 @@ pub mod atlas;
 pub mod calm;
 pub mod cascades;
 pub mod debug_view;
+pub mod fit;
 pub mod frame;
 pub mod gpu;
 pub mod inspect;
@@ -109,6 +113,7 @@ use engine::render::{FrameScript, frame_script_is};
 
 pub use cascades::{DdgiCascade, DdgiCascades, DdgiFirstCameraCascades};
 pub use debug_view::{DdgiContactOcclusion, DdgiDebugPass, DdgiDebugPasses, DdgiOutput, DdgiProbeColor, DdgiProbeView, DdgiSkyLight};
+pub use fit::{DdgiLighting, MAX_FITTED_SPACING};
 pub use frame::{DdgiFrame, PROBE_UPDATE_PASSES, VolumeHandles, is_probe_update_pass, render_ddgi_frame};
 pub use inspect::{DdgiProbeStateCounts, DdgiUpdateControl};
 pub use pipelines::DdgiPipelines;
@@ -124,8 +129,8 @@ pub use volume::{
 /// error. `use ddgi::prelude::*;`
 pub mod prelude {
     pub use crate::{
-        DdgiAdaptive, DdgiCascades, DdgiContactOcclusion, DdgiOutput, DdgiPlugin, DdgiProbe, DdgiProbePin, DdgiProbeState,
-        DdgiSettingsError, DdgiSkyLight, DdgiVolume, use_ddgi, use_ddgi_cascades,
+        DdgiAdaptive, DdgiCascades, DdgiContactOcclusion, DdgiLighting, DdgiOutput, DdgiPlugin, DdgiProbe, DdgiProbePin,
+        DdgiProbeState, DdgiSettingsError, DdgiSkyLight, DdgiVolume, use_ddgi, use_ddgi_cascades, use_ddgi_lighting,
     };
 }
 
@@ -192,6 +197,7 @@ impl Plugin for DdgiPlugin {
                 engine::app::Prepare,
                 (
                     sync::read_back_ddgi_probes,
+                    fit::apply_ddgi_lighting,
                     cascades::follow_ddgi_cascades,
                     inspect::reset_ddgi_volumes,
                     resources::prepare_ddgi_volumes,
@@ -205,6 +211,14 @@ impl Plugin for DdgiPlugin {
     }
 }
 
+/// Adds DDGI to `app` lit as `lighting` says and makes `"ddgi"` the frame script, writing
+/// `output`. `DdgiLighting::default()` is the scene-fitted default: one volume over the scene, or
+/// camera-following cascades when one volume's probes would be more than [`MAX_FITTED_SPACING`]
+/// apart ([`DdgiLighting::fitted`]), decided on the first frame with geometry.
+pub fn use_ddgi_lighting(app: &mut App, lighting: DdgiLighting, output: DdgiOutput) {
+    app.insert_resource(FrameScript(FRAME_SCRIPT)).insert_resource(output).insert_resource(lighting).add_plugins(DdgiPlugin);
+}
+
 /// Adds DDGI to `app` with cascades that follow the first camera ([`DdgiCascades`] as a resource)
 /// and makes `"ddgi"` the frame script, writing `output`.
 pub fn use_ddgi_cascades(app: &mut App, cascades: DdgiCascades, output: DdgiOutput) {
@@ -214,7 +228,8 @@ pub fn use_ddgi_cascades(app: &mut App, cascades: DdgiCascades, output: DdgiOutp
         .add_plugins(DdgiPlugin);
 }
 
-/// Adds DDGI to `app`, spawns `volume` and makes `"ddgi"` the frame script, writing `output`.
+/// Adds DDGI to `app`, spawns `volume` (one volume, whatever the scene's size: see
+/// [`use_ddgi_lighting`] for the scene-fitted choice) and makes `"ddgi"` the frame script, writing `output`.
 pub fn use_ddgi(app: &mut App, volume: DdgiVolume, output: DdgiOutput) {
     app.insert_resource(FrameScript(FRAME_SCRIPT)).insert_resource(output).add_plugins(DdgiPlugin);
     app.world_mut().spawn(volume);

@@ -5,7 +5,10 @@
 
 use bevy_app::App;
 use ddgi::atlas::{probe_mean_irradiance, read_irradiance};
-use ddgi::{DdgiCascades, DdgiGpuVolumes, DdgiOutput, DdgiProbe, DdgiProbePin, DdgiVolume, use_ddgi, use_ddgi_cascades};
+use ddgi::{
+    DdgiCascade, DdgiCascades, DdgiGpuVolumes, DdgiLighting, DdgiOutput, DdgiProbe, DdgiProbePin, DdgiVolume, use_ddgi, use_ddgi_cascades,
+    use_ddgi_lighting,
+};
 use engine::gpu::GpuContext;
 use engine::headless::{HeadlessSettings, read_hdr, run_frames, scene_app};
 use engine::render::Sky;
@@ -315,6 +318,48 @@ fn cascades_follow_a_moving_camera_by_scrolling() {
         assert_eq!(ddgi::atlas::count_non_finite(&gpu, v), 0);
     }
     assert!(read_hdr(&gpu, a.world()).iter().all(|x| x.is_finite()));
+}
+
+/// The scene-fitted default: the Cornell box gets one volume of the default grid; the same box on
+/// a 200 m ground (one volume's probes 12.5 m apart, over the 4 m threshold) gets cascades that
+/// follow the camera, the finest at most 1 m apart, the coarsest as wide as the ground.
+#[test]
+fn the_fitted_default_lights_a_room_with_one_volume_and_a_wide_scene_with_cascades() {
+    let Some(gpu) = gpu("the_fitted_default_lights_a_room_with_one_volume_and_a_wide_scene_with_cascades") else { return };
+    let settings = DdgiVolume { rays_per_probe: 16, ..Default::default() };
+    let mut room = app(&gpu, cornell(), |app| use_ddgi_lighting(app, DdgiLighting::Fitted(settings.clone()), DdgiOutput::Full));
+    frames(&mut room, 2);
+    assert!(matches!(room.world().resource::<DdgiLighting>(), DdgiLighting::Volume(_)), "{:?}", room.world().resource::<DdgiLighting>());
+    let volumes = room.world().resource::<DdgiGpuVolumes>();
+    assert_eq!(volumes.volumes.len(), 1);
+    assert!(volumes.volumes[0].1.layout.spacing.max_element() <= ddgi::MAX_FITTED_SPACING);
+
+    let mut scene = cornell();
+    let ground = scene.add_mesh(engine::shapes::quad("ground", Vec2::splat(200.0)));
+    let grey = scene.add_material(Material::diffuse("ground", Vec3::splat(0.5)));
+    scene.add_node("ground", Transform::from_xyz(0.0, -0.01, 0.0), None, vec![NodeContent::Meshes(vec![(ground, grey)])]);
+    let mut wide = app(&gpu, scene, |app| use_ddgi_lighting(app, DdgiLighting::Fitted(settings.clone()), DdgiOutput::Full));
+    frames(&mut wide, 3);
+    let DdgiLighting::Cascades(chosen) = wide.world().resource::<DdgiLighting>().clone() else {
+        panic!("cascades for a 200 m scene, not {:?}", wide.world().resource::<DdgiLighting>())
+    };
+    assert_eq!(chosen.volume.rays_per_probe, 16, "the cascades keep the volume's settings");
+    let count = {
+        let world = wide.world_mut();
+        world.query::<&DdgiCascade>().iter(world).count()
+    };
+    let volumes = wide.world().resource::<DdgiGpuVolumes>();
+    assert_eq!(volumes.volumes.len(), count);
+    assert_eq!(count, 5, "12.5 m halved four times is 0.78 m");
+    let spacings: Vec<f32> = volumes.volumes.iter().map(|(_, v)| v.layout.spacing.x).collect();
+    let finest = spacings.iter().copied().fold(f32::INFINITY, f32::min);
+    let coarsest = spacings.iter().copied().fold(0.0, f32::max);
+    assert!(finest <= 1.0 && finest > 0.5, "finest spacing {finest}");
+    assert!((coarsest * 16.0 - 200.0).abs() < 1.0, "the coarsest cascade spans the ground: {coarsest} × 16");
+    for (_, v) in &volumes.volumes {
+        assert_eq!(ddgi::atlas::count_non_finite(&gpu, v), 0);
+    }
+    assert!(read_hdr(&gpu, wide.world()).iter().all(|x| x.is_finite()));
 }
 
 /// An open floor under a uniform white sky, lit by nothing else, with a small volume over one corner:
