@@ -524,6 +524,34 @@ fn obj_dissolve_and_transparency_set_the_alpha_mode() {
     assert!(error.contains("Tr") && error.contains("glass") && error.contains("alpha.obj"), "{error}");
 }
 
+/// MTL glass (`illum` 4, 6, 7 or 9) is an opening: BLEND at alpha 0, cut from every ray; `d` and
+/// `Tr` give the alpha of other materials; a plain material stays opaque.
+#[test]
+fn obj_glass_is_an_opening_and_dissolve_is_alpha() {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("obj_glass");
+    std::fs::create_dir_all(&dir).unwrap();
+    let mtl = "newmtl window\nKd 0 0 0\nTf 0.5 0.5 0.5\nillum 6\n\nnewmtl stained\nKd 0 0 0\nTf 0.1 0.6 0.1\nillum 4\n\n\
+               newmtl pane\nKd 0.4 0.1 0\nd 0.8\nillum 2\n\nnewmtl veil\nKd 1 1 1\nTr 0.75\n\nnewmtl stone\nKd 0.7 0.7 0.6\nTf 1 1 1\nillum 2\n";
+    std::fs::write(dir.join("glass.mtl"), mtl).unwrap();
+    let mut obj = String::from("mtllib glass.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\n");
+    for m in ["window", "stained", "pane", "veil", "stone"] {
+        obj.push_str(&format!("usemtl {m}\nf 1 2 3\n"));
+    }
+    std::fs::write(dir.join("glass.obj"), obj).unwrap();
+    let scene = load_scene(&dir.join("glass.obj")).unwrap_or_else(|e| panic!("{e}"));
+    let get = |name: &str| scene.materials.iter().find(|m| m.name == name).unwrap_or_else(|| panic!("no material {name}"));
+    for (name, mode, alpha) in [
+        ("window", AlphaMode::Blend, 0.0),
+        ("stained", AlphaMode::Blend, 0.0),
+        ("pane", AlphaMode::Blend, 0.8),
+        ("veil", AlphaMode::Blend, 0.25),
+        ("stone", AlphaMode::Opaque, 1.0),
+    ] {
+        assert_eq!(get(name).alpha_mode, mode, "{name}");
+        assert!((get(name).base_color.w - alpha).abs() < 1e-6, "{name}: alpha {}", get(name).base_color.w);
+    }
+}
+
 /// OBJ's `map_d`: the mask's alpha (its grey level when it has no alpha channel, its alpha channel
 /// when it has one) is baked into the base colour texture at `map_Kd`'s resolution, the colours
 /// kept; a mask without `map_Kd` gives a white texture of the mask's size; the material is cut

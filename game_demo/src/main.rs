@@ -966,7 +966,7 @@ pub const LEVEL_SCENE: &str = scenes::level::NAME;
 /// ([`Lighting::apply`]).
 fn load(scene: &str) -> Result<SceneDescription, String> {
     let mut description = match lab::eval::built_in_scene(scene) {
-        Some(built_in) => built_in,
+        Some(built_in) => built_in?,
         None => {
             let path = std::path::Path::new(scene);
             if path.extension().is_none() {

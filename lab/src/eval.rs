@@ -73,13 +73,13 @@ pub const DDGI_RESOLUTIONS: [u32; 3] = [4, 8, 16];
 
 /// The probe grid of the published experiment on each built-in scene (Hvezda and Bittner): 16×8×16
 /// for the door room, 16×16×15 for the room under a skylight, 2×2×2 for the colour bleeding box,
-/// 16×8×12 for Sibenik (our cathedral); 8×8×8 elsewhere.
+/// 16×8×12 for Šibenik (`sibenik`, and its stand-in `cathedral`); 8×8×8 elsewhere.
 pub fn ddgi_paper_grid(scene: &str) -> [u32; 3] {
     match scene {
         "door_room" => [16, 8, 16],
         "ceiling_opening" => [16, 16, 15],
         "color_bleed" => [2, 2, 2],
-        "cathedral" => [16, 8, 12],
+        "cathedral" | "sibenik" => [16, 8, 12],
         _ => [8, 8, 8],
     }
 }
@@ -105,18 +105,23 @@ pub struct SceneFacts {
 /// camera to where the change shows).
 pub type PrepareChange = fn(&mut SceneDescription) -> Result<SceneChange, String>;
 
-/// A built-in scene by name: one of [`scenes::ALL`] or the demo level ([`scenes::level::NAME`]);
-/// `None` for any other name.
-pub fn built_in_scene(name: &str) -> Option<SceneDescription> {
+/// A built-in scene by name: one of [`scenes::ALL`], a scene file of the shared folder
+/// ([`scenes::files::FILES`]: an error when it is absent) or the demo level
+/// ([`scenes::level::NAME`]); `None` for any other name.
+pub fn built_in_scene(name: &str) -> Option<Result<SceneDescription, String>> {
     if let Some(entry) = scenes::find(name) {
-        return Some((entry.build)());
+        return Some(Ok((entry.build)()));
     }
-    (name == scenes::level::NAME).then(scenes::level::scene)
+    if let Some(loaded) = scenes::files::load(name) {
+        return Some(loaded);
+    }
+    (name == scenes::level::NAME).then(|| Ok(scenes::level::scene()))
 }
 
-/// The names [`built_in_scene`] knows: [`scenes::names`], then the demo level's.
+/// The names [`built_in_scene`] knows: [`scenes::names`], the shared scene files, then the demo
+/// level's.
 pub fn built_in_scene_names() -> impl Iterator<Item = &'static str> {
-    scenes::names().chain([scenes::level::NAME])
+    scenes::names().chain(scenes::files::FILES.iter().map(|f| f.name)).chain([scenes::level::NAME])
 }
 
 impl SceneFacts {

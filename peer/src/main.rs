@@ -153,7 +153,7 @@ fn run(args: &Args) -> Result<(), String> {
     let scene = lab::eval::built_in_scene(&args.scene).ok_or_else(|| {
         let names: Vec<_> = lab::eval::built_in_scene_names().collect();
         format!("--scene '{}': not a built-in scene ({})", args.scene, names.join(", "))
-    })?;
+    })??;
     let scene = lab::eval::still(scene);
     let facts = SceneFacts::named(&args.scene);
     let grid = args.probes.unwrap_or(facts.paper_grid);

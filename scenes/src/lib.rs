@@ -12,6 +12,9 @@
 //! | `forest`          | ≈21.6 million instanced triangles over a hilly terrain                 |
 //! | `open_world`      | a house in a yard amid a 1 km² forest: camera-following cascades       |
 //!
+//! Scenes made by others, loaded from the shared folder and given the lights and camera they lack,
+//! are in [`files`] (`sibenik`, the real Šibenik cathedral).
+//!
 //! The demo level ([`level`], found by [`level::NAME`]) is built here too, outside [`ALL`]: it uses
 //! Kenney's models from the shared folder beside the checkout when they are there ([`shared`]) and
 //! its own procedural props otherwise, and its plan and animations belong to the demo.
@@ -21,6 +24,7 @@
 //! [`find`]. Building a scene costs CPU time and memory only, and every build starts afresh (only
 //! the cathedral's window list is built once, on first use, and kept).
 
+pub mod files;
 pub mod large;
 pub mod level;
 pub mod open;

@@ -313,7 +313,13 @@ impl Importer<'_> {
                 _ => return Err(self.invalid(&what, format!("Tr '{text}' is not a number between 0 and 1"))),
             },
         };
-        let alpha = source.dissolve.or(transparency.map(|t| 1.0 - t)).unwrap_or(1.0);
+        // Glass: `illum` 4, 6, 7 or 9 (the MTL modes of transparency by glass or refraction; Šibenik's
+        // windows). A ray cannot carry a tint through a surface (a shadow ray stops at its first
+        // solid hit, the G-buffer keeps one surface a pixel), so glass is imported as an opening:
+        // alpha 0, cut from the image and from every ray, and the sun and the sky come through it
+        // untinted. Its colour (`Kd`, `Tf`) is kept only as the base colour's RGB.
+        let glass = matches!(source.illumination_model, Some(4 | 6 | 7 | 9));
+        let alpha = if glass { 0.0 } else { source.dissolve.or(transparency.map(|t| 1.0 - t)).unwrap_or(1.0) };
         let base_color = diffuse.extend(alpha);
         if !base_color.is_finite() || base_color.min_element() < 0.0 {
             return Err(self.invalid(&what, format!("invalid Kd/d {base_color}")));

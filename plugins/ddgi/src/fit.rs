@@ -72,9 +72,8 @@ impl DdgiLighting {
         let size = scene.1 - scene.0;
         let extent = size.x.max(size.z).max(0.0) as f32;
         let across = FITTED_CASCADE_PROBES.x.min(FITTED_CASCADE_PROBES.z) as f32;
-        let count = (1..=MAX_CASCADES)
-            .find(|&n| extent / (across * (1u32 << (n - 1)) as f32) <= FITTED_FINEST_SPACING)
-            .unwrap_or(MAX_CASCADES);
+        let count =
+            (1..=MAX_CASCADES).find(|&n| extent / (across * (1u32 << (n - 1)) as f32) <= FITTED_FINEST_SPACING).unwrap_or(MAX_CASCADES);
         DdgiLighting::Cascades(DdgiCascades::fitted(count, FITTED_CASCADE_PROBES, extent, DdgiVolume { bounds: None, ..volume }))
     }
 
@@ -139,7 +138,9 @@ pub fn apply_ddgi_lighting(
     let resolved = match lighting.clone() {
         DdgiLighting::Fitted(volume) => {
             let scene_box = volume.bounds.or_else(|| {
-                state.scene_box().or_else(|| state.scene_bounds(&scene, &meshes).map(|(lo, hi)| (origin + lo.as_dvec3(), origin + hi.as_dvec3())))
+                state
+                    .scene_box()
+                    .or_else(|| state.scene_bounds(&scene, &meshes).map(|(lo, hi)| (origin + lo.as_dvec3(), origin + hi.as_dvec3())))
             });
             // No geometry yet: decide on a later frame.
             let Some(scene_box) = scene_box else { return };

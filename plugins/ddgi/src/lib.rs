@@ -129,8 +129,8 @@ pub use volume::{
 /// error. `use ddgi::prelude::*;`
 pub mod prelude {
     pub use crate::{
-        DdgiAdaptive, DdgiCascades, DdgiContactOcclusion, DdgiLighting, DdgiOutput, DdgiPlugin, DdgiProbe, DdgiProbePin,
-        DdgiProbeState, DdgiSettingsError, DdgiSkyLight, DdgiVolume, use_ddgi, use_ddgi_cascades, use_ddgi_lighting,
+        DdgiAdaptive, DdgiCascades, DdgiContactOcclusion, DdgiLighting, DdgiOutput, DdgiPlugin, DdgiProbe, DdgiProbePin, DdgiProbeState,
+        DdgiSettingsError, DdgiSkyLight, DdgiVolume, use_ddgi, use_ddgi_cascades, use_ddgi_lighting,
     };
 }
 
