@@ -22,9 +22,9 @@ use crate::volume::{DdgiVolume, auto_probe_counts};
 /// 3–6 m across and storeys about 3 m high, so probes further apart leave most rooms without a
 /// probe inside them, and a room then takes the light of the probes outside its walls (measured in
 /// BENCHMARKS.md, "Defaults that fit the scene": the thin-wall room seen from its door is 4.2×
-/// too bright at 13 m spacing, a house of the 1.6 km village 1.9× at 100 m), while the
-/// evaluation's interiors, fitted at 0.4–3 m, are lit right by one volume, which beats cascades
-/// there (no blend bands, every probe updated every frame).
+/// too bright at 10 m spacing, a house of a 1.6 km village 1.9× at 100 m), while interiors fitted
+/// at 2.5–3 m (the 46 m cathedral, Šibenik, the thin-wall room's 40 m ground) are lit better by
+/// one volume than by cascades (no blend bands, every probe updated every frame).
 pub const MAX_FITTED_SPACING: f32 = 4.0;
 
 /// Finest probe spacing the scene-fitted cascades aim for, in world units: as many cascades (up to
