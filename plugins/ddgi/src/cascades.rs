@@ -220,11 +220,7 @@ pub fn follow_ddgi_cascades(
     }
     // The scene's world-space box: prepare keeps it up to date (computed here on the first frame,
     // before prepare has).
-    let scene_box = if followed.is_empty() {
-        None
-    } else {
-        state.scene_box().or_else(|| state.scene_bounds(&scene, &meshes).map(|(lo, hi)| (origin + lo.as_dvec3(), origin + hi.as_dvec3())))
-    };
+    let scene_box = if followed.is_empty() { None } else { state.scene_box_or_compute(&scene, &meshes, origin) };
     let extent = scene_box.map(|(lo, hi)| (hi - lo).max_element() as f32);
     for (camera, cascades, position) in followed {
         if let Err(e) = cascades.validate() {

@@ -15,7 +15,7 @@ use glam::{DVec3, UVec3, Vec3};
 
 use crate::cascades::{DdgiCascades, DdgiFirstCameraCascades, MAX_CASCADES};
 use crate::resources::DdgiGpuVolumes;
-use crate::volume::{DdgiVolume, auto_probe_counts};
+use crate::volume::{DdgiVolume, auto_probe_counts, volume_extent};
 
 /// Largest probe spacing, in world units (metres), at which the scene-fitted default keeps one
 /// volume over the scene; beyond it, [`DdgiLighting::fitted`] picks cascades. Why 4 m: rooms are
@@ -113,8 +113,7 @@ pub fn fitted_spacing(scene: (DVec3, DVec3)) -> f32 {
     if !size.is_finite() {
         return f32::NAN;
     }
-    let size = size.max(Vec3::ZERO);
-    let extent = size.max(Vec3::splat(size.max_element().max(1e-6) * 1e-3));
+    let extent = volume_extent(size.max(Vec3::ZERO));
     (extent / auto_probe_counts(extent).as_vec3()).max_element()
 }
 
@@ -137,11 +136,7 @@ pub fn apply_ddgi_lighting(
     let origin = origin.map_or(DVec3::ZERO, |o| o.origin);
     let resolved = match lighting.clone() {
         DdgiLighting::Fitted(volume) => {
-            let scene_box = volume.bounds.or_else(|| {
-                state
-                    .scene_box()
-                    .or_else(|| state.scene_bounds(&scene, &meshes).map(|(lo, hi)| (origin + lo.as_dvec3(), origin + hi.as_dvec3())))
-            });
+            let scene_box = volume.bounds.or_else(|| state.scene_box_or_compute(&scene, &meshes, origin));
             // No geometry yet: decide on a later frame.
             let Some(scene_box) = scene_box else { return };
             let resolved = DdgiLighting::fitted(scene_box, volume);

@@ -335,6 +335,18 @@ impl DdgiGpuVolumes {
         self.scene_box
     }
 
+    /// The world-space bounds of the scene's instances for a render origin at `origin`: as prepare
+    /// last saw them, or computed now when prepare has not run yet (the systems before it on the
+    /// first frame).
+    pub fn scene_box_or_compute(&mut self, scene: &GpuScene, meshes: &Assets<Mesh>, origin: DVec3) -> Option<(DVec3, DVec3)> {
+        self.scene_box.or_else(|| self.scene_world_bounds(scene, meshes, origin))
+    }
+
+    /// [`DdgiGpuVolumes::scene_bounds`] in world space, for a render origin at `origin`.
+    fn scene_world_bounds(&mut self, scene: &GpuScene, meshes: &Assets<Mesh>, origin: DVec3) -> Option<(DVec3, DVec3)> {
+        self.scene_bounds(scene, meshes).map(|(lo, hi)| (origin + lo.as_dvec3(), origin + hi.as_dvec3()))
+    }
+
     /// Any volume's settings error (for tools that run a single volume).
     pub fn first_error(&self) -> Option<&str> {
         self.errors.values().next().map(String::as_str)
@@ -487,7 +499,7 @@ pub fn prepare_ddgi_volumes(
     let lighting_changed = state.last_lighting.as_ref() != Some(&lighting);
     state.last_lighting = Some(lighting);
     if scene_changed || !state.scene_extent_known {
-        state.scene_box = state.scene_bounds(&scene, &meshes).map(|(lo, hi)| (origin + lo.as_dvec3(), origin + hi.as_dvec3()));
+        state.scene_box = state.scene_world_bounds(&scene, &meshes, origin);
         state.scene_extent_known = true;
     }
     for (entity, volume, cascade) in list {

@@ -472,6 +472,12 @@ pub fn auto_probe_counts(extent: Vec3) -> UVec3 {
     proportional.max(floor).min(UVec3::splat(AUTO_PROBES_LONGEST))
 }
 
+/// The extent a volume of box size `size` (non-negative) is laid out over: a flat scene (a single
+/// floor) still gets a volume with some thickness, a thousandth of its largest side.
+pub(crate) fn volume_extent(size: Vec3) -> Vec3 {
+    size.max(Vec3::splat(size.max_element().max(1e-6) * 1e-3))
+}
+
 fn invalid(field: &'static str, value: impl std::fmt::Debug, reason: &'static str) -> DdgiSettingsError {
     DdgiSettingsError::Invalid { field, value: format!("{value:?}"), reason }
 }
@@ -756,9 +762,7 @@ impl DdgiLayout {
             return Err(invalid("bounds", bounds, "must be finite with max ≥ min on every axis"));
         }
         let counts = volume.probe_counts;
-        // A flat scene (a single floor) still gets a volume with some thickness.
-        let largest = (hi - lo).max_element().max(1e-6);
-        let extent = (hi - lo).max(Vec3::splat(largest * 1e-3));
+        let extent = volume_extent(hi - lo);
         let center = (lo + hi) * 0.5;
         let (lo, hi) = (center - extent * 0.5, center + extent * 0.5);
         let counts = counts.unwrap_or_else(|| auto_probe_counts(extent));
