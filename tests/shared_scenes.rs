@@ -1,18 +1,28 @@
 //! Scenes made by others, from the shared folder beside the checkout (`scenes::files`; skipped with
 //! a message when it is absent): the real Šibenik cathedral loads with its materials, its stained
 //! glass as openings, and the lights and camera the file lacks, and renders lit, directly and by
-//! DDGI.
+//! DDGI; FlightHelmet loads with its external textures and renders with the red wall's light on
+//! it; the meadow is the flower bushes' cut-out cards, instanced.
 
 use ddgi::{DdgiLighting, DdgiOutput, DdgiVolume};
 use engine::headless::{HeadlessSettings, render_scene, render_scene_with};
 use engine::scene::{AlphaMode, NodeContent, SceneDescription};
 use glam::Vec3;
 
-const SIBENIK: &str = "scenes/sibenik/sibenik.obj";
+/// The scene file called `name` in [`scenes::files::FILES`], loaded and staged; `None` (and a
+/// message) when the shared folder lacks it.
+fn shared_scene(test: &str, name: &str) -> Option<SceneDescription> {
+    let file = scenes::files::find(name).expect("a listed scene");
+    testkit::shared(test, file.path)?;
+    Some(scenes::files::load(name).expect("a listed scene").unwrap_or_else(|e| panic!("{e}")))
+}
 
 fn sibenik(test: &str) -> Option<SceneDescription> {
-    testkit::shared(test, SIBENIK)?;
-    Some(scenes::files::load("sibenik").expect("a listed scene").unwrap_or_else(|e| panic!("{e}")))
+    shared_scene(test, "sibenik")
+}
+
+fn rgb_mean(hdr: &[f32]) -> Vec3 {
+    hdr.chunks_exact(4).map(|p| Vec3::new(p[0], p[1], p[2])).sum::<Vec3>() / (hdr.len() / 4) as f32
 }
 
 fn mean_luminance(hdr: &[f32]) -> f32 {
@@ -68,4 +78,50 @@ fn sibenik_renders_lit_directly_and_brighter_with_ddgi() {
     // A closed stone interior lit through its windows: bounced light is a large share of what the
     // camera sees (the path tracer, 256 paths a pixel: 1.7× the direct light at this view).
     assert!(ddgi_mean > 1.3 * direct_mean, "DDGI mean {ddgi_mean} against direct {direct_mean}");
+}
+
+#[test]
+fn flight_helmet_loads_its_external_textures_and_is_lit_by_the_red_wall() {
+    let Some(scene) = shared_scene("flight_helmet", "flight_helmet") else { return };
+    let helmet: usize = scene.meshes.iter().filter(|m| !m.name.starts_with("corner_")).map(|m| m.indices.len() / 3).sum();
+    assert_eq!(helmet, 94_722, "the file's triangles");
+    // Five textured materials (base colour, normal map, occlusion-roughness-metal from 15 PNGs, all
+    // 512² but the lenses' 32² normal map), the lenses blended; every normal-mapped mesh has tangents.
+    assert_eq!(scene.images.len(), 15);
+    assert_eq!(scene.images.iter().filter(|i| (i.width, i.height) == (512, 512)).count(), 14);
+    let textured = scene.materials.iter().filter(|m| m.base_color_texture.is_some() && m.normal_texture.is_some()).count();
+    assert!(textured >= 5, "{textured} materials with colour and normal textures");
+    let lenses = scene.materials.iter().find(|m| m.name == "LensesMat").expect("the lenses");
+    assert_eq!(lenses.alpha_mode, AlphaMode::Blend);
+    assert!(scene.meshes.iter().filter(|m| !m.name.starts_with("corner_")).all(|m| m.tangents.len() == m.positions.len()));
+
+    let Some(gpu) = testkit::gpu("flight_helmet_loads_its_external_textures_and_is_lit_by_the_red_wall") else { return };
+    let settings = HeadlessSettings { width: 64, height: 48, frames: 1, ..Default::default() };
+    let direct = render_scene(&gpu, scene.clone(), &settings).expect("direct");
+    let lighting = DdgiLighting::Fitted(DdgiVolume { rays_per_probe: 64, ..Default::default() });
+    let settings = HeadlessSettings { frames: 40, ..settings };
+    let lit = render_scene_with(&gpu, scene, &settings, |app| ddgi::use_ddgi_lighting(app, lighting, DdgiOutput::Full)).expect("ddgi");
+    assert!(lit.hdr.iter().all(|v| v.is_finite()));
+    // What DDGI adds is the corner's bounced light: the white floor's and walls', and the red
+    // wall's, so redder than white.
+    let (direct, ddgi) = (rgb_mean(&direct.hdr), rgb_mean(&lit.hdr));
+    let indirect = ddgi - direct;
+    assert!(indirect.min_element() > 0.0 && indirect.y > 0.3 * direct.y, "indirect {indirect} against direct {direct}");
+    assert!(indirect.x > 1.15 * indirect.y, "the red wall's bounce: indirect {indirect}");
+}
+
+#[test]
+fn the_meadow_is_the_flower_bushes_instanced_and_cut_out() {
+    let Some(scene) = shared_scene("meadow", "meadow") else { return };
+    // The file's three plant meshes, shared by every copy, and the ground.
+    assert_eq!(scene.meshes.len(), 4);
+    let copies = scene.nodes.iter().filter(|n| n.name.starts_with("plants_")).count();
+    assert_eq!(copies, 100);
+    let instances = scene.nodes.iter().flat_map(|n| &n.content).filter(|c| matches!(c, NodeContent::Meshes(_))).count();
+    assert_eq!(instances, 3 * copies + 1);
+    let flowers = scene.materials.iter().find(|m| m.name == "Flowers").expect("the plants' material");
+    assert!(flowers.alpha_mode != AlphaMode::Opaque && flowers.base_color_texture.is_some());
+    // Recentred: the copies stand on the ground around the origin, not near x = 150.
+    let (lo, hi) = scene.bounds().expect("geometry");
+    assert!(lo.x > -40.0 && hi.x < 40.0 && lo.z > -40.0 && hi.z < 40.0 && lo.y > -0.3, "{lo}..{hi}");
 }

@@ -36,12 +36,13 @@ date -u > "$R/date.txt"
 declare -A VIEWS=([20]="6.75,1.70,19.69 11.74,0.70,28.36" [80]="37.28,1.14,71.33 42.69,0.14,79.74" [300]="155.99,1.18,256.55 161.36,0.18,264.99")
 # Reports, tables and plots only (the per-configuration strips would pass the 16 MiB a file that
 # comes back).
+# FIGURES=PATTERN: every PNG of the steps whose path contains PATTERN (e.g. an eval's strips).
 # STRIPS=1: the views' strips too (direct | method | reference | FLIP map, 256 px high), and the
 # peer steps' strips (its rows side by side, the reference last).
 # Packed after every step, so that a call cut off by its time limit still brings back the steps
 # that finished.
 pack() {
-    (cd "$OUT" && { find "r$TAG" -name '*.md' -o -name '*.txt' -o -name '*.csv' -o -name '*.json' -o -name 'error_vs_time.png' -o -name 'time_series.png' -o -name 'image.png'; [ -n "${STRIPS:-}" ] && find "r$TAG" -path '*view-*' -name 'ddgi*.png'; [ -n "${SHOTS:-}" ] && find "r$TAG" -path '*shots-*' -name 'frame_*.png'; [ -n "${STRIPS:-}" ] && find "r$TAG" -path '*peer_*' -name '*.png'; } | tar czf "results$TAG.tgz.part" -T - && mv "results$TAG.tgz.part" "results$TAG.tgz")
+    (cd "$OUT" && { find "r$TAG" -name '*.md' -o -name '*.txt' -o -name '*.csv' -o -name '*.json' -o -name 'error_vs_time.png' -o -name 'time_series.png' -o -name 'image.png'; [ -n "${STRIPS:-}" ] && find "r$TAG" -path '*view-*' -name 'ddgi*.png'; [ -n "${SHOTS:-}" ] && find "r$TAG" -path '*shots-*' -name 'frame_*.png'; [ -n "${FIGURES:-}" ] && find "r$TAG" -path "*${FIGURES}*" -name '*.png'; [ -n "${STRIPS:-}" ] && find "r$TAG" -path '*peer_*' -name '*.png'; } | tar czf "results$TAG.tgz.part" -T - && mv "results$TAG.tgz.part" "results$TAG.tgz")
 }
 run() { # name, command...
     local name=$1
@@ -59,7 +60,7 @@ for step in "$@"; do
     benchgrid_*) scene=${step#benchgrid_}; run "$step" $B bench ddgi --scene "$scene" --iterations 15 ${BENCH_ARGS:-} ;;
     eval_*) scene=${step#eval_}; run "$step" $B eval --scene "$scene" --width 256 --height 256 --reference-spp 4096 --experiments --out "$R/$step" --cache $CACHE ;;
     # evalplain_SCENE: the evaluation without the experiments (the configurations every binary has).
-    evalplain_*) scene=${step#evalplain_}; run "$step" $B eval --scene "$scene" --width 256 --height 256 --reference-spp 4096 --out "$R/$step" --cache $CACHE ;;
+    evalplain_*) scene=${step#evalplain_}; run "$step" $B eval --scene "$scene" --width 256 --height 256 --reference-spp ${SPP:-4096} --out "$R/$step" --cache $CACHE ;;
     # camera_SCENE-AO: the camera path at 1920x1080 as the demo shows it (DDGI, TAA, contact
     # occlusion with AO rays a pixel, AgX, auto-exposure), 120 frames: timings.json per pass.
     camera_*) IFS=- read -r scene ao <<< "${step#camera_}"; run "$step" $B render --scene "$scene" --mode ddgi --width 1920 --height 1080 --contact-occlusion "$ao" --display-transform agx --auto-exposure --out "$R/$step" ;;
@@ -73,6 +74,13 @@ for step in "$@"; do
     # seriesgrid-SCENE-X,Y,Z-FRAMES-ERROR: the same on another probe grid.
     seriesgrid-*) IFS=- read -r _ scene grid rest error <<< "$step"; run "$step" $B eval --scene "$scene" --time-series --width 256 --height 256 --reference-spp 4096 --probes "$grid" --rest-frames "$rest" --rest-error "$error" --out "$R/$step" --cache $CACHE ${SERIES_ARGS:-} ;;
     seriesrest-*) IFS=- read -r _ scene rest error <<< "$step"; run "$step" $B eval --scene "$scene" --time-series --width 256 --height 256 --reference-spp 4096 --rest-frames "$rest" --rest-error "$error" --out "$R/$step" --cache $CACHE ${SERIES_ARGS:-} ;;
+    # evalcascades-SCENE-N: the still evaluation with N camera-following cascades for every DDGI
+    # configuration (N = 0: one volume); evalplain_SCENE is the same at the scene-fitted rule.
+    evalcascades-*) IFS=- read -r _ scene n <<< "$step"; run "$step" $B eval --scene "$scene" --width 256 --height 256 --reference-spp ${SPP:-4096} --cascades "$n" --out "$R/$step" --cache $CACHE ;;
+    # shot_SCENE: a screenshot of SCENE lit by DDGI at 1280x720 (TAA, AgX, auto-exposure, 240 frames).
+    shot_*) scene=${step#shot_}; run "$step" $B render --scene "$scene" --mode ddgi --width 1280 --height 720 --frames 240 --display-transform agx --auto-exposure --out "$R/$step" ;;
+    # traceopaque_SCENE: trace_SCENE with every material opaque (--opaque): what its alpha masks cost.
+    traceopaque_*) scene=${step#traceopaque_}; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild --opaque ;;
     trace_*) scene=${step#trace_}; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild ;;
     # tracecoh_SCENE: the same with each probe's rays in coherent order (a warp's rays in one patch of the sphere).
     tracecoh_*) scene=${step#tracecoh_}; run "$step" $B bench trace --scene "$scene" --iterations 15 --no-flat-rebuild --ray-order coherent ;;

@@ -66,14 +66,20 @@ struct Cli {
     /// Preetham's sky of the default sun for a scene with no lights at all.
     #[arg(long, global = true, value_parser = parse_vec3, value_name = "R,G,B")]
     sky: Option<glam::Vec3>,
+    /// Every material opaque: alpha masks and blending ignored, for the camera and every ray. The
+    /// same scene without its alpha test, to measure what the masks cost (`bench`) or what they
+    /// change in the light (`eval`, `render`).
+    #[arg(long, global = true)]
+    opaque: bool,
 }
 
-/// The command line's `--sun` and `--sky`, set once in `main` and applied to every scene [`load`]
-/// gives (global flags, so every subcommand takes them).
+/// The command line's `--sun`, `--sky` and `--opaque`, set once in `main` and applied to every
+/// scene [`load`] gives (global flags, so every subcommand takes them).
 #[derive(Clone, Copy, Debug, Default)]
 struct Lighting {
     sun: Option<(glam::Vec3, f32)>,
     sky: Option<glam::Vec3>,
+    opaque: bool,
 }
 
 static LIGHTING: std::sync::OnceLock<Lighting> = std::sync::OnceLock::new();
@@ -83,9 +89,14 @@ impl Lighting {
         LIGHTING.get().copied().unwrap_or_default()
     }
 
-    /// Puts the `--sun` and `--sky` into `scene`, then lights it with the default daylight if it
+    /// Makes every material opaque if `--opaque`, puts the `--sun` and `--sky` into `scene`, then lights it with the default daylight if it
     /// has no light at all, saying so on standard error.
     fn apply(&self, scene: &mut SceneDescription, name: &str) {
+        if self.opaque {
+            for material in &mut scene.materials {
+                material.alpha_mode = engine::scene::AlphaMode::Opaque;
+            }
+        }
         if let Some((direction, irradiance)) = self.sun {
             for node in &mut scene.nodes {
                 node.content.retain(|c| !matches!(c, NodeContent::DirectionalLight(_)));
@@ -1730,7 +1741,7 @@ fn write_json(path: Option<&std::path::Path>, value: serde_json::Value) -> Resul
 fn main() -> ExitCode {
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
     let cli = Cli::parse();
-    let _ = LIGHTING.set(Lighting { sun: cli.sun, sky: cli.sky });
+    let _ = LIGHTING.set(Lighting { sun: cli.sun, sky: cli.sky, opaque: cli.opaque });
     let trace = match cli.trace.as_deref().map(engine::trace::ChromeTrace::start).transpose() {
         Ok(trace) => trace,
         Err(e) => {

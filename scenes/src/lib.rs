@@ -13,7 +13,8 @@
 //! | `open_world`      | a house in a yard amid a 1 km² forest: camera-following cascades       |
 //!
 //! Scenes made by others, loaded from the shared folder and given the lights and camera they lack,
-//! are in [`files`] (`sibenik`, the real Šibenik cathedral).
+//! are in [`files`] (`sibenik`, the real Šibenik cathedral; `flight_helmet`, Khronos's FlightHelmet in a
+//! sunlit corner; `meadow`, cut-out plant cards instanced on a meadow).
 //!
 //! The demo level ([`level`], found by [`level::NAME`]) is built here too, outside [`ALL`]: it uses
 //! Kenney's models from the shared folder beside the checkout when they are there ([`shared`]) and
