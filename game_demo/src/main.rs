@@ -1124,6 +1124,9 @@ fn render(args: RenderArgs) -> Result<(), String> {
         "rendered '{}' ({:?}) on {} ({}×{}, {} frames{spp})",
         args.scene, args.mode, frame.adapter, args.width, args.height, settings.frames
     );
+    if let Some(file) = scenes::files::find(&args.scene) {
+        println!("  the scene: {} (credit them wherever the image is shown)", file.credit);
+    }
     println!("  {}", args.out.join("image.png").display());
     println!("  {}", args.out.join("image.exr").display());
     println!("  {}", args.out.join("timings.json").display());

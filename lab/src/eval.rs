@@ -836,6 +836,10 @@ fn write_report(out: &Path, name: &str, adapter: &str, options: &EvalOptions, ro
          | configuration | frames | GPU ms per frame | GPU ms total | DDGI rays per frame | mean FLIP | RMSE | relative MSE | path tracer at equal FLIP | GPU-time ratio | GPU-time ratio at {timing} |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
         timing = timing_size.map_or("the timing size (not timed)".into(), |[w, h]| format!("{w}×{h}"))
     );
+    if let Some(file) = scenes::files::find(name) {
+        // A scene made by others names its authors wherever it is shown.
+        md = md.replacen("\n\n", &format!("\n\nThe scene: {}.\n\n", file.credit), 1);
+    }
     for r in rows {
         md += &format!(
             "| {} | {} | {} | {} | {} | {:.4} | {:.4} | {:.5} | {} | {} | {} |\n",
