@@ -597,3 +597,110 @@ fn obj_map_d_cuts_the_base_colour_texture() {
     let error = load_scene(&dir.join("masked.obj")).expect_err("a missing mask is refused").to_string();
     assert!(error.contains("missing_mask.png") && error.contains("masked.obj"), "{error}");
 }
+
+// ---------------------------------------------------------------------------------------------
+// Every importer path a real file uses (issue 46): small files written here, and the shared
+// folder's externally authored scenes where they carry the feature (skipped without it).
+
+/// A glTF file a test writes: an external `.bin` buffer with one buffer view per accessor, and the
+/// JSON of its views and accessors.
+#[derive(Default)]
+struct GltfWriter {
+    bin: Vec<u8>,
+    views: Vec<String>,
+    accessors: Vec<String>,
+}
+
+impl GltfWriter {
+    /// Appends `bytes` as a buffer view (4-byte aligned, with `byteStride` when given) and returns
+    /// its index.
+    fn view(&mut self, bytes: &[u8], stride: Option<usize>) -> usize {
+        while !self.bin.len().is_multiple_of(4) {
+            self.bin.push(0);
+        }
+        let stride = stride.map_or(String::new(), |s| format!(r#", "byteStride": {s}"#));
+        self.views.push(format!(r#"{{"buffer": 0, "byteOffset": {}, "byteLength": {}{stride}}}"#, self.bin.len(), bytes.len()));
+        self.bin.extend_from_slice(bytes);
+        self.views.len() - 1
+    }
+
+    /// Adds an accessor (`extra`: more JSON members, each with its leading comma) and returns its index.
+    fn accessor(&mut self, view: Option<usize>, component_type: u32, count: usize, kind: &str, extra: &str) -> usize {
+        let view = view.map_or(String::new(), |v| format!(r#""bufferView": {v}, "#));
+        self.accessors.push(format!(r#"{{{view}"componentType": {component_type}, "count": {count}, "type": "{kind}"{extra}}}"#));
+        self.accessors.len() - 1
+    }
+
+    /// A POSITION accessor (with the `min` and `max` glTF requires).
+    fn positions(&mut self, positions: &[Vec3]) -> usize {
+        let (lo, hi) = positions.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+        let values: Vec<f32> = positions.iter().flat_map(|p| p.to_array()).collect();
+        let view = self.view(&f32_bytes(&values), None);
+        let bounds = format!(r#", "min": [{}, {}, {}], "max": [{}, {}, {}]"#, lo.x, lo.y, lo.z, hi.x, hi.y, hi.z);
+        self.accessor(Some(view), FLOAT, positions.len(), "VEC3", &bounds)
+    }
+
+    /// Writes `dir/name.gltf` (`body`: the JSON members other than the asset, views, accessors and
+    /// buffers) and `dir/name.bin`, and returns the `.gltf`'s path.
+    fn write(&self, dir: &Path, name: &str, body: &str) -> PathBuf {
+        std::fs::create_dir_all(dir).unwrap();
+        std::fs::write(dir.join(format!("{name}.bin")), &self.bin).unwrap();
+        let json = format!(
+            r#"{{"asset": {{"version": "2.0"}}, {body}, "bufferViews": [{}], "accessors": [{}],
+            "buffers": [{{"byteLength": {}, "uri": "{name}.bin"}}]}}"#,
+            self.views.join(", "),
+            self.accessors.join(", "),
+            self.bin.len()
+        );
+        let path = dir.join(format!("{name}.gltf"));
+        std::fs::write(&path, json).unwrap();
+        path
+    }
+}
+
+/// glTF's component types.
+const FLOAT: u32 = 5126;
+
+fn f32_bytes(values: &[f32]) -> Vec<u8> {
+    values.iter().flat_map(|v| v.to_le_bytes()).collect()
+}
+
+/// A folder of this test binary's temporary files.
+fn temp_dir(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("loaders-{name}-{}", std::process::id()))
+}
+
+/// The one triangle of most written files: (0,0,0), (1,0,0), (0,1,0), facing +z.
+const TRIANGLE: [Vec3; 3] = [Vec3::ZERO, Vec3::X, Vec3::Y];
+
+/// `extensionsRequired`: every extension the importer implements is accepted; any other refuses
+/// the file with an error naming it and every other unknown one.
+#[test]
+fn gltf_required_extensions_are_checked() {
+    let mut w = GltfWriter::default();
+    let position = w.positions(&TRIANGLE);
+    let body = |used: &str, required: &str| {
+        format!(
+            r#""extensionsUsed": [{used}], "extensionsRequired": [{required}],
+            "nodes": [{{"mesh": 0}}], "meshes": [{{"primitives": [{{"attributes": {{"POSITION": {position}}}, "material": 0}}]}}],
+            "materials": [{{"name": "Shiny", "extensions": {{"KHR_materials_specular": {{"specularFactor": 0.25}}}}}}]"#
+        )
+    };
+    let dir = temp_dir("required");
+    let supported = r#""KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_materials_specular", "KHR_texture_transform""#;
+    let scene = load_scene(&w.write(&dir, "supported", &body(supported, supported))).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(scene.materials[material(&scene, "Shiny")].specular, 0.25, "KHR_materials_specular is read");
+
+    let required = r#""KHR_texture_transform", "KHR_draco_mesh_compression", "EXT_meshopt_compression""#;
+    let path = w.write(&dir, "unknown", &body(required, required));
+    let error = load_scene(&path).expect_err("unknown required extensions");
+    let message = error.to_string();
+    assert!(message.starts_with(&path.display().to_string()), "{message}");
+    assert!(message.contains("extensionsRequired"), "{message}");
+    assert!(message.contains("KHR_draco_mesh_compression") && message.contains("EXT_meshopt_compression"), "{message}");
+    assert!(!message.contains("Unsupported extension"), "the importer's own message, not the gltf crate's: {message}");
+    // An unknown extension that is only used (not required) is no reason to refuse the file.
+    let used_only = w.write(&dir, "used_only", &body(r#""EXT_meshopt_compression""#, ""));
+    load_scene(&used_only).unwrap_or_else(|e| panic!("{e}"));
+    std::fs::remove_dir_all(&dir).ok();
+}

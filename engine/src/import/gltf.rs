@@ -6,7 +6,8 @@
 //! materials (base colour and emissive factors and textures, `KHR_texture_transform`,
 //! `KHR_materials_emissive_strength`; one per glTF material plus a white default); perspective
 //! cameras; `KHR_lights_punctual` lights. Skins, morph targets, animations and orthographic cameras
-//! are skipped with a warning.
+//! are skipped with a warning. A file whose `extensionsRequired` names an extension outside
+//! [`SUPPORTED_EXTENSIONS`] is refused with an error naming every such extension.
 //!
 //! Buffers, accessors and images are read here rather than by the `gltf` crate's importer so that
 //! every bound is checked and every error names the accessor, buffer or image at fault.
@@ -30,6 +31,12 @@ use crate::scene::{
     TextureFilter, TextureRef, Transform, UvTransform,
 };
 
+/// The extensions a file may list in `extensionsRequired`: those this importer implements
+/// (`KHR_materials_specular` by its factor; its colour and textures are ignored). Any other
+/// required extension refuses the file.
+const SUPPORTED_EXTENSIONS: &[&str] =
+    &["KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_materials_specular", "KHR_texture_transform"];
+
 /// Imports a `.gltf` or `.glb` file whose content is `bytes`.
 pub(super) fn load(file: &Path, bytes: &[u8]) -> Result<SceneDescription, ImportError> {
     let is_glb = file.extension().is_some_and(|e| e.eq_ignore_ascii_case("glb"));
@@ -43,8 +50,13 @@ pub(super) fn load(file: &Path, bytes: &[u8]) -> Result<SceneDescription, Import
     let (json_bytes, blob) = if bytes.starts_with(b"glTF") { split_glb(file, bytes)? } else { (bytes, None) };
     // A byte-order mark is not allowed in glTF JSON, but some tools write one.
     let json_bytes = json_bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(json_bytes);
-    let root = json::Root::from_slice(json_bytes)
+    let mut root = json::Root::from_slice(json_bytes)
         .map_err(|e| ImportError::Parse { file: file.to_path_buf(), message: format!("invalid glTF JSON: {e}") })?;
+    check_required_extensions(file, &root)?;
+    // Checked above against what this importer implements. The `gltf` crate's validation would
+    // check them again against what its own features parse, which differs: it refuses a required
+    // `KHR_materials_specular`, whose factor is read here.
+    root.extensions_required.clear();
     check_attribute_indices(file, &root)?;
     let document = super::no_panic(file, "glTF validation", || ::gltf::Document::from_json(root))?
         .map_err(|e| ImportError::Parse { file: file.to_path_buf(), message: e.to_string() })?;
@@ -113,6 +125,30 @@ fn split_glb<'a>(file: &Path, bytes: &'a [u8]) -> Result<(&'a [u8], Option<&'a [
     }
     let json = json.ok_or_else(|| error("no JSON chunk".into()))?;
     Ok((json, bin))
+}
+
+/// Refuses a file whose `extensionsRequired` names extensions outside [`SUPPORTED_EXTENSIONS`],
+/// naming every one of them.
+fn check_required_extensions(file: &Path, root: &json::Root) -> Result<(), ImportError> {
+    let mut unknown: Vec<&str> = Vec::new();
+    for extension in &root.extensions_required {
+        if !SUPPORTED_EXTENSIONS.contains(&extension.as_str()) && !unknown.contains(&extension.as_str()) {
+            unknown.push(extension);
+        }
+    }
+    if unknown.is_empty() {
+        return Ok(());
+    }
+    Err(ImportError::InvalidValue {
+        file: file.to_path_buf(),
+        what: "extensionsRequired".into(),
+        message: format!(
+            "requires {} this importer does not support: {} (supported: {})",
+            if unknown.len() == 1 { "an extension" } else { "extensions" },
+            unknown.join(", "),
+            SUPPORTED_EXTENSIONS.join(", ")
+        ),
+    })
 }
 
 /// Reports primitive attributes and indices that name accessors which do not exist. The `gltf`
