@@ -631,6 +631,12 @@ impl GltfWriter {
         self.accessors.len() - 1
     }
 
+    /// A FLOAT accessor of `kind` over a new view of `values`.
+    fn floats(&mut self, values: &[f32], components: usize, kind: &str) -> usize {
+        let view = self.view(&f32_bytes(values), None);
+        self.accessor(Some(view), FLOAT, values.len() / components, kind, "")
+    }
+
     /// A POSITION accessor (with the `min` and `max` glTF requires).
     fn positions(&mut self, positions: &[Vec3]) -> usize {
         let (lo, hi) = positions.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
@@ -672,6 +678,100 @@ fn temp_dir(name: &str) -> PathBuf {
 
 /// The one triangle of most written files: (0,0,0), (1,0,0), (0,1,0), facing +z.
 const TRIANGLE: [Vec3; 3] = [Vec3::ZERO, Vec3::X, Vec3::Y];
+
+/// The meshes a node draws, as (mesh, material) pairs, by the node's name.
+fn drawn(scene: &SceneDescription, node_name: &str) -> Vec<(usize, usize)> {
+    mesh_instances(scene, node(scene, node_name))
+}
+
+/// Reads the dense FLOAT VEC2 accessor `index` of a glTF file beside its `.bin` buffers (an oracle
+/// independent of the importer).
+fn read_vec2_accessor(gltf: &Path, index: usize) -> Vec<Vec2> {
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(gltf).unwrap()).unwrap();
+    let accessor = &json["accessors"][index];
+    assert_eq!((accessor["componentType"].as_u64(), accessor["type"].as_str()), (Some(5126), Some("VEC2")));
+    assert!(accessor.get("sparse").is_none());
+    let view = &json["bufferViews"][accessor["bufferView"].as_u64().unwrap() as usize];
+    let buffer = &json["buffers"][view["buffer"].as_u64().unwrap() as usize];
+    let bytes = std::fs::read(gltf.parent().unwrap().join(buffer["uri"].as_str().unwrap())).unwrap();
+    let stride = view.get("byteStride").and_then(|s| s.as_u64()).unwrap_or(8) as usize;
+    let start = view.get("byteOffset").and_then(|o| o.as_u64()).unwrap_or(0) as usize
+        + accessor.get("byteOffset").and_then(|o| o.as_u64()).unwrap_or(0) as usize;
+    let f = |at: usize| f32::from_le_bytes(bytes[at..at + 4].try_into().unwrap());
+    (0..accessor["count"].as_u64().unwrap() as usize).map(|i| Vec2::new(f(start + i * stride), f(start + i * stride + 4))).collect()
+}
+
+/// Khronos' MorphStressTest: its material `Base` samples the base colour with TEXCOORD_0 and the
+/// occlusion (which the engine has no slot for) with TEXCOORD_1; the mesh gets TEXCOORD_0's values.
+#[test]
+fn morph_stress_test_gets_the_set_its_base_colour_samples() {
+    let Some(path) = testkit::shared("morph_stress_test", "scenes/morph-stress-test/MorphStressTest.gltf") else { return };
+    let scene = load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+    assert_valid(&scene, "MorphStressTest.gltf");
+    let base = material(&scene, "Base");
+    let texture = scene.materials[base].base_color_texture.expect("Base's base colour texture");
+    assert_eq!(scene.images[texture.image.index() as usize].name, "TinyGrid");
+    let (mesh, _) = scene
+        .nodes
+        .iter()
+        .enumerate()
+        .flat_map(|(i, _)| mesh_instances(&scene, i))
+        .find(|&(_, m)| m == base)
+        .expect("a mesh drawn with Base");
+    // meshes[0].primitives[0]: TEXCOORD_0 is accessor 2, TEXCOORD_1 accessor 3.
+    let (set0, set1) = (read_vec2_accessor(&path, 2), read_vec2_accessor(&path, 3));
+    assert_ne!(set0, set1, "the file's two sets differ, so the test can tell them apart");
+    assert_eq!(scene.meshes[mesh].uvs, set0);
+}
+
+/// A primitive's `uvs` come from the set its material's textures sample: `texCoord` 1, or
+/// KHR_texture_transform's `texCoord` override; an occlusion texture does not count; a set the
+/// primitive lacks leaves it without texture coordinates (and a warning).
+#[test]
+fn gltf_uvs_come_from_the_set_the_textures_sample() {
+    let dir = temp_dir("uv-sets");
+    std::fs::create_dir_all(&dir).unwrap();
+    image::RgbaImage::from_pixel(2, 2, image::Rgba([200, 100, 50, 255])).save(dir.join("grid.png")).unwrap();
+    let set0 = [Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(0.0, 1.0)];
+    let set1 = [Vec2::new(0.25, 0.5), Vec2::new(0.75, 0.5), Vec2::new(0.5, 1.0)];
+    let mut w = GltfWriter::default();
+    let position = w.positions(&TRIANGLE);
+    let uv0 = w.floats(&set0.iter().flat_map(|v| v.to_array()).collect::<Vec<_>>(), 2, "VEC2");
+    let uv1 = w.floats(&set1.iter().flat_map(|v| v.to_array()).collect::<Vec<_>>(), 2, "VEC2");
+    let names = ["SecondSet", "Override", "FirstSet", "MissingSet"];
+    let meshes: Vec<String> = (0..names.len())
+        .map(|m| format!(r#"{{"primitives": [{{"attributes": {{"POSITION": {position}, "TEXCOORD_0": {uv0}, "TEXCOORD_1": {uv1}}}, "material": {m}}}]}}"#))
+        .collect();
+    let nodes: Vec<String> = names.iter().enumerate().map(|(m, name)| format!(r#"{{"name": "{name}", "mesh": {m}}}"#)).collect();
+    let body = format!(
+        r#""extensionsUsed": ["KHR_texture_transform"],
+        "nodes": [{}], "meshes": [{}],
+        "materials": [
+            {{"name": "SecondSet", "pbrMetallicRoughness": {{"baseColorTexture": {{"index": 0, "texCoord": 1}}}}}},
+            {{"name": "Override", "pbrMetallicRoughness": {{"baseColorTexture": {{"index": 0,
+                "extensions": {{"KHR_texture_transform": {{"texCoord": 1}}}}}}}}}},
+            {{"name": "FirstSet", "pbrMetallicRoughness": {{"baseColorTexture": {{"index": 0}}}},
+                "occlusionTexture": {{"index": 0, "texCoord": 1}}}},
+            {{"name": "MissingSet", "emissiveFactor": [1, 1, 1], "emissiveTexture": {{"index": 0, "texCoord": 2}}}}],
+        "textures": [{{"source": 0}}], "images": [{{"uri": "grid.png"}}]"#,
+        nodes.join(", "),
+        meshes.join(", ")
+    );
+    let path = w.write(&dir, "uv_sets", &body);
+    let scene = load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+    assert_valid(&scene, "uv_sets.gltf");
+    let uvs = |name: &str| scene.meshes[drawn(&scene, name)[0].0].uvs.clone();
+    assert_eq!(uvs("SecondSet"), set1, "baseColorTexture.texCoord 1");
+    assert_eq!(uvs("Override"), set1, "KHR_texture_transform's texCoord 1");
+    assert_eq!(uvs("FirstSet"), set0, "the occlusion texture's set does not count");
+    assert!(uvs("MissingSet").is_empty(), "TEXCOORD_2 is not in the primitive");
+    // The texture itself is imported whichever set it samples.
+    for name in names {
+        let m = &scene.materials[material(&scene, name)];
+        assert!(m.base_color_texture.or(m.emissive_texture).is_some(), "{name}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
 
 /// `extensionsRequired`: every extension the importer implements is accepted; any other refuses
 /// the file with an error naming it and every other unknown one.

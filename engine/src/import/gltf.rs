@@ -1,19 +1,32 @@
 //! glTF 2.0 importer (`.gltf` with external or data-URI buffers, and `.glb`).
 //!
 //! Imports the node hierarchy of the default scene (else scene 0, else every root node) with TRS or
-//! matrix transforms; meshes (one [`Mesh`] per glTF mesh primitive, shared by every node using it)
-//! with positions, normals (computed when missing) and `TEXCOORD_0`; triangle lists, strips and fans;
-//! materials (base colour and emissive factors and textures, `KHR_texture_transform`,
-//! `KHR_materials_emissive_strength`; one per glTF material plus a white default); perspective
-//! cameras; `KHR_lights_punctual` lights. Skins, morph targets, animations and orthographic cameras
-//! are skipped with a warning. A file whose `extensionsRequired` names an extension outside
-//! [`SUPPORTED_EXTENSIONS`] is refused with an error naming every such extension.
+//! matrix transforms, and one [`Mesh`] per glTF mesh primitive, shared by every node using it:
+//! - geometry: triangle lists, strips and fans; indices of 8, 16 or 32 bits, or none; accessors
+//!   dense, sparse, or sparse without a buffer view (zeros plus the substitutions); `POSITION`,
+//!   `NORMAL` (computed, area-weighted and following the triangles' winding, when the file has none)
+//!   and `TANGENT` (MikkTSpace's when a normal-mapped primitive has none);
+//! - texture coordinates: the one `TEXCOORD_n` set that the material's imported texture slots
+//!   (base colour, emissive, metallic-roughness, normal; `KHR_texture_transform`'s `texCoord`
+//!   overrides a slot's own) sample. When the slots disagree the primitive gets `TEXCOORD_0` and a
+//!   warning names the material and its slots (once per material); a material that samples a set
+//!   the primitive lacks gets a warning naming the mesh and the attribute, and the primitive no
+//!   texture coordinates (every texel lookup at (0, 0), as for a file without any);
+//! - materials: base colour, metallic-roughness, normal and emissive factors and textures,
+//!   `alphaMode`, `KHR_texture_transform`, `KHR_materials_emissive_strength`,
+//!   `KHR_materials_specular`'s factor; one per glTF material plus a white default. The engine has no occlusion slot: `occlusionTexture` is ignored,
+//!   and so is the set it samples;
+//! - perspective cameras; `KHR_lights_punctual` lights.
+//!
+//! Skins, morph targets, animations and orthographic cameras are skipped with a warning. A file
+//! whose `extensionsRequired` names an extension outside [`SUPPORTED_EXTENSIONS`] is refused with an
+//! error naming every such extension.
 //!
 //! Buffers, accessors and images are read here rather than by the `gltf` crate's importer so that
 //! every bound is checked and every error names the accessor, buffer or image at fault.
 
 use std::borrow::Cow;
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
 use std::path::{Path, PathBuf};
 
@@ -70,6 +83,7 @@ pub(super) fn load(file: &Path, bytes: &[u8]) -> Result<SceneDescription, Import
         meshes: HashMap::new(),
         materials: HashMap::new(),
         images: HashMap::new(),
+        warned_uv_sets: HashSet::new(),
         budget: Budget::default(),
     };
     importer.load_buffers(blob)?;
@@ -176,6 +190,50 @@ fn check_attribute_indices(file: &Path, root: &json::Root) -> Result<(), ImportE
     Ok(())
 }
 
+/// The `KHR_texture_transform` of a normal texture (the `gltf` crate reads it only on the other
+/// slots); a component that is not a number is NaN, which [`Importer::texture_ref`] refuses.
+fn normal_transform(normal: &::gltf::material::NormalTexture) -> Option<UvTransform> {
+    normal.extension_value("KHR_texture_transform").map(|t| {
+        let pair = |key: &str, default: [f32; 2]| {
+            t.get(key)
+                .and_then(|v| v.as_array())
+                .map_or(default, |a| [0, 1].map(|i| a.get(i).and_then(|x| x.as_f64()).map_or(f32::NAN, |x| x as f32)))
+        };
+        UvTransform {
+            offset: Vec2::from_array(pair("offset", [0.0, 0.0])),
+            rotation: t.get("rotation").and_then(|v| v.as_f64()).map_or(0.0, |r| r as f32),
+            scale: Vec2::from_array(pair("scale", [1.0, 1.0])),
+        }
+    })
+}
+
+/// The texture slots of `material` that the engine imports, each with the `TEXCOORD` set it
+/// samples (`KHR_texture_transform`'s `texCoord` overriding the slot's own). Occlusion is not
+/// among them: the engine has no occlusion slot.
+fn texture_sets(material: &::gltf::Material) -> Vec<(&'static str, u32)> {
+    let pbr = material.pbr_metallic_roughness();
+    let set = |info: ::gltf::texture::Info| info.texture_transform().and_then(|t| t.tex_coord()).unwrap_or(info.tex_coord());
+    let mut sets = Vec::new();
+    if let Some(info) = pbr.base_color_texture() {
+        sets.push(("baseColorTexture", set(info)));
+    }
+    if let Some(info) = material.emissive_texture() {
+        sets.push(("emissiveTexture", set(info)));
+    }
+    if let Some(info) = pbr.metallic_roughness_texture() {
+        sets.push(("metallicRoughnessTexture", set(info)));
+    }
+    if let Some(normal) = material.normal_texture() {
+        let overridden = normal
+            .extension_value("KHR_texture_transform")
+            .and_then(|t| t.get("texCoord"))
+            .and_then(|v| v.as_u64())
+            .and_then(|v| u32::try_from(v).ok());
+        sets.push(("normalTexture", overridden.unwrap_or(normal.tex_coord())));
+    }
+    sets
+}
+
 /// State of one glTF import: the document, its loaded buffers and the assets created so far.
 struct Importer<'a> {
     file: &'a Path,
@@ -191,6 +249,8 @@ struct Importer<'a> {
     materials: HashMap<Option<usize>, usize>,
     /// glTF image → index in `scene.images`.
     images: HashMap<usize, usize>,
+    /// glTF materials whose texture slots sample different sets, already warned about.
+    warned_uv_sets: HashSet<Option<usize>>,
     budget: Budget,
 }
 
@@ -673,6 +733,39 @@ impl<'a> Importer<'a> {
         Ok(index)
     }
 
+    /// The texture coordinate set a primitive's `uvs` come from (see the module docs): the one
+    /// every imported texture slot of its material samples, else 0 (warning once per material when
+    /// the slots disagree); `None`, with a warning naming the mesh and the attribute, when a slot
+    /// samples a set the primitive lacks.
+    fn uv_set(&mut self, primitive: &::gltf::Primitive, what: &str) -> Option<u32> {
+        let material = primitive.material();
+        let sets = texture_sets(&material);
+        let material_label =
+            || material.index().map_or_else(|| "the default material".to_string(), |i| label("material", i, material.name()));
+        if let Some((slot, set)) = sets.iter().find(|(_, set)| primitive.get(&Semantic::TexCoords(*set)).is_none()) {
+            log::warn!(
+                "{}: {what} has no TEXCOORD_{set}, which {} {slot} samples; the primitive is imported without texture coordinates",
+                self.file.display(),
+                material_label()
+            );
+            return None;
+        }
+        let first = sets.first().map_or(0, |&(_, set)| set);
+        if sets.iter().all(|&(_, set)| set == first) {
+            return Some(first);
+        }
+        if self.warned_uv_sets.insert(material.index()) {
+            let slots: Vec<String> = sets.iter().map(|(slot, set)| format!("{slot} TEXCOORD_{set}")).collect();
+            log::warn!(
+                "{}: {} samples different texture coordinate sets ({}); only one set is imported, TEXCOORD_0 is used for all",
+                self.file.display(),
+                material_label(),
+                slots.join(", ")
+            );
+        }
+        Some(0)
+    }
+
     fn import_primitive(&mut self, mesh: &::gltf::Mesh, primitive: &::gltf::Primitive) -> Result<Mesh, ImportError> {
         let mesh_name = match mesh.name() {
             Some(name) => format!("mesh '{name}'"),
@@ -682,6 +775,7 @@ impl<'a> Importer<'a> {
         if primitive.morph_targets().next().is_some() {
             log::warn!("{}: morph targets of {what} are not imported", self.file.display());
         }
+        let uv_set = self.uv_set(primitive, &what);
 
         let mode = primitive.mode();
         if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
@@ -716,9 +810,9 @@ impl<'a> Importer<'a> {
             None => None,
         };
 
-        let uvs = match primitive.get(&Semantic::TexCoords(0)) {
-            Some(accessor) => {
-                let context = format!("{what} TEXCOORD_0");
+        let uvs = match uv_set.and_then(|set| primitive.get(&Semantic::TexCoords(set)).map(|accessor| (set, accessor))) {
+            Some((set, accessor)) => {
+                let context = format!("{what} TEXCOORD_{set}");
                 if accessor.count() != n {
                     return Err(count_mismatch(&accessor, context));
                 }
@@ -907,19 +1001,7 @@ impl<'a> Importer<'a> {
                 if !scale.is_finite() {
                     return Err(self.invalid(&what, format!("non-finite normalTexture scale {scale}")));
                 }
-                let transform = normal.extension_value("KHR_texture_transform").map(|t| {
-                    let pair = |key: &str, default: [f32; 2]| {
-                        t.get(key)
-                            .and_then(|v| v.as_array())
-                            .map_or(default, |a| [0, 1].map(|i| a.get(i).and_then(|x| x.as_f64()).map_or(f32::NAN, |x| x as f32)))
-                    };
-                    UvTransform {
-                        offset: Vec2::from_array(pair("offset", [0.0, 0.0])),
-                        rotation: t.get("rotation").and_then(|v| v.as_f64()).map_or(0.0, |r| r as f32),
-                        scale: Vec2::from_array(pair("scale", [1.0, 1.0])),
-                    }
-                });
-                let texture = self.texture_ref(normal.texture(), normal.tex_coord(), transform, &what, "normalTexture")?;
+                let texture = self.texture_ref(normal.texture(), normal_transform(&normal), &what, "normalTexture")?;
                 (Some(texture), scale)
             }
             None => (None, 1.0),
@@ -941,26 +1023,24 @@ impl<'a> Importer<'a> {
         })
     }
 
-    /// A texture reference with its `KHR_texture_transform`.
+    /// A texture reference with its `KHR_texture_transform` (the set it samples is picked per
+    /// primitive, see [`Importer::uv_set`]).
     fn texture(&mut self, info: &::gltf::texture::Info, material: &str, slot: &str) -> Result<TextureRef, ImportError> {
-        let ext = info.texture_transform();
-        let tex_coord = ext.as_ref().and_then(|t| t.tex_coord()).unwrap_or(info.tex_coord());
-        let transform =
-            ext.map(|t| UvTransform { offset: Vec2::from_array(t.offset()), rotation: t.rotation(), scale: Vec2::from_array(t.scale()) });
-        self.texture_ref(info.texture(), tex_coord, transform, material, slot)
+        let transform = info.texture_transform().map(|t| UvTransform {
+            offset: Vec2::from_array(t.offset()),
+            rotation: t.rotation(),
+            scale: Vec2::from_array(t.scale()),
+        });
+        self.texture_ref(info.texture(), transform, material, slot)
     }
 
     fn texture_ref(
         &mut self,
         texture: ::gltf::texture::Texture,
-        tex_coord: u32,
         transform: Option<UvTransform>,
         material: &str,
         slot: &str,
     ) -> Result<TextureRef, ImportError> {
-        if tex_coord != 0 {
-            log::warn!("{}: {material} {slot} uses TEXCOORD_{tex_coord}; only TEXCOORD_0 is imported", self.file.display());
-        }
         let transform = transform.unwrap_or_default();
         if !(transform.offset.is_finite() && transform.rotation.is_finite() && transform.scale.is_finite()) {
             return Err(self.invalid(format!("{material} {slot}"), format!("non-finite KHR_texture_transform {transform:?}")));
@@ -1014,6 +1094,106 @@ impl<'a> Importer<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The warnings logged on this thread while `f` runs (a logger that keeps each thread's records
+    /// apart, so that tests running side by side do not see each other's).
+    fn warnings<T>(f: impl FnOnce() -> T) -> (T, Vec<String>) {
+        use std::cell::RefCell;
+        struct Capture;
+        thread_local!(static LOGGED: RefCell<Vec<String>> = const { RefCell::new(Vec::new()) });
+        impl log::Log for Capture {
+            fn enabled(&self, metadata: &log::Metadata) -> bool {
+                metadata.level() <= log::Level::Warn
+            }
+            fn log(&self, record: &log::Record) {
+                if self.enabled(record.metadata()) {
+                    LOGGED.with(|l| l.borrow_mut().push(record.args().to_string()));
+                }
+            }
+            fn flush(&self) {}
+        }
+        static INSTALL: std::sync::Once = std::sync::Once::new();
+        INSTALL.call_once(|| {
+            log::set_logger(&Capture).expect("no other logger in the engine's tests");
+            log::set_max_level(log::LevelFilter::Warn);
+        });
+        LOGGED.with(|l| l.borrow_mut().clear());
+        let result = f();
+        (result, LOGGED.with(|l| l.take()))
+    }
+
+    /// A glTF file of one data-URI buffer holding `data`, a 1×1 PNG as image 0 (texture 0), and
+    /// `body` (its nodes, meshes, materials and accessors; buffer views over `data`).
+    fn gltf_with(data: &[u8], body: &str) -> String {
+        let mut png = Vec::new();
+        image::RgbaImage::from_pixel(1, 1, image::Rgba([255, 0, 0, 255]))
+            .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+            .unwrap();
+        let encode = |bytes: &[u8]| base64::engine::general_purpose::STANDARD.encode(bytes);
+        format!(
+            r#"{{"asset": {{"version": "2.0"}}, {body},
+            "textures": [{{"source": 0}}], "images": [{{"uri": "data:image/png;base64,{}"}}],
+            "buffers": [{{"byteLength": {}, "uri": "data:application/octet-stream;base64,{}"}}]}}"#,
+            encode(&png),
+            data.len(),
+            encode(data)
+        )
+    }
+
+    /// A triangle's positions (0..36), TEXCOORD_0 (36..60) and TEXCOORD_1 (60..84), as accessors 0, 1, 2.
+    fn triangle_with_two_uv_sets() -> (Vec<u8>, &'static str) {
+        let values = [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.5, 0.5, 1.0, 0.5, 0.5, 1.0];
+        let data = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+        let json = r#""bufferViews": [{"buffer": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 24},
+                {"buffer": 0, "byteOffset": 60, "byteLength": 24}],
+            "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]},
+                {"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC2"},
+                {"bufferView": 2, "componentType": 5126, "count": 3, "type": "VEC2"}]"#;
+        (data, json)
+    }
+
+    #[test]
+    fn texture_slots_on_different_sets_warn_once_and_use_texcoord_0() {
+        let (data, accessors) = triangle_with_two_uv_sets();
+        let primitive = r#"{"attributes": {"POSITION": 0, "TEXCOORD_0": 1, "TEXCOORD_1": 2}, "material": 0}"#;
+        let body = format!(
+            r#"{accessors}, "nodes": [{{"mesh": 0}}, {{"mesh": 1}}],
+            "meshes": [{{"primitives": [{primitive}]}}, {{"primitives": [{primitive}]}}],
+            "materials": [{{"name": "Mixed", "pbrMetallicRoughness": {{"baseColorTexture": {{"index": 0}}}},
+                "emissiveFactor": [1, 1, 1], "emissiveTexture": {{"index": 0, "texCoord": 1}}}}]"#
+        );
+        let (scene, logged) = warnings(|| load(Path::new("mixed.gltf"), gltf_with(&data, &body).as_bytes()));
+        let scene = scene.unwrap();
+        assert_eq!(scene.meshes.len(), 2);
+        for mesh in &scene.meshes {
+            assert_eq!(mesh.uvs, [Vec2::ZERO, Vec2::X, Vec2::Y], "TEXCOORD_0");
+        }
+        let about: Vec<&String> = logged.iter().filter(|m| m.contains("different texture coordinate sets")).collect();
+        assert_eq!(about.len(), 1, "once for the material, not per primitive: {logged:?}");
+        let message = about[0];
+        assert!(message.starts_with("mixed.gltf: material 0 'Mixed'"), "{message}");
+        assert!(message.contains("baseColorTexture TEXCOORD_0") && message.contains("emissiveTexture TEXCOORD_1"), "{message}");
+    }
+
+    #[test]
+    fn a_set_the_primitive_lacks_warns_naming_the_mesh_and_leaves_no_uvs() {
+        let (data, accessors) = triangle_with_two_uv_sets();
+        let body = format!(
+            r#"{accessors}, "nodes": [{{"mesh": 0}}],
+            "meshes": [{{"name": "Panel", "primitives": [{{"attributes": {{"POSITION": 0, "TEXCOORD_0": 1}}, "material": 0}}]}}],
+            "materials": [{{"name": "Second", "normalTexture": {{"index": 0, "texCoord": 1}}}}]"#
+        );
+        let (scene, logged) = warnings(|| load(Path::new("lacking.gltf"), gltf_with(&data, &body).as_bytes()));
+        let scene = scene.unwrap();
+        assert!(scene.meshes[0].uvs.is_empty());
+        assert!(scene.materials[0].normal_texture.is_some(), "the texture is still imported");
+        let message = logged.iter().find(|m| m.contains("TEXCOORD_1")).unwrap_or_else(|| panic!("no warning: {logged:?}"));
+        assert!(
+            message.starts_with("lacking.gltf: mesh 'Panel' primitive 0 has no TEXCOORD_1")
+                && message.contains("material 0 'Second' normalTexture"),
+            "{message}"
+        );
+    }
 
     #[test]
     fn percent_decoding() {
