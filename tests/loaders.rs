@@ -666,6 +666,8 @@ impl GltfWriter {
 
 /// glTF's component types.
 const FLOAT: u32 = 5126;
+const UNSIGNED_BYTE: u32 = 5121;
+const UNSIGNED_SHORT: u32 = 5123;
 
 fn f32_bytes(values: &[f32]) -> Vec<u8> {
     values.iter().flat_map(|v| v.to_le_bytes()).collect()
@@ -771,6 +773,97 @@ fn gltf_uvs_come_from_the_set_the_textures_sample() {
         assert!(m.base_color_texture.or(m.emissive_texture).is_some(), "{name}");
     }
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Vertex colours (COLOR_0) become a factor of the material's base colour: one colour exactly,
+/// varying ones by their mean over the surface; white ones leave the material as it is.
+#[test]
+fn gltf_vertex_colours_multiply_the_base_colour() {
+    let mut w = GltfWriter::default();
+    let position = w.positions(&TRIANGLE);
+    let repeat = |values: &[f32]| -> Vec<f32> { values.iter().copied().cycle().take(values.len() * 3).collect() };
+    let float3 = w.floats(&repeat(&[0.5, 0.25, 1.0]), 3, "VEC3");
+    let float4 = w.floats(&repeat(&[1.0, 0.5, 0.5, 0.5]), 4, "VEC4");
+    let bytes4 = {
+        let view = w.view(&[255, 128, 0, 255].repeat(3), None);
+        w.accessor(Some(view), UNSIGNED_BYTE, 3, "VEC4", r#", "normalized": true"#)
+    };
+    let shorts3 = {
+        // VEC3 of 16 bits: 6 bytes, padded to a stride of 8 (vertex attributes are 4-byte aligned).
+        let element: Vec<u8> = [65535u16, 32768, 0, 0].iter().flat_map(|v| v.to_le_bytes()).collect();
+        let view = w.view(&element.repeat(3), Some(8));
+        w.accessor(Some(view), UNSIGNED_SHORT, 3, "VEC3", r#", "normalized": true"#)
+    };
+    let white = w.floats(&repeat(&[1.0, 1.0, 1.0]), 3, "VEC3");
+    // Two triangles, red (area 0.5) and blue (area 1.5): the mean is a quarter red, three quarters blue.
+    let pair = w.positions(&[Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(0.0, 0.0, 1.0), Vec3::new(3.0, 0.0, 1.0), Vec3::new(0.0, 1.0, 1.0)]);
+    let varying = w.floats(&[[1.0, 0.0, 0.0].repeat(3), [0.0, 0.0, 1.0].repeat(3)].concat(), 3, "VEC3");
+    let cases = [("Float3", float3), ("Float4", float4), ("Bytes4", bytes4), ("Shorts3", shorts3), ("White", white)];
+    let mut meshes: Vec<String> = cases
+        .iter()
+        .map(|(_, color)| format!(r#"{{"primitives": [{{"attributes": {{"POSITION": {position}, "COLOR_0": {color}}}, "material": 0}}]}}"#))
+        .collect();
+    meshes.push(format!(r#"{{"primitives": [{{"attributes": {{"POSITION": {pair}, "COLOR_0": {varying}}}, "material": 0}}]}}"#));
+    meshes.push(format!(r#"{{"primitives": [{{"attributes": {{"POSITION": {position}}}, "material": 0}}]}}"#));
+    meshes.push(format!(r#"{{"primitives": [{{"attributes": {{"POSITION": {position}, "COLOR_0": {float3}}}}}]}}"#));
+    let names: Vec<&str> = cases.iter().map(|(n, _)| *n).chain(["Varying", "Plain", "DefaultMaterial"]).collect();
+    let nodes: Vec<String> = names.iter().enumerate().map(|(m, name)| format!(r#"{{"name": "{name}", "mesh": {m}}}"#)).collect();
+    let body = format!(
+        r#""nodes": [{}], "meshes": [{}],
+        "materials": [{{"name": "Paint", "pbrMetallicRoughness": {{"baseColorFactor": [0.8, 0.6, 0.4, 1.0]}}}}]"#,
+        nodes.join(", "),
+        meshes.join(", ")
+    );
+    let path = w.write(&temp_dir("vertex-colours"), "colours", &body);
+    let scene = load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+    assert_valid(&scene, "colours.gltf");
+    let base_color = |name: &str| scene.materials[drawn(&scene, name)[0].1].base_color;
+    let paint = Vec4::new(0.8, 0.6, 0.4, 1.0);
+    let expected = [
+        ("Float3", paint * Vec4::new(0.5, 0.25, 1.0, 1.0)),
+        ("Float4", paint * Vec4::new(1.0, 0.5, 0.5, 0.5)),
+        ("Bytes4", paint * Vec4::new(1.0, 128.0 / 255.0, 0.0, 1.0)),
+        ("Shorts3", paint * Vec4::new(1.0, 32768.0 / 65535.0, 0.0, 1.0)),
+        ("Varying", paint * Vec4::new(0.25, 0.0, 0.75, 1.0)),
+        ("White", paint),
+        ("Plain", paint),
+        ("DefaultMaterial", Vec4::new(0.5, 0.25, 1.0, 1.0)),
+    ];
+    for (name, color) in expected {
+        assert!(base_color(name).abs_diff_eq(color, 1e-6), "{name}: base colour {} != {color}", base_color(name));
+    }
+    // White vertex colours draw with the material itself; the same colour shares one copy.
+    assert_eq!(drawn(&scene, "White")[0].1, drawn(&scene, "Plain")[0].1);
+    assert_eq!(scene.materials[drawn(&scene, "Plain")[0].1].name, "Paint");
+    assert_ne!(drawn(&scene, "Float3")[0].1, drawn(&scene, "Plain")[0].1);
+    // The copy keeps the rest of the material.
+    let float3 = &scene.materials[drawn(&scene, "Float3")[0].1];
+    assert!(float3.name.starts_with("Paint"), "{}", float3.name);
+    // The geometry is the same with or without colours.
+    assert_eq!(scene.meshes[drawn(&scene, "Float3")[0].0].positions, TRIANGLE);
+}
+
+/// A vertex colour that is negative, or of a type glTF does not allow, is refused by name.
+#[test]
+fn gltf_bad_vertex_colours_are_refused_by_name() {
+    for (name, component_type, kind, bytes, detail) in [
+        ("negative_colour", FLOAT, "VEC3", f32_bytes(&[0.5, -1.0, 0.0].repeat(3)), "vertex 0 has an invalid colour (0.5, -1, 0, 1)"),
+        ("int_colour", UNSIGNED_BYTE, "VEC3", [255u8, 0, 0, 0].repeat(3), "unsupported element type"),
+        ("scalar_colour", FLOAT, "SCALAR", f32_bytes(&[1.0; 3]), "unsupported element type"),
+    ] {
+        let mut w = GltfWriter::default();
+        let position = w.positions(&TRIANGLE);
+        let stride = (component_type == UNSIGNED_BYTE).then_some(4);
+        let view = w.view(&bytes, stride);
+        let color = w.accessor(Some(view), component_type, 3, kind, "");
+        let body = format!(
+            r#""nodes": [{{"mesh": 0}}], "meshes": [{{"name": "Painted", "primitives": [{{"attributes": {{"POSITION": {position}, "COLOR_0": {color}}}}}]}}]"#
+        );
+        let path = w.write(&temp_dir("bad-colours"), name, &body);
+        let message = load_scene(&path).expect_err(name).to_string();
+        assert!(message.contains(&format!("{name}.gltf")), "{message}");
+        assert!(message.contains("mesh 'Painted' primitive 0 COLOR_0") && message.contains(detail), "{message}");
+    }
 }
 
 /// `extensionsRequired`: every extension the importer implements is accepted; any other refuses

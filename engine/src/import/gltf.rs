@@ -12,9 +12,15 @@
 //!   warning names the material and its slots (once per material); a material that samples a set
 //!   the primitive lacks gets a warning naming the mesh and the attribute, and the primitive no
 //!   texture coordinates (every texel lookup at (0, 0), as for a file without any);
+//! - vertex colours (`COLOR_0`: float, or normalized 8- or 16-bit, RGB or RGBA): [`Mesh`] has no
+//!   colour channel, so they become a factor of the material's base colour. A primitive whose
+//!   vertices share one colour draws with a copy of its material whose base colour factor is
+//!   multiplied by it (exact); one whose colours vary gets their mean over its surface (each
+//!   triangle's area times its corners' mean) instead, with a warning naming the mesh;
 //! - materials: base colour, metallic-roughness, normal and emissive factors and textures,
 //!   `alphaMode`, `KHR_texture_transform`, `KHR_materials_emissive_strength`,
-//!   `KHR_materials_specular`'s factor; one per glTF material plus a white default. The engine has no occlusion slot: `occlusionTexture` is ignored,
+//!   `KHR_materials_specular`'s factor; one per glTF material plus a white default (and one per
+//!   vertex colour that tints it). The engine has no occlusion slot: `occlusionTexture` is ignored,
 //!   and so is the set it samples;
 //! - perspective cameras; `KHR_lights_punctual` lights.
 //!
@@ -49,6 +55,9 @@ use crate::scene::{
 /// required extension refuses the file.
 const SUPPORTED_EXTENSIONS: &[&str] =
     &["KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_materials_specular", "KHR_texture_transform"];
+
+/// Vertex colours closer than this (per channel) to the first vertex's count as one colour.
+const SAME_COLOR: f32 = 1e-6;
 
 /// Imports a `.gltf` or `.glb` file whose content is `bytes`.
 pub(super) fn load(file: &Path, bytes: &[u8]) -> Result<SceneDescription, ImportError> {
@@ -243,10 +252,12 @@ struct Importer<'a> {
     /// Buffer contents, each cut to its declared `byteLength`.
     buffers: Vec<Cow<'a, [u8]>>,
     scene: SceneDescription,
-    /// (glTF mesh, primitive) → index in `scene.meshes`.
-    meshes: HashMap<(usize, usize), usize>,
-    /// glTF material (`None`: the default material) → index in `scene.materials`.
-    materials: HashMap<Option<usize>, usize>,
+    /// (glTF mesh, primitive) → index in `scene.meshes`, and the factor its `COLOR_0` puts on its
+    /// material's base colour (`None`: no vertex colours, or white ones).
+    meshes: HashMap<(usize, usize), (usize, Option<Vec4>)>,
+    /// (glTF material (`None`: the default material), vertex colour factor as bits) → index in
+    /// `scene.materials`.
+    materials: HashMap<(Option<usize>, Option<[u32; 4]>), usize>,
     /// glTF image → index in `scene.images`.
     images: HashMap<usize, usize>,
     /// glTF materials whose texture slots sample different sets, already warned about.
@@ -623,8 +634,8 @@ impl<'a> Importer<'a> {
         if let Some(mesh) = node.mesh() {
             let mut instances = Vec::new();
             for primitive in mesh.primitives() {
-                let mesh_index = self.primitive_mesh(&mesh, &primitive)?;
-                let material_index = self.material(primitive.material())?;
+                let (mesh_index, tint) = self.primitive_mesh(&mesh, &primitive)?;
+                let material_index = self.material(primitive.material(), tint)?;
                 instances.push((mesh_index, material_index));
             }
             content.push(NodeContent::Meshes(instances));
@@ -721,16 +732,16 @@ impl<'a> Importer<'a> {
         Ok(Some(content))
     }
 
-    /// The scene mesh of a glTF primitive, imported on first use.
-    fn primitive_mesh(&mut self, mesh: &::gltf::Mesh, primitive: &::gltf::Primitive) -> Result<usize, ImportError> {
+    /// The scene mesh of a glTF primitive, imported on first use, and its vertex colour factor.
+    fn primitive_mesh(&mut self, mesh: &::gltf::Mesh, primitive: &::gltf::Primitive) -> Result<(usize, Option<Vec4>), ImportError> {
         let key = (mesh.index(), primitive.index());
-        if let Some(&index) = self.meshes.get(&key) {
-            return Ok(index);
+        if let Some(&found) = self.meshes.get(&key) {
+            return Ok(found);
         }
-        let imported = self.import_primitive(mesh, primitive)?;
+        let (imported, tint) = self.import_primitive(mesh, primitive)?;
         let index = self.scene.add_mesh(imported);
-        self.meshes.insert(key, index);
-        Ok(index)
+        self.meshes.insert(key, (index, tint));
+        Ok((index, tint))
     }
 
     /// The texture coordinate set a primitive's `uvs` come from (see the module docs): the one
@@ -766,7 +777,7 @@ impl<'a> Importer<'a> {
         Some(0)
     }
 
-    fn import_primitive(&mut self, mesh: &::gltf::Mesh, primitive: &::gltf::Primitive) -> Result<Mesh, ImportError> {
+    fn import_primitive(&mut self, mesh: &::gltf::Mesh, primitive: &::gltf::Primitive) -> Result<(Mesh, Option<Vec4>), ImportError> {
         let mesh_name = match mesh.name() {
             Some(name) => format!("mesh '{name}'"),
             None => format!("mesh {}", mesh.index()),
@@ -900,6 +911,14 @@ impl<'a> Importer<'a> {
         // Strips and fans may have grown when converted to a triangle list.
         self.budget.charge(self.file, &what, 0, indices.len().saturating_sub(index_count))?;
 
+        let tint = match primitive.get(&Semantic::Colors(0)) {
+            Some(accessor) if accessor.count() == n => {
+                self.vertex_color_factor(&accessor, &format!("{what} COLOR_0"), &what, &positions, &indices)?
+            }
+            Some(accessor) => return Err(count_mismatch(&accessor, format!("{what} COLOR_0"))),
+            None => None,
+        };
+
         let name = match (mesh.name(), mesh.primitives().len()) {
             (Some(name), 1) => name.to_string(),
             (Some(name), _) => format!("{name}#{}", primitive.index()),
@@ -934,18 +953,99 @@ impl<'a> Importer<'a> {
             }
         }
         super::validate_mesh(&out, self.file, &what)?;
-        Ok(out)
+        Ok((out, tint))
     }
 
-    /// The scene material of a glTF material (or of the default material), imported on first use.
-    fn material(&mut self, material: ::gltf::Material) -> Result<usize, ImportError> {
-        let key = material.index();
+    /// The factor a primitive's `COLOR_0` puts on its material's base colour (see the module docs):
+    /// the vertices' one colour, or their mean over the triangles' area (with a warning) when they
+    /// differ; `None` when it is white. Reads the accessor once; costs a pass over the vertices and
+    /// one over the triangles.
+    fn vertex_color_factor(
+        &self,
+        accessor: &::gltf::Accessor,
+        context: &str,
+        what: &str,
+        positions: &[Vec3],
+        indices: &[u32],
+    ) -> Result<Option<Vec4>, ImportError> {
+        let dimensions = if accessor.dimensions() == Dimensions::Vec3 { Dimensions::Vec3 } else { Dimensions::Vec4 };
+        self.expect_format(
+            accessor,
+            context,
+            dimensions,
+            &[(DataType::F32, false), (DataType::U8, true), (DataType::U16, true)],
+            "VEC3/VEC4 FLOAT, or normalized VEC3/VEC4 UNSIGNED_BYTE/UNSIGNED_SHORT",
+        )?;
+        let (data_type, channels) = (accessor.data_type(), if dimensions == Dimensions::Vec3 { 3 } else { 4 });
+        let colors = self.read_accessor(accessor, context, |b| {
+            let channel = |c: usize| match data_type {
+                DataType::U8 => b.get(c).copied().unwrap_or(0) as f32 / 255.0,
+                DataType::U16 => read_u16(b, c) as f32 / 65535.0,
+                _ => read_f32(b, c),
+            };
+            Vec4::new(channel(0), channel(1), channel(2), if channels == 4 { channel(3) } else { 1.0 })
+        })?;
+        if let Some((i, c)) = colors.iter().enumerate().find(|(_, c)| !(c.is_finite() && c.min_element() >= 0.0)) {
+            return Err(ImportError::Accessor {
+                file: self.file.to_path_buf(),
+                accessor: accessor.index(),
+                context: context.to_string(),
+                message: format!("vertex {i} has an invalid colour ({}, {}, {}, {}) (must be finite and not negative)", c.x, c.y, c.z, c.w),
+            });
+        }
+        let Some(&first) = colors.first() else { return Ok(None) };
+        let factor = if colors.iter().all(|c| c.abs_diff_eq(first, SAME_COLOR)) {
+            first
+        } else {
+            let (mut sum, mut area) = (Vec4::ZERO, 0.0f32);
+            for triangle in indices.chunks_exact(3) {
+                let [a, b, c] = [triangle[0], triangle[1], triangle[2]].map(|i| i as usize);
+                let (Some(pa), Some(pb), Some(pc)) = (positions.get(a), positions.get(b), positions.get(c)) else { continue };
+                let weight = 0.5 * (*pb - *pa).cross(*pc - *pa).length();
+                let corners = colors.get(a).zip(colors.get(b)).zip(colors.get(c)).map(|((a, b), c)| (*a + *b + *c) / 3.0);
+                if let Some(mean) = corners
+                    && weight.is_finite()
+                {
+                    sum += weight * mean;
+                    area += weight;
+                }
+            }
+            // Without any area (degenerate triangles), every vertex counts the same.
+            let mean = if area > 0.0 && (sum / area).is_finite() {
+                sum / area
+            } else {
+                colors.iter().copied().sum::<Vec4>() / colors.len() as f32
+            };
+            log::warn!(
+                "{}: {what} has per-vertex colours (COLOR_0), which the engine cannot draw; their mean ({:.3}, {:.3}, {:.3}, {:.3}) over the surface is multiplied into the material's base colour factor",
+                self.file.display(),
+                mean.x,
+                mean.y,
+                mean.z,
+                mean.w
+            );
+            mean
+        };
+        Ok((!factor.abs_diff_eq(Vec4::ONE, SAME_COLOR)).then_some(factor))
+    }
+
+    /// The scene material of a glTF material (or of the default material), imported on first use;
+    /// with `tint`, a copy whose base colour factor is multiplied by it (vertex colours).
+    fn material(&mut self, material: ::gltf::Material, tint: Option<Vec4>) -> Result<usize, ImportError> {
+        let key = (material.index(), tint.map(|t| t.to_array().map(f32::to_bits)));
         if let Some(&index) = self.materials.get(&key) {
             return Ok(index);
         }
-        let imported = match key {
-            None => Material { name: "default".into(), ..Material::default() },
-            Some(index) => self.import_material(&material, index)?,
+        let imported = match (key.0, tint) {
+            (_, Some(tint)) => {
+                let base = self.material(material.clone(), None)?;
+                let mut tinted = self.scene.materials.get(base).cloned().unwrap_or_default();
+                tinted.name = format!("{} × COLOR_0 ({:.3}, {:.3}, {:.3}, {:.3})", tinted.name, tint.x, tint.y, tint.z, tint.w);
+                tinted.base_color *= tint;
+                tinted
+            }
+            (None, None) => Material { name: "default".into(), ..Material::default() },
+            (Some(index), None) => self.import_material(&material, index)?,
         };
         let index = self.scene.add_material(imported);
         self.materials.insert(key, index);
@@ -1193,6 +1293,42 @@ mod tests {
                 && message.contains("material 0 'Second' normalTexture"),
             "{message}"
         );
+    }
+
+    #[test]
+    fn varying_vertex_colours_are_averaged_with_a_warning_and_one_colour_is_not() {
+        let (mut data, accessors) = triangle_with_two_uv_sets();
+        // COLOR_0 at 84: red, green, blue (varying); at 120: grey three times (one colour).
+        for v in [1.0f32, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.5, 0.5, 0.5, 0.5, 0.5, 0.5, 0.5, 0.5, 0.5] {
+            data.extend(v.to_le_bytes());
+        }
+        let accessors = accessors
+            .replace(
+                r#"{"buffer": 0, "byteOffset": 60, "byteLength": 24}]"#,
+                r#"{"buffer": 0, "byteOffset": 60, "byteLength": 24}, {"buffer": 0, "byteOffset": 84, "byteLength": 72}]"#,
+            )
+            .replace(
+                r#"{"bufferView": 2, "componentType": 5126, "count": 3, "type": "VEC2"}]"#,
+                r#"{"bufferView": 2, "componentType": 5126, "count": 3, "type": "VEC2"},
+                {"bufferView": 3, "componentType": 5126, "count": 3, "type": "VEC3"},
+                {"bufferView": 3, "byteOffset": 36, "componentType": 5126, "count": 3, "type": "VEC3"}]"#,
+            );
+        let body = format!(
+            r#"{accessors}, "nodes": [{{"mesh": 0}}, {{"mesh": 1}}],
+            "meshes": [{{"name": "Rainbow", "primitives": [{{"attributes": {{"POSITION": 0, "COLOR_0": 3}}}}]}},
+                {{"name": "Grey", "primitives": [{{"attributes": {{"POSITION": 0, "COLOR_0": 4}}}}]}}]"#
+        );
+        let (scene, logged) = warnings(|| load(Path::new("colours.gltf"), gltf_with(&data, &body).as_bytes()));
+        let scene = scene.unwrap();
+        let color_of = |node: usize| match &scene.nodes[node].content[..] {
+            [NodeContent::Meshes(m)] => scene.materials[m[0].1].base_color,
+            other => panic!("{other:?}"),
+        };
+        assert!(color_of(0).abs_diff_eq(Vec4::new(1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0, 1.0), 1e-6), "{}", color_of(0));
+        assert!(color_of(1).abs_diff_eq(Vec4::new(0.5, 0.5, 0.5, 1.0), 1e-6), "{}", color_of(1));
+        assert_eq!(logged.len(), 1, "{logged:?}");
+        assert!(logged[0].starts_with("colours.gltf: mesh 'Rainbow' primitive 0 has per-vertex colours (COLOR_0)"), "{}", logged[0]);
+        assert!(logged[0].contains("(0.333, 0.333, 0.333, 1.000)"), "{}", logged[0]);
     }
 
     #[test]
