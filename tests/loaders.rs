@@ -668,6 +668,7 @@ impl GltfWriter {
 const FLOAT: u32 = 5126;
 const UNSIGNED_BYTE: u32 = 5121;
 const UNSIGNED_SHORT: u32 = 5123;
+const UNSIGNED_INT: u32 = 5125;
 
 fn f32_bytes(values: &[f32]) -> Vec<u8> {
     values.iter().flat_map(|v| v.to_le_bytes()).collect()
@@ -775,6 +776,108 @@ fn gltf_uvs_come_from_the_set_the_textures_sample() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// Checks computed normals: every one is finite and of unit length, and
+/// the normals at a triangle's corners agree with the triangle's winding (the mean of their dot
+/// products with its unit face normal is above `min_mean`). Degenerate triangles are left out.
+fn assert_normals_follow_the_winding(scene: &SceneDescription, file: &str, min_mean: f32) {
+    let (mut sum, mut corners) = (0.0f64, 0usize);
+    for mesh in &scene.meshes {
+        for n in &mesh.normals {
+            assert!(n.is_finite() && (n.length() - 1.0).abs() < 1e-4, "{file} {}: normal {n}", mesh.name);
+        }
+        for tri in mesh.indices.chunks_exact(3) {
+            let [a, b, c] = [tri[0], tri[1], tri[2]].map(|i| mesh.positions[i as usize]);
+            let Some(face) = (b - a).cross(c - a).try_normalize() else { continue };
+            for &i in tri {
+                sum += f64::from(mesh.normals[i as usize].dot(face));
+                corners += 1;
+            }
+        }
+    }
+    assert!(corners > 0, "{file}: no triangles");
+    let mean = sum / corners as f64;
+    assert!(mean > f64::from(min_mean), "{file}: mean dot of vertex and face normals {mean}");
+}
+
+/// Files without normals get them computed: Khronos' Fox (centimetre scale, not indexed) and
+/// SimpleSkin (an indexed flat strip).
+#[test]
+fn files_without_normals_get_unit_normals_that_follow_the_winding() {
+    if let Some(path) = testkit::shared("fox_normals", "scenes/fox/Fox.glb") {
+        let scene = load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+        assert_valid(&scene, "Fox.glb");
+        assert_eq!(scene.triangle_count(), 576);
+        // Centimetres, as the file is: the fox is about 79 units tall, not rescaled.
+        let (lo, hi) = scene.meshes[0].bounds().expect("geometry");
+        assert!((hi.y - lo.y - 79.03).abs() < 0.1, "height {}", hi.y - lo.y);
+        // Not indexed: each corner's normal is its triangle's own.
+        assert_normals_follow_the_winding(&scene, "Fox.glb", 0.999);
+        let texture = scene.materials[material(&scene, "fox_material")].base_color_texture.expect("base colour texture");
+        assert!(scene.images[texture.image.index() as usize].width > 0);
+        assert_eq!(scene.meshes[0].uvs.len(), scene.meshes[0].positions.len());
+    }
+    if let Some(path) = testkit::shared("simple_skin_normals", "scenes/simple-skin/SimpleSkin.gltf") {
+        let scene = load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+        assert_valid(&scene, "SimpleSkin.gltf");
+        assert_eq!(scene.triangle_count(), 8);
+        assert_normals_follow_the_winding(&scene, "SimpleSkin.gltf", 0.9);
+    }
+}
+
+/// Khronos' FlightHelmet: external PNG textures (base colour, normal, occlusion-roughness-metal;
+/// 512² but one) on six materials, the file's tangents for its normal maps, blended lenses.
+#[test]
+fn flight_helmet_resolves_its_external_png_textures() {
+    let Some(path) = testkit::shared("flight_helmet", "scenes/flight-helmet/FlightHelmet.gltf") else { return };
+    let scene = load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+    assert_valid(&scene, "FlightHelmet.gltf");
+    assert_eq!(scene.triangle_count(), 94_722);
+    // Six materials (the hose and the rubber-wood parts share one texture set), five texture sets.
+    assert_eq!(scene.materials.len(), 6);
+    assert_eq!(scene.images.len(), 15, "every PNG decoded once");
+    for image in &scene.images {
+        // Every texture is 512², but the lenses' flat normal map, which is 32².
+        let side = if image.name == "FlightHelmet_Materials_LensesMat_Normal.png" { 32 } else { 512 };
+        assert_eq!((image.width, image.height), (side, side), "{}", image.name);
+        assert_eq!(image.rgba8.len(), (side * side * 4) as usize, "{}", image.name);
+    }
+    let image_name = |t: Option<engine::scene::TextureRef>| scene.images[t.expect("texture").image.index() as usize].name.clone();
+    for m in &scene.materials {
+        let set = match m.name.as_str() {
+            "HoseMat" => "RubberWoodMat",
+            name => name,
+        };
+        assert_eq!(image_name(m.base_color_texture), format!("FlightHelmet_Materials_{set}_BaseColor.png"), "{}", m.name);
+        assert_eq!(image_name(m.normal_texture), format!("FlightHelmet_Materials_{set}_Normal.png"), "{}", m.name);
+        assert_eq!(image_name(m.metallic_roughness_texture), format!("FlightHelmet_Materials_{set}_OcclusionRoughMetal.png"), "{}", m.name);
+        let expected = if m.name == "LensesMat" { AlphaMode::Blend } else { AlphaMode::Opaque };
+        assert_eq!(m.alpha_mode, expected, "{}", m.name);
+    }
+    for (i, node) in scene.nodes.iter().enumerate() {
+        for (mesh, _) in mesh_instances(&scene, i) {
+            let mesh = &scene.meshes[mesh];
+            assert_eq!(mesh.tangents.len(), mesh.positions.len(), "{}: tangents for its normal map", node.name);
+            assert_eq!(mesh.uvs.len(), mesh.positions.len(), "{}", node.name);
+        }
+    }
+}
+
+/// Šibenik's MTL: every `map_Kd` resolves to its PNG (three, each decoded once); its `bump` and
+/// `map_bump` statements are ignored without an error (no normal maps, the bump PNGs not decoded).
+#[test]
+fn sibenik_mtl_textures_resolve_and_bump_maps_are_ignored() {
+    let Some(path) = testkit::shared("sibenik_mtl", "scenes/sibenik/sibenik.obj") else { return };
+    let scene = load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+    let mut names: Vec<&str> = scene.images.iter().map(|i| i.name.as_str()).collect();
+    names.sort_unstable();
+    assert_eq!(names, ["KAMEN-stup.png", "kamen.png", "mramor6x6.png"]);
+    let textured = ["kamen_zid", "stupovi", "pod", "pod_rub", "kamen_zid_prozor", "zid_vani", "kamen_zid_parapet", "rozeta"];
+    for m in &scene.materials {
+        assert_eq!(m.base_color_texture.is_some(), textured.contains(&m.name.as_str()), "{}", m.name);
+        assert!(m.normal_texture.is_none(), "{}: bump maps are not imported", m.name);
+    }
+}
+
 /// Vertex colours (COLOR_0) become a factor of the material's base colour: one colour exactly,
 /// varying ones by their mean over the surface; white ones leave the material as it is.
 #[test]
@@ -864,6 +967,117 @@ fn gltf_bad_vertex_colours_are_refused_by_name() {
         assert!(message.contains(&format!("{name}.gltf")), "{message}");
         assert!(message.contains("mesh 'Painted' primitive 0 COLOR_0") && message.contains(detail), "{message}");
     }
+}
+
+/// Index buffers of 8, 16 and 32 bits give the same triangles.
+#[test]
+fn gltf_index_buffers_of_8_16_and_32_bits_give_the_same_triangles() {
+    let mut w = GltfWriter::default();
+    let position = w.positions(&[Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(1.0, 1.0, 0.0)]);
+    let quad: [u32; 6] = [0, 1, 2, 2, 1, 3];
+    let bytes: Vec<u8> = quad.iter().map(|&i| i as u8).collect();
+    let shorts: Vec<u8> = quad.iter().flat_map(|&i| (i as u16).to_le_bytes()).collect();
+    let ints: Vec<u8> = quad.iter().flat_map(|i| i.to_le_bytes()).collect();
+    let mut meshes = Vec::new();
+    for (component_type, data) in [(UNSIGNED_BYTE, bytes), (UNSIGNED_SHORT, shorts), (UNSIGNED_INT, ints)] {
+        let view = w.view(&data, None);
+        let indices = w.accessor(Some(view), component_type, 6, "SCALAR", "");
+        meshes.push(format!(r#"{{"primitives": [{{"attributes": {{"POSITION": {position}}}, "indices": {indices}}}]}}"#));
+    }
+    let body = format!(
+        r#""nodes": [{{"name": "U8", "mesh": 0}}, {{"name": "U16", "mesh": 1}}, {{"name": "U32", "mesh": 2}}], "meshes": [{}]"#,
+        meshes.join(", ")
+    );
+    let path = w.write(&temp_dir("indices"), "indices", &body);
+    let scene = load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+    assert_valid(&scene, "indices.gltf");
+    for name in ["U8", "U16", "U32"] {
+        let mesh = &scene.meshes[drawn(&scene, name)[0].0];
+        assert_eq!(mesh.indices, quad, "{name}");
+        assert!(mesh.normals.iter().all(|n| n.abs_diff_eq(Vec3::Z, 1e-6)), "{name}");
+    }
+}
+
+/// A sparse accessor without a buffer view: zeros, then the substitutions.
+#[test]
+fn gltf_sparse_positions_without_a_buffer_view() {
+    let mut w = GltfWriter::default();
+    let indices = w.view(&[1u16, 2].iter().flat_map(|i| i.to_le_bytes()).collect::<Vec<_>>(), None);
+    let values = w.view(&f32_bytes(&[1.0, 0.0, 0.0, 0.0, 1.0, 0.0]), None);
+    let sparse = format!(
+        r#", "min": [0, 0, 0], "max": [1, 1, 0],
+        "sparse": {{"count": 2, "indices": {{"bufferView": {indices}, "componentType": {UNSIGNED_SHORT}}}, "values": {{"bufferView": {values}}}}}"#
+    );
+    let position = w.accessor(None, FLOAT, 3, "VEC3", &sparse);
+    let body = format!(r#""nodes": [{{"mesh": 0}}], "meshes": [{{"primitives": [{{"attributes": {{"POSITION": {position}}}}}]}}]"#);
+    let path = w.write(&temp_dir("sparse"), "sparse", &body);
+    let scene = load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+    assert_valid(&scene, "sparse.gltf");
+    assert_eq!(scene.meshes[0].positions, TRIANGLE);
+    assert_eq!(scene.meshes[0].indices, [0, 1, 2]);
+    assert!(scene.meshes[0].normals.iter().all(|n| n.abs_diff_eq(Vec3::Z, 1e-6)));
+}
+
+/// KHR_texture_transform is stored on every texture slot; KHR_materials_emissive_strength scales
+/// the emission, and a negative or infinite strength is refused naming the file, the material and
+/// the value.
+#[test]
+fn gltf_texture_transform_and_emissive_strength() {
+    let dir = temp_dir("transform-strength");
+    std::fs::create_dir_all(&dir).unwrap();
+    image::RgbaImage::from_pixel(2, 2, image::Rgba([255, 255, 255, 255])).save(dir.join("white.png")).unwrap();
+    let mut w = GltfWriter::default();
+    let position = w.positions(&TRIANGLE);
+    let uv = w.floats(&[0.0, 0.0, 1.0, 0.0, 0.0, 1.0], 2, "VEC2");
+    let material = |strength: &str| {
+        format!(
+            r#"{{"name": "Lamp",
+            "pbrMetallicRoughness": {{
+                "baseColorTexture": {{"index": 0, "extensions": {{"KHR_texture_transform": {{"offset": [0.5, -0.25], "rotation": 1.5, "scale": [2, 4]}}}}}},
+                "metallicRoughnessTexture": {{"index": 0}}}},
+            "normalTexture": {{"index": 0, "extensions": {{"KHR_texture_transform": {{"offset": [0.1, 0.2], "rotation": -0.5}}}}}},
+            "emissiveTexture": {{"index": 0, "extensions": {{"KHR_texture_transform": {{"scale": [0.5, 0.25]}}}}}},
+            "emissiveFactor": [1, 0.5, 0],
+            "extensions": {{"KHR_materials_emissive_strength": {{"emissiveStrength": {strength}}}}}}}"#
+        )
+    };
+    let body = |strength: &str| {
+        format!(
+            r#""extensionsUsed": ["KHR_texture_transform", "KHR_materials_emissive_strength"],
+            "nodes": [{{"mesh": 0}}], "meshes": [{{"primitives": [{{"attributes": {{"POSITION": {position}, "TEXCOORD_0": {uv}}}, "material": 0}}]}}],
+            "materials": [{}], "textures": [{{"source": 0}}], "images": [{{"uri": "white.png"}}]"#,
+            material(strength)
+        )
+    };
+    let path = w.write(&dir, "lamp", &body("7.5"));
+    let scene = load_scene(&path).unwrap_or_else(|e| panic!("{e}"));
+    assert_valid(&scene, "lamp.gltf");
+    let lamp = &scene.materials[self::material(&scene, "Lamp")];
+    let transform = |t: Option<engine::scene::TextureRef>| t.expect("texture").transform;
+    assert_eq!(
+        transform(lamp.base_color_texture),
+        UvTransform { offset: Vec2::new(0.5, -0.25), rotation: 1.5, scale: Vec2::new(2.0, 4.0) }
+    );
+    assert_eq!(transform(lamp.metallic_roughness_texture), UvTransform::default(), "no extension: the identity");
+    assert_eq!(transform(lamp.normal_texture), UvTransform { offset: Vec2::new(0.1, 0.2), rotation: -0.5, scale: Vec2::ONE });
+    assert_eq!(transform(lamp.emissive_texture), UvTransform { offset: Vec2::ZERO, rotation: 0.0, scale: Vec2::new(0.5, 0.25) });
+    assert_eq!((lamp.emissive, lamp.emissive_strength), (Vec3::new(1.0, 0.5, 0.0), 7.5));
+    assert!(lamp.is_emissive());
+    // The radiance the renderer emits: the factor times the strength.
+    assert_eq!(lamp.emissive * lamp.emissive_strength, Vec3::new(7.5, 3.75, 0.0));
+
+    // JSON has no NaN; 1e39 overflows f32 to infinity.
+    for (strength, value) in [("-2", "-2"), ("1e39", "inf")] {
+        let path = w.write(&dir, "bad_lamp", &body(strength));
+        let message = load_scene(&path).expect_err(strength).to_string();
+        assert!(
+            message.contains("bad_lamp.gltf")
+                && message.contains("material 0 'Lamp'")
+                && message.contains(&format!("emissiveStrength {value}")),
+            "{message}"
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// `extensionsRequired`: every extension the importer implements is accepted; any other refuses

@@ -1080,7 +1080,7 @@ impl<'a> Importer<'a> {
         let emissive_texture = material.emissive_texture().map(|info| self.texture(&info, &what, "emissiveTexture")).transpose()?;
         let emissive_strength = material.emissive_strength().unwrap_or(1.0);
         if !(emissive_strength.is_finite() && emissive_strength >= 0.0) {
-            return Err(self.invalid(&what, format!("invalid emissiveStrength {emissive_strength}")));
+            return Err(self.invalid(&what, format!("invalid emissiveStrength {emissive_strength} (must be finite and not negative)")));
         }
         let unit = |field: &str, v: f32| -> Result<f32, ImportError> {
             if v.is_finite() && (0.0..=1.0).contains(&v) {
