@@ -5,7 +5,7 @@ use engine::scene::SceneDescription;
 use lab::eval::SceneFacts;
 use lab::eval::time_series::{SceneChange, find_node};
 
-use crate::LEVEL_SCENE;
+use super::LEVEL_SCENE;
 use crate::play::level;
 
 /// The facts of the scene named `name`: [`SceneFacts::named`] (for the demo level, its grid and
