@@ -101,6 +101,7 @@ pub mod frame;
 pub mod gpu;
 pub mod inspect;
 pub mod pipelines;
+pub mod quality;
 pub mod resources;
 pub mod sync;
 pub mod volume;
@@ -117,6 +118,7 @@ pub use fit::{DdgiLighting, MAX_FITTED_SPACING};
 pub use frame::{DdgiFrame, PROBE_UPDATE_PASSES, VolumeHandles, is_probe_update_pass, render_ddgi_frame};
 pub use inspect::{DdgiProbeStateCounts, DdgiUpdateControl};
 pub use pipelines::DdgiPipelines;
+pub use quality::DdgiQuality;
 pub use resources::{DdgiGpuVolumes, VolumeGpu};
 pub use sync::{rays_counter, rays_traced, volume_suffix};
 pub use volume::{
@@ -130,7 +132,7 @@ pub use volume::{
 pub mod prelude {
     pub use crate::{
         DdgiAdaptive, DdgiCascades, DdgiContactOcclusion, DdgiLighting, DdgiOutput, DdgiPlugin, DdgiProbe, DdgiProbePin, DdgiProbeState,
-        DdgiSettingsError, DdgiSkyLight, DdgiVolume, use_ddgi, use_ddgi_cascades, use_ddgi_lighting,
+        DdgiQuality, DdgiSettingsError, DdgiSkyLight, DdgiVolume, use_ddgi, use_ddgi_cascades, use_ddgi_lighting,
     };
 }
 
