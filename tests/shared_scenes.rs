@@ -21,13 +21,19 @@ fn sibenik(test: &str) -> Option<SceneDescription> {
     shared_scene(test, "sibenik")
 }
 
+/// Rec. 709 luminance weights of linear RGB.
+const LUMA: Vec3 = Vec3::new(0.2126, 0.7152, 0.0722);
+
+fn pixels(hdr: &[f32]) -> impl Iterator<Item = Vec3> + '_ {
+    hdr.chunks_exact(4).map(|p| Vec3::new(p[0], p[1], p[2]))
+}
+
 fn rgb_mean(hdr: &[f32]) -> Vec3 {
-    hdr.chunks_exact(4).map(|p| Vec3::new(p[0], p[1], p[2])).sum::<Vec3>() / (hdr.len() / 4) as f32
+    pixels(hdr).sum::<Vec3>() / (hdr.len() / 4) as f32
 }
 
 fn mean_luminance(hdr: &[f32]) -> f32 {
-    let sum: f32 = hdr.chunks_exact(4).map(|p| 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]).sum();
-    sum / (hdr.len() / 4) as f32
+    rgb_mean(hdr).dot(LUMA)
 }
 
 #[test]
@@ -64,8 +70,7 @@ fn sibenik_renders_lit_directly_and_brighter_with_ddgi() {
     assert!(direct.hdr.iter().all(|v| v.is_finite()));
     let direct_mean = mean_luminance(&direct.hdr);
     // The sun's patches and the nave light's pool: some pixels far brighter than the typical one.
-    let mut lum: Vec<f32> =
-        direct.hdr.chunks_exact(4).map(|p| Vec3::new(p[0], p[1], p[2]).dot(Vec3::new(0.2126, 0.7152, 0.0722))).collect();
+    let mut lum: Vec<f32> = pixels(&direct.hdr).map(|p| p.dot(LUMA)).collect();
     lum.sort_by(f32::total_cmp);
     let (median, top) = (lum[lum.len() / 2], lum[lum.len() * 99 / 100]);
     assert!(direct_mean > 1e-3 && top > 4.0 * median.max(1e-4), "direct: mean {direct_mean}, median {median}, 99th percentile {top}");

@@ -68,7 +68,7 @@ enum Command {
 fn main() -> ExitCode {
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
     let cli = Cli::parse();
-    let _ = cli::LIGHTING.set(cli::Lighting { sun: cli.sun, sky: cli.sky, opaque: cli.opaque });
+    let _ = cli::SCENE_OVERRIDES.set(cli::SceneOverrides { sun: cli.sun, sky: cli.sky, opaque: cli.opaque });
     let trace = match cli.trace.as_deref().map(engine::trace::ChromeTrace::start).transpose() {
         Ok(trace) => trace,
         Err(e) => {

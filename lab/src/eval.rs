@@ -829,17 +829,15 @@ fn plot_error_vs_time(path: &Path, rows: &[EvalRow]) -> Result<String, String> {
 fn write_report(out: &Path, name: &str, adapter: &str, options: &EvalOptions, rows: &[EvalRow], plot_note: &str) -> Result<(), String> {
     let EvalOptions { width, height, reference_spp, timing_size, .. } = *options;
     let ms = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:.3}"));
+    // A scene made by others names its authors wherever it is shown.
+    let credit = scenes::files::find(name).map_or(String::new(), |file| format!("The scene: {}.\n\n", file.credit));
     let mut md = format!(
-        "# Evaluation: {name}\n\n{width}×{height} on {adapter}; reference: the path tracer at {reference_spp} paths per pixel (another seed).\n\
+        "# Evaluation: {name}\n\n{credit}{width}×{height} on {adapter}; reference: the path tracer at {reference_spp} paths per pixel (another seed).\n\
          FLIP on sRGB tonemapped at exposure 1; RMSE and relative MSE on linear radiance.\n\
          Each strip `<configuration>.png`: direct only | the configuration | the reference | FLIP map (magma).\n\n\
          | configuration | frames | GPU ms per frame | GPU ms total | DDGI rays per frame | mean FLIP | RMSE | relative MSE | path tracer at equal FLIP | GPU-time ratio | GPU-time ratio at {timing} |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n",
         timing = timing_size.map_or("the timing size (not timed)".into(), |[w, h]| format!("{w}×{h}"))
     );
-    if let Some(file) = scenes::files::find(name) {
-        // A scene made by others names its authors wherever it is shown.
-        md = md.replacen("\n\n", &format!("\n\nThe scene: {}.\n\n", file.credit), 1);
-    }
     for r in rows {
         md += &format!(
             "| {} | {} | {} | {} | {} | {:.4} | {:.4} | {:.5} | {} | {} | {} |\n",

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use engine::gpu::{GpuContext, GpuOptions};
 use lab::eval;
 
-use super::{CameraArgs, Lighting, eval_scenes, load, parse_dvec3};
+use super::{CameraArgs, SceneOverrides, eval_scenes, load, parse_dvec3};
 
 /// `eval`'s examples (its long help).
 pub const EXAMPLES: &str = "Examples:
@@ -202,8 +202,11 @@ pub fn run(args: EvalArgs) -> Result<(), String> {
         hit_occlusion_reach: args.hit_occlusion_reach,
     };
     if args.walk {
-        let series =
-            eval::walk_series::WalkSeries { start: args.walk_from, speed: args.walk_speed, sky: Lighting::get().sky.unwrap_or_default() };
+        let series = eval::walk_series::WalkSeries {
+            start: args.walk_from,
+            speed: args.walk_speed,
+            sky: SceneOverrides::get().sky.unwrap_or_default(),
+        };
         eval::walk_series::run(&gpu, &eval_scenes::scene_facts(scene), description, &options, args.frames, series)?;
     } else if args.time_series {
         eval::time_series::run(&gpu, &eval_scenes::scene_facts(scene), description, &options, args.frames)?;

@@ -1,6 +1,6 @@
 //! The command line's subcommands, a module each with its arguments beside the code that runs
 //! them, and what they share: [`load`] (with the global `--sun`, `--sky` and `--opaque` of
-//! [`Lighting`]), the replacement camera and the parsers of the flags' values.
+//! [`SceneOverrides`]), the replacement camera and the parsers of the flags' values.
 
 use engine::scene::{Camera, NodeContent, SceneDescription, Transform};
 
@@ -15,21 +15,21 @@ mod tests;
 /// The command line's `--sun`, `--sky` and `--opaque`, set once in `main` and applied to every
 /// scene [`load`] gives (global flags, so every subcommand takes them).
 #[derive(Clone, Copy, Debug, Default)]
-pub struct Lighting {
+pub struct SceneOverrides {
     pub sun: Option<(glam::Vec3, f32)>,
     pub sky: Option<glam::Vec3>,
     pub opaque: bool,
 }
 
-pub static LIGHTING: std::sync::OnceLock<Lighting> = std::sync::OnceLock::new();
+pub static SCENE_OVERRIDES: std::sync::OnceLock<SceneOverrides> = std::sync::OnceLock::new();
 
-impl Lighting {
-    pub fn get() -> Lighting {
-        LIGHTING.get().copied().unwrap_or_default()
+impl SceneOverrides {
+    pub fn get() -> SceneOverrides {
+        SCENE_OVERRIDES.get().copied().unwrap_or_default()
     }
 
-    /// Makes every material opaque if `--opaque`, puts the `--sun` and `--sky` into `scene`, then lights it with the default daylight if it
-    /// has no light at all, saying so on standard error.
+    /// Makes every material opaque if `--opaque`, puts the `--sun` and `--sky` into `scene`, then
+    /// lights it with the default daylight if it has no light at all, saying so on standard error.
     pub fn apply(&self, scene: &mut SceneDescription, name: &str) {
         if self.opaque {
             for material in &mut scene.materials {
@@ -116,7 +116,7 @@ pub const LEVEL_SCENE: &str = scenes::level::NAME;
 
 /// A built-in scene (of [`scenes::ALL`]) or the demo level by name, or a scene file by path, with
 /// the command line's `--sun` and `--sky` and, if it has no lights at all, the default daylight
-/// ([`Lighting::apply`]).
+/// ([`SceneOverrides::apply`]).
 pub fn load(scene: &str) -> Result<SceneDescription, String> {
     let mut description = match lab::eval::built_in_scene(scene) {
         Some(built_in) => built_in?,
@@ -129,7 +129,7 @@ pub fn load(scene: &str) -> Result<SceneDescription, String> {
             engine::import::load_scene(path).map_err(|e| e.to_string())?
         }
     };
-    Lighting::get().apply(&mut description, scene);
+    SceneOverrides::get().apply(&mut description, scene);
     Ok(description)
 }
 

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use engine::gpu::{GpuContext, GpuOptions};
 
-use super::{Lighting, load};
+use super::{SceneOverrides, load};
 use crate::play;
 
 /// `play`'s examples (its long help).
@@ -128,8 +128,8 @@ pub fn run(args: PlayArgs) -> Result<(), String> {
     if !(args.cascade_spacing.is_finite() && args.cascade_spacing >= 0.1) {
         return Err(format!("--cascade-spacing {} must be at least 0.1 m", args.cascade_spacing));
     }
-    let lighting = Lighting::get();
-    if lighting.sun.is_some() || lighting.sky.is_some() {
+    let overrides = SceneOverrides::get();
+    if overrides.sun.is_some() || overrides.sky.is_some() {
         return Err(
             "--sun and --sky light the scenes that `play --scene` shows; the demo level's day–night cycle sets its own sun and sky".into(),
         );
