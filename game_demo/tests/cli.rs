@@ -25,6 +25,20 @@ fn eval_rejects_bad_time_series_options_by_name() {
     }
 }
 
+/// The demo level's day–night cycle owns its sun and sky, and its materials are its own: the
+/// global scene overrides are refused there, by name, rather than ignored.
+#[test]
+fn play_refuses_the_scene_overrides_the_demo_level_would_ignore() {
+    for (flag, expected) in [("--sun=0,-1,0,3", "--sun"), ("--sky=0.1,0.1,0.1", "--sky"), ("--opaque", "--opaque")] {
+        let output = Command::new(env!("CARGO_BIN_EXE_game_demo"))
+            .args(["play", "--headless", "--frames", "1", flag])
+            .output()
+            .expect("run game_demo");
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert!(!output.status.success() && stderr.contains(expected), "{flag}: {stderr}");
+    }
+}
+
 /// A floor slab and a box as OBJ, with no lights and no materials.
 fn write_lightless_obj(dir: &std::path::Path) -> std::path::PathBuf {
     let cube = |min: [f32; 3], max: [f32; 3], first: usize| {

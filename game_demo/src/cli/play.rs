@@ -134,6 +134,9 @@ pub fn run(args: PlayArgs) -> Result<(), String> {
             "--sun and --sky light the scenes that `play --scene` shows; the demo level's day–night cycle sets its own sun and sky".into(),
         );
     }
+    if overrides.opaque {
+        return Err("--opaque applies to the scenes that `play --scene` shows, not to the demo level".into());
+    }
     let options = play::PlayOptions {
         width: args.width,
         height: args.height,
