@@ -1,5 +1,5 @@
-//! Every registered WGSL module is parsed and validated by naga (no GPU needed), the engine's list
-//! matches its folder, every host mirror of a GPU struct has naga's field offsets, and a broken
+//! Every registered WGSL module is parsed and validated by naga (no GPU needed), the engine's and the
+//! shared library's lists match their folders, every host mirror of a GPU struct has naga's field offsets, and a broken
 //! shader is reported in its own file and line, included or not.
 
 use std::path::Path;
@@ -13,15 +13,27 @@ fn the_engine_shader_list_matches_its_folder() {
 }
 
 #[test]
-fn every_engine_module_parses_and_validates() {
-    for (name, _) in ENGINE_SHADERS {
-        // Includes are validated as part of each file that includes them, and on their own, but for
-        // the traversal core, which calls the alpha test its includer chooses: it is validated
-        // through rt_alpha.inc.wgsl and rt_opaque.inc.wgsl, each of which defines it.
+fn the_shared_library_matches_its_folder_and_validates() {
+    shader::check_shader_folder(Path::new(shaders::FOLDER), shaders::LIBRARY).unwrap_or_else(|e| panic!("{e}"));
+    // The library's DDGI modules include the constants DDGI generates.
+    ddgi::register_shaders().expect("register ddgi");
+    for (name, _) in shaders::LIBRARY {
+        assert!(name.ends_with(".inc.wgsl"), "{name}: the library holds modules, not passes");
+        assert!(!ENGINE_SHADERS.iter().chain(ddgi::SHADERS).any(|(n, _)| n == name), "{name} is registered twice");
+        // The traversal core calls the alpha test its includer chooses: it is validated through
+        // rt_alpha.inc.wgsl and rt_opaque.inc.wgsl, each of which defines it.
         if *name == "ray_tracing.inc.wgsl" {
             assert!(shader::parse(name).is_err(), "the traversal core validates on its own: does it define the alpha test?");
             continue;
         }
+        shader::parse(name).unwrap_or_else(|e| panic!("{e}"));
+    }
+}
+
+#[test]
+fn every_engine_module_parses_and_validates() {
+    for (name, _) in ENGINE_SHADERS {
+        // Includes are validated as part of each file that includes them, and on their own.
         let parsed = shader::parse(name).unwrap_or_else(|e| panic!("{e}"));
         if !name.ends_with(".inc.wgsl") {
             assert!(!parsed.module.entry_points.is_empty(), "{name} has no entry point");

@@ -6,7 +6,7 @@
 //! what the specular lobe leaves, 1 − E_s(n·v) (E_s its directional albedo), so that no
 //! surface reflects more than it receives, at grazing angles too.
 //!
-//! `engine/shaders/brdf.inc.wgsl` evaluates the same functions on the GPU (the raster's direct
+//! `shaders/brdf.inc.wgsl` evaluates the same functions on the GPU (the raster's direct
 //! light, DDGI's probe rays and gather, the path tracer's sampling); this module is their CPU
 //! mirror and computes the one table they share: the split-sum terms A and B of the specular lobe's
 //! directional albedo `E = F0·A + F90·B` over (n·v, roughness) ([`dfg_table`]).

@@ -1,8 +1,10 @@
 //! WGSL shaders: a registry of modules that any crate adds to, `#include` resolution with a map
 //! back to each module's own lines, naga validation and binding reflection.
 //!
-//! Each crate owns its WGSL, in a folder beside its sources, and registers it with [`register`]
-//! (the engine's own modules, [`ENGINE_SHADERS`], are always there). A module includes another by
+//! Each crate owns its passes' WGSL, in a folder beside its sources, and registers it with
+//! [`register`]; the shared library that several crates include (the top-level `shaders/` crate,
+//! [`shaders::LIBRARY`]: common, scene, BRDF, the ray-tracing core, DDGI's sampling) and the
+//! engine's own passes ([`ENGINE_SHADERS`]) are always there. A module includes another by
 //! name — `#include "ray_tracing.inc.wgsl"` — whichever crate registered it; modules named
 //! `*.inc.wgsl` are libraries (no entry point). A naga error is reported in the included module's
 //! own file and line, not in the expanded source.
@@ -25,15 +27,11 @@ use std::sync::{LazyLock, RwLock};
 /// One WGSL module: the name `#include` and the pipeline constructors use, and its source.
 pub type ShaderModule = (&'static str, &'static str);
 
-/// The engine's own WGSL (`engine/shaders/`): scene, ray-tracing core, G-buffer, direct light,
-/// tonemap, blit, common. A test checks that this list matches the folder.
+/// The engine's own passes' WGSL (`engine/shaders/`): ray queries, TLAS refit, G-buffer, direct
+/// light, tonemap, blit, TAA, exposure. The modules they share with other crates (scene,
+/// ray-tracing core, common) are the library's ([`shaders::LIBRARY`]). A test checks that this
+/// list matches the folder.
 pub const ENGINE_SHADERS: &[ShaderModule] = &[
-    ("common.inc.wgsl", include_str!("../shaders/common.inc.wgsl")),
-    ("scene.inc.wgsl", include_str!("../shaders/scene.inc.wgsl")),
-    ("brdf.inc.wgsl", include_str!("../shaders/brdf.inc.wgsl")),
-    ("ray_tracing.inc.wgsl", include_str!("../shaders/ray_tracing.inc.wgsl")),
-    ("rt_alpha.inc.wgsl", include_str!("../shaders/rt_alpha.inc.wgsl")),
-    ("rt_opaque.inc.wgsl", include_str!("../shaders/rt_opaque.inc.wgsl")),
     ("trace_rays.wgsl", include_str!("../shaders/trace_rays.wgsl")),
     ("tlas_refit.wgsl", include_str!("../shaders/tlas_refit.wgsl")),
     ("gbuffer.wgsl", include_str!("../shaders/gbuffer.wgsl")),
@@ -48,9 +46,9 @@ pub const ENGINE_SHADERS: &[ShaderModule] = &[
     ("exposure_adapt.wgsl", include_str!("../shaders/exposure_adapt.wgsl")),
 ];
 
-/// Every registered module by name: the engine's, then whatever crates added.
+/// Every registered module by name: the shared library's and the engine's, then whatever crates added.
 static REGISTRY: LazyLock<RwLock<BTreeMap<&'static str, &'static str>>> =
-    LazyLock::new(|| RwLock::new(ENGINE_SHADERS.iter().copied().collect()));
+    LazyLock::new(|| RwLock::new(shaders::LIBRARY.iter().chain(ENGINE_SHADERS).copied().collect()));
 
 /// A shader that failed to load; the message carries naga's report with file and line.
 #[derive(Debug, thiserror::Error)]

@@ -8,7 +8,7 @@
 //! direction of its own, so a day–night cycle that turns the sun turns the sky with it.
 //!
 //! The GPU evaluates the same formula from the coefficients computed here ([`GpuSky`], in the view
-//! uniform; `sky_radiance` in `engine/shaders/scene.inc.wgsl`), and [`Sky::radiance`] is its CPU
+//! uniform; `sky_radiance` in `shaders/scene.inc.wgsl`), and [`Sky::radiance`] is its CPU
 //! mirror, which the tests compare with the GPU's background.
 
 use bevy_ecs::prelude::*;
@@ -77,7 +77,7 @@ impl Default for PhysicalSky {
     }
 }
 
-/// `GpuSky` of `engine/shaders/scene.inc.wgsl` (part of the view uniform): everything the shader
+/// `GpuSky` of `shaders/scene.inc.wgsl` (part of the view uniform): everything the shader
 /// needs, computed once a frame here.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]

@@ -137,14 +137,14 @@ pub mod prelude {
 }
 
 /// DDGI's WGSL (`plugins/ddgi/shaders/`): one file per pass, named after the pass label, and the
-/// modules they share — `ddgi_common.inc.wgsl` (structs, bindings, helpers), `ddgi_sampling.inc.wgsl`
-/// (the 8-probe sampling function, for any crate's WGSL to include), `ddgi_camera.inc.wgsl` and
-/// `ddgi_debug_draw.inc.wgsl` (the probe sphere and false colours of the debug views, for any
-/// crate's debug view to include).
-/// [`register_shaders`] adds them, with the generated `ddgi_constants.inc.wgsl`.
+/// modules only its passes share (`ddgi_camera.inc.wgsl`, `ddgi_shading.inc.wgsl`,
+/// `ddgi_visibility.inc.wgsl`). The modules other crates include too live in the shared library
+/// (`shaders/` at the top, always registered): `ddgi_common.inc.wgsl` (structs, bindings,
+/// helpers), `ddgi_sampling.inc.wgsl` (the 8-probe sampling function) and
+/// `ddgi_debug_draw.inc.wgsl` (the probe sphere and false colours of the debug views).
+/// [`register_shaders`] adds these, with the generated `ddgi_constants.inc.wgsl` the library's
+/// DDGI modules include.
 pub const SHADERS: &[engine::shader::ShaderModule] = &[
-    ("ddgi_common.inc.wgsl", include_str!("../shaders/ddgi_common.inc.wgsl")),
-    ("ddgi_sampling.inc.wgsl", include_str!("../shaders/ddgi_sampling.inc.wgsl")),
     ("ddgi_camera.inc.wgsl", include_str!("../shaders/ddgi_camera.inc.wgsl")),
     ("ddgi_budget.wgsl", include_str!("../shaders/ddgi_budget.wgsl")),
     ("ddgi_shading.inc.wgsl", include_str!("../shaders/ddgi_shading.inc.wgsl")),
@@ -155,7 +155,6 @@ pub const SHADERS: &[engine::shader::ShaderModule] = &[
     ("ddgi_visibility.inc.wgsl", include_str!("../shaders/ddgi_visibility.inc.wgsl")),
     ("ddgi_contact_occlusion.wgsl", include_str!("../shaders/ddgi_contact_occlusion.wgsl")),
     ("ddgi_composite.wgsl", include_str!("../shaders/ddgi_composite.wgsl")),
-    ("ddgi_debug_draw.inc.wgsl", include_str!("../shaders/ddgi_debug_draw.inc.wgsl")),
     ("ddgi_probe_spheres.wgsl", include_str!("../shaders/ddgi_probe_spheres.wgsl")),
 ];
 

@@ -3,7 +3,7 @@
 //! Each frame adds [`PathTraceSettings::samples_per_frame`] paths per pixel to a float
 //! accumulation buffer; the image is their mean, so it converges as frames go by, and starts over
 //! when the camera, an instance or a light changes. Paths use the engine's ray-tracing core
-//! (`engine/shaders/ray_tracing.inc.wgsl`): Lambertian surfaces with base-colour textures, emissive
+//! (`shaders/ray_tracing.inc.wgsl`): Lambertian surfaces with base-colour textures, emissive
 //! surfaces found by the paths, punctual lights by next-event estimation with shadow rays,
 //! cosine-weighted bounces, Russian roulette after three bounces (unbiased, so the bounce count is
 //! unbounded unless [`PathTraceSettings::max_bounces`] caps it), seeds derived from pixel, sample
