@@ -222,7 +222,7 @@ fn auto_exposure_finds_the_same_picture_at_any_brightness_and_adapts_at_its_spee
     };
     let settings = HeadlessSettings { width: 48, height: 48, ..Default::default() };
     let exposure = |world: &bevy_ecs::world::World| {
-        let bytes = engine::render::readback::read_buffer(&gpu, world.resource::<ExposureState>().exposure_buffer());
+        let bytes = engine::gpu::readback::read_buffer(&gpu, world.resource::<ExposureState>().exposure_buffer());
         bytemuck::cast_slice::<u8, f32>(&bytes).to_vec()
     };
     let render = |scale: f32, auto: Option<AutoExposure>| {

@@ -87,7 +87,7 @@ fn a_broken_shader_is_reported_in_its_own_file_and_line() {
 
 #[test]
 fn host_structs_match_naga_layout() {
-    for host in engine::render::gpu_types::gpu_structs() {
+    for host in engine::gpu_structs() {
         shader::check_struct_layout(&host).unwrap_or_else(|e| panic!("{e}"));
     }
 }

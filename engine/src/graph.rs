@@ -14,7 +14,7 @@ use std::time::Instant;
 use bevy_ecs::prelude::*;
 
 use crate::gpu::GpuContext;
-use crate::render::readback::ReadbackRing;
+use crate::gpu::readback::ReadbackRing;
 
 /// Marker for texture handles.
 pub struct Texture;

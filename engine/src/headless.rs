@@ -9,7 +9,7 @@ use serde::Serialize;
 
 use crate::app::{EnginePlugin, Time, finish_plugins, run_headless};
 use crate::gpu::GpuContext;
-use crate::render::readback::{read_rgba32f, read_texture};
+use crate::gpu::readback::{read_rgba32f, read_texture};
 use crate::render::{FrameTiming, FrameTimings, RenderOutputs, RenderPlugin, RenderSize};
 use crate::scene::{Camera, NodeContent, SceneDescription, Transform};
 

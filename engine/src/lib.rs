@@ -4,7 +4,8 @@
 //!   fixed-step time, the headless runner; [`window`]: the windowed runner and its hooks for apps.
 //! - [`scene`]: the scene model as ECS components (transforms and their propagation, cameras,
 //!   lights, mesh instances) and the shared asset stores.
-//! - [`gpu`]: adapter choice and the device; [`shader`]: the WGSL library, validated by naga, with
+//! - [`gpu`]: adapter choice and the device, shared buffers, readback and compute dispatch;
+//!   [`shader`]: the WGSL library, validated by naga, with
 //!   bindings looked up by name; [`graph`]: the render graph; [`render`]: the camera path;
 //!   [`headless`]: rendering to files without a window; [`memory`]: the heap the Rust code holds;
 //!   [`color`]: the sRGB transfer function on the CPU; [`sky`]: the sky (uniform or
@@ -38,6 +39,13 @@ pub mod sky;
 pub mod trace;
 #[cfg(feature = "window")]
 pub mod window;
+
+/// The host mirrors of the engine's WGSL structs, each module's list ([`render`]'s scene, TAA and
+/// exposure structs, [`rt`]'s), for the test that checks every field's offset against naga's
+/// layout ([`shader::check_struct_layout`]).
+pub fn gpu_structs() -> Vec<shader::HostStruct> {
+    [render::gpu_types::gpu_layouts(), rt::gpu_layouts(), render::taa::gpu_layouts(), render::exposure::gpu_layouts()].concat()
+}
 
 pub use bevy_app;
 pub use bevy_ecs;

@@ -1001,7 +1001,7 @@ pub enum SceneDataError {
         /// Its size, in bytes.
         needed: u64,
         /// The largest storage buffer the adapter binds, in bytes
-        /// ([`crate::render::gpu_scene::max_storage_buffer_bytes`]).
+        /// ([`crate::gpu::max_storage_buffer_bytes`]).
         limit: u64,
     },
 }

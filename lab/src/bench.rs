@@ -418,13 +418,13 @@ impl TraceKernel {
         }
         encoder.resolve_query_set(&self.queries, 0..2, &self.resolve, 0);
         gpu.queue.submit([encoder.finish()]);
-        let ticks: Vec<u64> = bytemuck::pod_collect_to_vec(&engine::render::readback::read_buffer(gpu, &self.resolve));
+        let ticks: Vec<u64> = bytemuck::pod_collect_to_vec(&engine::gpu::readback::read_buffer(gpu, &self.resolve));
         Ok(ticks[1].saturating_sub(ticks[0]) as f64 * f64::from(gpu.timestamp_period) * 1e-6)
     }
 
     /// Work counted by the last dispatch (diagnostic variant only).
     fn work(&self, gpu: &GpuContext) -> Result<[u32; BENCH_WORK_WORDS], String> {
-        let w: Vec<u32> = bytemuck::pod_collect_to_vec(&engine::render::readback::read_buffer(gpu, &self.work));
+        let w: Vec<u32> = bytemuck::pod_collect_to_vec(&engine::gpu::readback::read_buffer(gpu, &self.work));
         w.try_into().map_err(|w: Vec<u32>| format!("bench_work: {} words read back, {BENCH_WORK_WORDS} expected", w.len()))
     }
 }
@@ -540,7 +540,7 @@ pub fn hit_distances(
     variant: TraceVariant,
 ) -> Result<Vec<f32>, String> {
     let (kernel, p) = run_cell(gpu, app, bounds, grid, rays_per_probe, variant, KernelUse::Time)?;
-    let mut t: Vec<f32> = bytemuck::pod_collect_to_vec(&engine::render::readback::read_buffer(gpu, &kernel.hits));
+    let mut t: Vec<f32> = bytemuck::pod_collect_to_vec(&engine::gpu::readback::read_buffer(gpu, &kernel.hits));
     t.truncate(p.ray_count as usize);
     Ok(t)
 }
@@ -567,8 +567,8 @@ pub fn closest_hits(
     variant: TraceVariant,
 ) -> Result<Vec<BenchHit>, String> {
     let (kernel, p) = run_cell(gpu, app, bounds, grid, rays_per_probe, variant, KernelUse::HitIds)?;
-    let t: Vec<f32> = bytemuck::pod_collect_to_vec(&engine::render::readback::read_buffer(gpu, &kernel.hits));
-    let ids: Vec<[u32; 2]> = bytemuck::pod_collect_to_vec(&engine::render::readback::read_buffer(gpu, &kernel.hit_ids));
+    let t: Vec<f32> = bytemuck::pod_collect_to_vec(&engine::gpu::readback::read_buffer(gpu, &kernel.hits));
+    let ids: Vec<[u32; 2]> = bytemuck::pod_collect_to_vec(&engine::gpu::readback::read_buffer(gpu, &kernel.hit_ids));
     Ok(t.iter().zip(&ids).take(p.ray_count as usize).map(|(&t, &[instance, primitive])| BenchHit { t, instance, primitive }).collect())
 }
 
@@ -1015,7 +1015,7 @@ pub fn classification_check(gpu: &GpuContext, scene: SceneDescription, grid: [u3
     let Some((_, v)) = volumes.volumes.first() else {
         return Err(volumes.first_error().unwrap_or("no DDGI volume").to_string());
     };
-    let data: Vec<ddgi::gpu::DdgiProbeData> = bytemuck::pod_collect_to_vec(&engine::render::readback::read_buffer(gpu, &v.probes));
+    let data: Vec<ddgi::gpu::DdgiProbeData> = bytemuck::pod_collect_to_vec(&engine::gpu::readback::read_buffer(gpu, &v.probes));
     let layout = v.layout.clone();
     let n = layout.probe_count as usize;
     let position = |i: usize| layout.grid_position(i as u32) + Vec3::from_array(data[i].offset);

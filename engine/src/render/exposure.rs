@@ -11,9 +11,9 @@
 use bevy_ecs::prelude::*;
 use bytemuck::{Pod, Zeroable};
 
-use super::{CameraFrame, dispatch};
+use super::CameraFrame;
 use crate::app::Time;
-use crate::gpu::GpuContext;
+use crate::gpu::{GpuContext, dispatch};
 use crate::graph::{Handle, RenderGraph, Texture as GraphTexture};
 use crate::scene::Camera;
 
@@ -77,6 +77,13 @@ pub(crate) struct ExposureParams {
     pub speed_darken: f32,
     /// Seconds since the last frame (the exposure jumps to its target on its first frame).
     pub delta_seconds: f32,
+}
+
+/// The host mirror of `exposure.inc.wgsl`'s struct, for the layout test ([`crate::gpu_structs`]).
+pub(crate) fn gpu_layouts() -> Vec<crate::shader::HostStruct> {
+    vec![crate::gpu_struct_layout!(ExposureParams in "exposure.inc.wgsl" {
+        min_ev100, max_ev100, low_percentile, high_percentile, compensation, speed_brighten, speed_darken, delta_seconds
+    })]
 }
 
 /// The histogram, the current exposure (on the GPU, read by the tonemapper) and this frame's

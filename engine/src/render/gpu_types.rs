@@ -1,6 +1,6 @@
 //! Host mirrors of the WGSL structs in `engine/shaders/scene.inc.wgsl`. Each is `#[repr(C)]` and `Pod`;
-//! [`gpu_structs`] lists them so that a test can compare each field's offset with naga's layout of
-//! the WGSL struct of the same name.
+//! `gpu_layouts` lists them so that a test ([`crate::gpu_structs`]) can compare each field's offset
+//! with naga's layout of the WGSL struct of the same name.
 
 use bytemuck::{Pod, Zeroable};
 
@@ -143,15 +143,10 @@ pub struct GpuLight {
     pub _pad2: u32,
 }
 
-/// The host mirrors of the engine's WGSL structs, for the test that checks every field's offset
-/// against naga's layout ([`crate::shader::check_struct_layout`]).
-pub fn gpu_structs() -> Vec<crate::shader::HostStruct> {
+/// The host mirrors of `scene.inc.wgsl`'s structs, for the test that checks every field's offset
+/// against naga's layout ([`crate::gpu_structs`] gathers every module's list).
+pub(crate) fn gpu_layouts() -> Vec<crate::shader::HostStruct> {
     use crate::gpu_struct_layout as layout;
-    use crate::render::exposure::ExposureParams;
-    use crate::render::taa::TaaParams;
-    use crate::rt::cpu::{GpuRay as Ray, TraceResult};
-    use crate::rt::gpu_refit::{TlasRefitLeaf, TlasRefitParams};
-    use crate::rt::{GpuBlas, TlasEntry};
     use crate::sky::GpuSky;
     vec![
         layout!(ViewUniform in "scene.inc.wgsl" {
@@ -168,15 +163,5 @@ pub fn gpu_structs() -> Vec<crate::shader::HostStruct> {
             base_color, emissive, pbr, base_color_texture, emissive_texture, metallic_roughness_texture, normal_texture
         }),
         layout!(GpuLight in "scene.inc.wgsl" { position, kind, direction, range, radiance, spot_scale, spot_offset, _pad0, _pad1, _pad2 }),
-        layout!(GpuBlas in "rt_alpha.inc.wgsl" { node_offset, triangle_offset, node_count, triangle_count, first_index, base_vertex, _pad0, _pad1 }),
-        layout!(TlasEntry in "rt_alpha.inc.wgsl" { instance, node_offset, triangle_offset, start_node }),
-        layout!(Ray in "rt_alpha.inc.wgsl" { origin, tmin, direction, tmax }),
-        layout!(TlasRefitParams in "tlas_refit.wgsl" { moved, inner, leaves, wide }),
-        layout!(TlasRefitLeaf in "tlas_refit.wgsl" { lo, leaf, hi, _pad }),
-        layout!(TraceResult in "trace_rays.wgsl" { t, instance, primitive, flags, barycentrics, any_hit, _pad, albedo, emissive }),
-        layout!(TaaParams in "taa.inc.wgsl" { max_samples, history_valid, sharpness, _pad }),
-        layout!(ExposureParams in "exposure.inc.wgsl" {
-            min_ev100, max_ev100, low_percentile, high_percentile, compensation, speed_brighten, speed_darken, delta_seconds
-        }),
     ]
 }

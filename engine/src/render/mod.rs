@@ -11,7 +11,6 @@
 pub mod exposure;
 pub mod gpu_scene;
 pub mod gpu_types;
-pub mod readback;
 pub mod taa;
 
 use std::collections::VecDeque;
@@ -24,7 +23,7 @@ use bevy_ecs::system::SystemParam;
 use serde::Serialize;
 
 use crate::app::{Prepare, Render, Time};
-use crate::gpu::GpuContext;
+use crate::gpu::{GpuContext, dispatch};
 use crate::graph::{FrameReport, GpuTimer, Handle, RenderGraph, Texture as GraphTexture, TextureDesc, TransientPool};
 use crate::shader::{
     Program, RenderTargets, compute_program, compute_program_with_constants, render_program, render_program_with_constants,
@@ -76,7 +75,7 @@ impl Plugin for RenderPlugin {
             .init_resource::<GpuTimer>()
             .init_resource::<FrameTimings>()
             .insert_resource(crate::rt::RayTracingScene::new(&self.gpu))
-            .insert_resource(gpu_scene::Uploads::new(&self.gpu))
+            .insert_resource(crate::gpu::Uploads::new(&self.gpu))
             .add_systems(
                 Prepare,
                 (
@@ -768,23 +767,6 @@ fn acquire_surface(gpu: &GpuContext, target: &SurfaceTarget) -> Option<wgpu::Sur
     }
 }
 
-/// Records one compute pass with the given bind groups (0, 1, …).
-pub fn dispatch(
-    encoder: &mut wgpu::CommandEncoder,
-    label: &str,
-    pipeline: &wgpu::ComputePipeline,
-    groups: &[&wgpu::BindGroup],
-    (x, y): (u32, u32),
-) {
-    let mut cp = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some(label), timestamp_writes: None });
-    cp.set_pipeline(pipeline);
-    for (i, g) in groups.iter().enumerate() {
-        cp.set_bind_group(i as u32, *g, &[]);
-    }
-    cp.dispatch_workgroups(x.max(1), y.max(1), 1);
-}
-
-/// The depth test of everything rasterized against the G-buffer's depth: reverse Z (1 near, 0 at
 /// infinity, cleared to 0), so nearer is greater; depth written.
 pub fn depth_test() -> wgpu::DepthStencilState {
     wgpu::DepthStencilState {

@@ -13,8 +13,8 @@ use bevy_ecs::prelude::*;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec2;
 
-use super::{CameraFrame, GBuffer, HDR_FORMAT, RenderSize, dispatch, workgroups};
-use crate::gpu::GpuContext;
+use super::{CameraFrame, GBuffer, HDR_FORMAT, RenderSize, workgroups};
+use crate::gpu::{GpuContext, dispatch};
 use crate::graph::{Handle, RenderGraph, Texture as GraphTexture};
 use crate::scene::{Camera, GlobalTransform};
 
@@ -89,6 +89,11 @@ pub(crate) struct TaaParams {
     pub sharpness: f32,
     /// Padding to the WGSL layout.
     pub _pad: u32,
+}
+
+/// The host mirror of `taa.inc.wgsl`'s struct, for the layout test ([`crate::gpu_structs`]).
+pub(crate) fn gpu_layouts() -> Vec<crate::shader::HostStruct> {
+    vec![crate::gpu_struct_layout!(TaaParams in "taa.inc.wgsl" { max_samples, history_valid, sharpness, _pad })]
 }
 
 /// The TAA history (two textures: last frame's, read, and this frame's, written) and this frame's

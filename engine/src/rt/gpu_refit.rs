@@ -15,8 +15,8 @@ use wgpu::util::DeviceExt;
 
 use super::{NONE, ray_workgroups};
 use crate::gpu::GpuContext;
-use crate::render::gpu_scene::Uploads;
-use crate::render::readback::ReadbackRing;
+use crate::gpu::Uploads;
+use crate::gpu::readback::ReadbackRing;
 use crate::shader::{Program, ShaderError, compute_program};
 
 /// The label of the refit's compute pass (and its pipelines').
@@ -232,7 +232,7 @@ impl GpuRefit {
 
     /// The SAH cost the GPU's last refit measured, read now. Blocks until the GPU is idle. For tests.
     pub fn read_cost_now(&self, gpu: &GpuContext) -> Option<f64> {
-        cost_from_bytes(&crate::render::readback::read_buffer(gpu, &self.cost))
+        cost_from_bytes(&crate::gpu::readback::read_buffer(gpu, &self.cost))
     }
 
     /// The four dispatches, in one compute pass (wgpu orders their storage accesses).
@@ -272,7 +272,7 @@ impl GpuRefit {
         encoder.write_timestamp(&queries, 1);
         encoder.resolve_query_set(&queries, 0..2, &resolve, 0);
         gpu.queue.submit([encoder.finish()]);
-        let ticks: [u64; 2] = bytemuck::pod_read_unaligned(crate::render::readback::read_buffer(gpu, &resolve).get(..16)?);
+        let ticks: [u64; 2] = bytemuck::pod_read_unaligned(crate::gpu::readback::read_buffer(gpu, &resolve).get(..16)?);
         Some(Duration::from_nanos((ticks[1].saturating_sub(ticks[0]) as f64 * f64::from(gpu.timestamp_period)) as u64))
     }
 }

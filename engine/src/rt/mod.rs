@@ -41,11 +41,13 @@
 pub mod cpu;
 pub(crate) mod gpu_refit;
 mod groups;
+mod layouts;
 pub use gpu_refit::{TLAS_GPU_COST_READ_EVERY, TLAS_REFIT_COST_SCALE};
 pub use groups::{
     GROUP_COST_RAYS, GROUP_ENTER_COST, GROUP_MAX_TRIANGLES, GROUP_NODE_COST, GROUP_OVERLAP, GROUP_OVERLAP_PADDING, GROUP_TRIANGLE_COST,
     StaticGrouping,
 };
+pub(crate) use layouts::gpu_layouts;
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, Sender, channel};
@@ -66,8 +68,9 @@ use obvhs::triangle::Triangle;
 use rayon::prelude::*;
 
 use crate::gpu::GpuContext;
+use crate::gpu::{GrowableBuffer, Uploads};
 use crate::graph::NamedResource;
-use crate::render::gpu_scene::{GpuScene, GrowableBuffer, Uploads};
+use crate::render::GpuScene;
 use crate::scene::{Assets, Mesh};
 
 /// Meshes with more triangles than this get their BLAS built on a worker thread.
@@ -624,7 +627,7 @@ impl RayTracingScene {
     /// The wide TLAS nodes as the GPU holds them, read back (as many as [`RayTracingScene::tlas_cpu`]
     /// has). Blocks until the GPU is idle. For tests of the GPU refit.
     pub fn read_tlas_nodes(&self, gpu: &GpuContext) -> Vec<CwBvhNode> {
-        let bytes = crate::render::readback::read_buffer(gpu, &self.tlas_nodes.buffer);
+        let bytes = crate::gpu::readback::read_buffer(gpu, &self.tlas_nodes.buffer);
         bytemuck::pod_collect_to_vec(&bytes[..size_of_val(self.gpu_tlas.as_slice())])
     }
 
@@ -802,7 +805,7 @@ impl RayTracingScene {
             };
             self.gpu_blas.push(info);
         }
-        let limit = crate::render::gpu_scene::max_storage_buffer_bytes(&gpu.device);
+        let limit = crate::gpu::max_storage_buffer_bytes(&gpu.device);
         // Static groups after the meshes, while both buffers stay within the limit (a group that
         // does not fit is not used: its members are traced one by one).
         for group in &mut self.static_groups.groups {
@@ -1745,7 +1748,7 @@ impl RayTracer {
         });
         let groups = self.bind_groups(gpu, scene, rt, &params, &ray_buffer, &results);
         let mut encoder = gpu.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("trace_rays") });
-        crate::render::dispatch(&mut encoder, "trace_rays", &self.program.pipeline, &[&groups[0], &groups[1]], ray_workgroups(count));
+        crate::gpu::dispatch(&mut encoder, "trace_rays", &self.program.pipeline, &[&groups[0], &groups[1]], ray_workgroups(count));
         encoder.copy_buffer_to_buffer(&results, 0, &readback, 0, size);
         gpu.queue.submit([encoder.finish()]);
         readback.slice(..).map_async(wgpu::MapMode::Read, |_| {});

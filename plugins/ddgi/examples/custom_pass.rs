@@ -137,7 +137,7 @@ fn add_probe_fog_pass(
     let size = frame.size();
     pass.render(move |ctx| {
         let groups = [ctx.bind_group(&*program, 0, &group0), ctx.bind_group(&*program, 1, &group1), ctx.bind_group(&*program, 2, &group2)];
-        engine::render::dispatch(
+        engine::gpu::dispatch(
             ctx.encoder,
             ctx.label,
             &program.pipeline,

@@ -3,7 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use engine::gpu::GpuContext;
-use engine::render::readback::read_texture;
+use engine::gpu::readback::read_texture;
 use glam::{UVec2, Vec2, Vec3};
 
 use crate::gpu::{DdgiRay, IRRADIANCE_GAMMA};
@@ -56,7 +56,7 @@ pub fn count_non_finite(gpu: &GpuContext, volume: &VolumeGpu) -> usize {
 
 /// This frame's probe rays (direction and probe index), in the order the trace packed them.
 pub fn read_rays(gpu: &GpuContext, volume: &VolumeGpu) -> Vec<DdgiRay> {
-    let bytes = engine::render::readback::read_buffer(gpu, &volume.rays);
+    let bytes = engine::gpu::readback::read_buffer(gpu, &volume.rays);
     bytemuck::pod_collect_to_vec(&bytes)
 }
 

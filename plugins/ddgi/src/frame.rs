@@ -317,7 +317,7 @@ impl DdgiFrame<'_> {
             pass.render(move |ctx| {
                 let groups =
                     [ctx.bind_group(&*program, 0, &group0), ctx.bind_group(&*program, 1, &group1), ctx.bind_group(&*program, 2, &group2)];
-                engine::render::dispatch(ctx.encoder, ctx.label, &program.pipeline, &groups.each_ref(), workgroups);
+                engine::gpu::dispatch(ctx.encoder, ctx.label, &program.pipeline, &groups.each_ref(), workgroups);
             });
         }
         indirect
@@ -373,7 +373,7 @@ impl DdgiFrame<'_> {
         pass.render(move |ctx| {
             // Group 1 (a volume's) is unused: the composite reads only the gathered light.
             let groups = [ctx.bind_group(&*program, 0, &group0), ctx.bind_group(&*program, 1, &[]), ctx.bind_group(&*program, 2, &group2)];
-            engine::render::dispatch(ctx.encoder, ctx.label, &program.pipeline, &groups.each_ref(), workgroups);
+            engine::gpu::dispatch(ctx.encoder, ctx.label, &program.pipeline, &groups.each_ref(), workgroups);
         });
     }
 
@@ -412,7 +412,7 @@ impl DdgiFrame<'_> {
         let group0 = pass.read_named(&program.bindings, 0);
         pass.render(move |ctx| {
             let groups = [ctx.bind_group(&*program, 0, &group0), ctx.bind_group(&*program, 1, &[]), ctx.bind_group(&*program, 2, &group2)];
-            engine::render::dispatch(
+            engine::gpu::dispatch(
                 ctx.encoder,
                 ctx.label,
                 &program.pipeline,

@@ -5,8 +5,8 @@ use std::collections::HashMap;
 
 use bevy_ecs::prelude::*;
 use engine::gpu::GpuContext;
+use engine::gpu::readback::ReadbackRing;
 use engine::render::gpu_scene::GpuScene;
-use engine::render::readback::ReadbackRing;
 use engine::rng::SplitMix64;
 use engine::scene::RenderOrigin;
 use engine::scene::{Assets, Image, Material, Mesh};

@@ -10,9 +10,9 @@ use ddgi::{
     use_ddgi_lighting,
 };
 use engine::gpu::GpuContext;
+use engine::gpu::readback::{read_buffer, read_texture};
 use engine::headless::{HeadlessSettings, read_hdr, run_frames, scene_app};
 use engine::render::Sky;
-use engine::render::readback::{read_buffer, read_texture};
 use engine::scene::{Camera, Material, NodeContent, SceneDescription, Transform};
 use glam::{DVec3, UVec3, Vec2, Vec3};
 use testkit::{closed_room, gpu};

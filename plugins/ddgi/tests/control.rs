@@ -7,8 +7,8 @@ use bevy_ecs::prelude::*;
 use ddgi::gpu::{DdgiCounters, DdgiProbeData, PROBE_INACTIVE};
 use ddgi::{DdgiGpuVolumes, DdgiOutput, DdgiProbe, DdgiUpdateControl, DdgiVolume, use_ddgi};
 use engine::gpu::GpuContext;
+use engine::gpu::readback::{read_buffer, read_texture};
 use engine::headless::{HeadlessSettings, run_frames, scene_app};
-use engine::render::readback::{read_buffer, read_texture};
 use glam::UVec3;
 use testkit::gpu;
 

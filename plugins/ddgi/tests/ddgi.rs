@@ -127,7 +127,7 @@ fn run_selftest(gpu: &GpuContext, entry: &str, input: &[[f32; 4]]) -> Vec<[f32; 
         program.bind_group(device, 3, &[("selftest_in", input_buffer.as_entire_binding()), ("selftest_out", output.as_entire_binding())]),
     ];
     let mut encoder = device.create_command_encoder(&Default::default());
-    engine::render::dispatch(
+    engine::gpu::dispatch(
         &mut encoder,
         entry,
         &program.pipeline,
@@ -135,7 +135,7 @@ fn run_selftest(gpu: &GpuContext, entry: &str, input: &[[f32; 4]]) -> Vec<[f32; 
         ((input.len() as u32).div_ceil(64), 1),
     );
     gpu.queue.submit([encoder.finish()]);
-    bytemuck::pod_collect_to_vec(&engine::render::readback::read_buffer(gpu, &output))
+    bytemuck::pod_collect_to_vec(&engine::gpu::readback::read_buffer(gpu, &output))
 }
 
 #[test]
@@ -329,7 +329,7 @@ fn hit_occlusion_keeps_a_cluttered_furnace_exact() {
     let expected = std::f32::consts::PI * emission / (1.0 - albedo);
     let v = first_volume(&app);
     let atlas = read_irradiance(&gpu, v);
-    let bytes = engine::render::readback::read_buffer(&gpu, &v.probes);
+    let bytes = engine::gpu::readback::read_buffer(&gpu, &v.probes);
     let probes: Vec<ddgi::gpu::DdgiProbeData> =
         bytemuck::pod_collect_to_vec(&bytes[..v.layout.probe_count as usize * size_of::<ddgi::gpu::DdgiProbeData>()]);
     let mut checked = 0;
@@ -904,7 +904,7 @@ fn a_change_of_light_wakes_every_resting_probe_on_its_frame() {
     };
     let (_, mut app) = run_ddgi(&gpu, (scenes::find("cornell").expect("cornell").build)(), volume, 16, 240);
     let probes = |app: &bevy_app::App| -> Vec<ddgi::gpu::DdgiProbeData> {
-        let bytes = engine::render::readback::read_buffer(&gpu, &first_volume(app).probes);
+        let bytes = engine::gpu::readback::read_buffer(&gpu, &first_volume(app).probes);
         bytemuck::pod_collect_to_vec(&bytes[..counts.element_product() as usize * size_of::<ddgi::gpu::DdgiProbeData>()])
     };
     let active = |p: &&ddgi::gpu::DdgiProbeData| p.state & ddgi::gpu::PROBE_INACTIVE == 0;
@@ -1059,7 +1059,7 @@ fn the_budget_pass_packs_the_rays_as_a_cpu_prefix_sum() {
         };
         let (_, app) = run_ddgi(&gpu, (scenes::find("cornell").expect("cornell").build)(), volume, 16, 8);
         let v = first_volume(&app);
-        let read = |b: &engine::wgpu::Buffer| engine::render::readback::read_buffer(&gpu, b);
+        let read = |b: &engine::wgpu::Buffer| engine::gpu::readback::read_buffer(&gpu, b);
         let probes: Vec<DdgiProbeData> =
             bytemuck::pod_collect_to_vec(&read(&v.probes)[..probe_count as usize * size_of::<DdgiProbeData>()]);
         let updated: Vec<u32> = bytemuck::pod_collect_to_vec(&read(&v.updated));
@@ -1124,7 +1124,7 @@ fn quiet_probes_rest_and_the_per_probe_passes_skip_them() {
     // Some active probes rest this frame, and the per-probe passes run one workgroup per probe with
     // rays: fewer than the active probes.
     let v = first_volume(&resting);
-    let counters: ddgi::gpu::DdgiCounters = bytemuck::pod_read_unaligned(&engine::render::readback::read_buffer(&gpu, &v.counters));
+    let counters: ddgi::gpu::DdgiCounters = bytemuck::pod_read_unaligned(&engine::gpu::readback::read_buffer(&gpu, &v.counters));
     assert!(counters.updated_probes < active as u32, "{} probes updated of {active} active", counters.updated_probes);
     assert_eq!(counters.probe_dispatch[0] * counters.probe_dispatch[1], counters.updated_probes, "one workgroup per updated probe");
     // The frame timings record the probes updated per frame: fewer when quiet probes rest.

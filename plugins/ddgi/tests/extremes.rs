@@ -17,10 +17,10 @@
 use ddgi::atlas::{probe_mean_irradiance, read_irradiance};
 use ddgi::{DdgiGpuVolumes, DdgiOutput, DdgiVolume, use_ddgi};
 use engine::gpu::GpuContext;
+use engine::gpu::readback::read_texture;
 use engine::headless::{add_default_camera, headless_app, read_hdr, run_frames};
 use engine::render::RenderSize;
 use engine::render::gpu_scene::GpuScene;
-use engine::render::readback::read_texture;
 use engine::scene::{Camera, Material, Mesh, NodeContent, PointLight, SceneDescription, SpotLight, Transform};
 use glam::{DVec3, UVec3, Vec3};
 use testkit::{closed_room, gpu};

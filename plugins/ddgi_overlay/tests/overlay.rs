@@ -331,7 +331,7 @@ fn the_wireframe_and_the_offset_lines_lie_on_their_projected_geometry() {
     let volumes = world.resource::<DdgiGpuVolumes>();
     let v = &volumes.volumes[0].1;
     // The layout's box (the cells around the probes) and each probe's offset as the GPU holds them.
-    let probes: Vec<ddgi::gpu::DdgiProbeData> = bytemuck::pod_collect_to_vec(&engine::render::readback::read_buffer(&gpu, &v.probes));
+    let probes: Vec<ddgi::gpu::DdgiProbeData> = bytemuck::pod_collect_to_vec(&engine::gpu::readback::read_buffer(&gpu, &v.probes));
     let edges: Vec<(Vec2, Vec2)> = box_edges(v.layout.bounds.0, v.layout.bounds.1)
         .into_iter()
         .map(|(a, b)| (project(&camera, &transform, size, a), project(&camera, &transform, size, b)))

@@ -171,7 +171,7 @@ fn render_path_traced_frame(
         pass.render(move |ctx| {
             let group0 = ctx.bind_group(&*program, 0, &group0);
             let group1 = ctx.bind_group(&*program, 1, &group1);
-            engine::render::dispatch(
+            engine::gpu::dispatch(
                 ctx.encoder,
                 ctx.label,
                 &program.pipeline,
