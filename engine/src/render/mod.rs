@@ -767,6 +767,7 @@ fn acquire_surface(gpu: &GpuContext, target: &SurfaceTarget) -> Option<wgpu::Sur
     }
 }
 
+/// The depth test of everything rasterized against the G-buffer's depth: reverse Z (1 near, 0 at
 /// infinity, cleared to 0), so nearer is greater; depth written.
 pub fn depth_test() -> wgpu::DepthStencilState {
     wgpu::DepthStencilState {
