@@ -11,27 +11,29 @@
 pub mod exposure;
 pub mod gpu_scene;
 pub mod gpu_types;
+mod present;
 pub mod taa;
+mod timings;
+pub mod tonemap;
 
-use std::collections::VecDeque;
-use std::ops::Not;
 use std::sync::Arc;
 
 use bevy_app::{App, Plugin};
 use bevy_ecs::prelude::*;
 use bevy_ecs::system::SystemParam;
-use serde::Serialize;
 
 use crate::app::{Prepare, Render, Time};
 use crate::gpu::{GpuContext, dispatch};
-use crate::graph::{FrameReport, GpuTimer, Handle, RenderGraph, Texture as GraphTexture, TextureDesc, TransientPool};
-use crate::shader::{
-    Program, RenderTargets, compute_program, compute_program_with_constants, render_program, render_program_with_constants,
-};
+use crate::graph::{GpuTimer, Handle, RenderGraph, Texture as GraphTexture, TextureDesc, TransientPool};
+use crate::shader::{Program, RenderTargets, compute_program, render_program_with_constants};
 pub use crate::sky::Sky;
 pub use exposure::{AutoExposure, DefaultAutoExposure, ExposureState};
 pub use gpu_scene::{GpuScene, RenderSize, prepare_gpu_scene};
+pub use present::{ImageOverlay, ImageOverlayHook, SurfaceTarget, blit_program};
 pub use taa::{DefaultTemporalAntiAliasing, TaaState, TemporalAntiAliasing};
+pub(crate) use timings::OrderedMap;
+pub use timings::{FrameTiming, FrameTimings, PassTiming};
+pub use tonemap::DisplayTransform;
 
 /// Depth of the G-buffer: reversed Z (1 at the near plane, cleared to 0), full float.
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
@@ -108,27 +110,6 @@ pub(crate) struct CameraPipelines {
     pub taa_output: Arc<Program<wgpu::ComputePipeline>>,
 }
 
-/// How the `tonemap` pass turns exposed linear radiance into display values (a resource; the
-/// default when absent). `image.exr` and every metric read the linear radiance before it, so the
-/// choice changes what a person sees, not what `eval` measures.
-#[derive(Resource, Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum DisplayTransform {
-    /// Clamp to [0, 1], then sRGB: radiometric values shown as they are (what the golden images
-    /// and `eval`'s tonemapper use); light over 1 burns to flat white.
-    #[default]
-    Clamp,
-    /// AgX ([`crate::color::agx`]): highlights roll off into white and desaturate like film, shadows
-    /// keep their detail; the filmic transform Blender 4 and Bevy offer. Costs a few dozen
-    /// arithmetic operations a pixel.
-    ///
-    /// Chosen over Tony McMapface (Bevy's default) because it is analytic: a matrix, a log2 and a
-    /// polynomial, with no 48³ lookup table to ship, load and bind as a 3D texture, so a CPU
-    /// mirror tests it (monotone, 0 to 0, never NaN, `tests/camera_path.rs`) and any app gets it
-    /// without an asset. Both give saturated highlights a path to white; McMapface keeps hues a
-    /// little more faithfully, which a LUT could add later beside this variant.
-    AgX,
-}
-
 /// The direct-lighting pass: its shadow rays test masked materials' alpha
 /// (`rt_alpha.inc.wgsl`) where the device binds the storage buffers that needs; on a smaller GPU
 /// (WebGPU's default of 8 a stage) the same pass built on `rt_opaque.inc.wgsl` (every surface casts
@@ -175,19 +156,7 @@ impl CameraPipelines {
         Ok(Self {
             gbuffer: [gbuffer(0.0)?, gbuffer(1.0)?],
             direct_lighting: Arc::new(direct_lighting_program(gpu)?),
-            tonemap: {
-                let variant = |display: f64, auto: f64| {
-                    compute_program_with_constants(
-                        &gpu.device,
-                        "tonemap.wgsl",
-                        "main",
-                        "tonemap",
-                        &[("DISPLAY_TRANSFORM", display), ("AUTO_EXPOSURE", auto)],
-                    )
-                    .map(Arc::new)
-                };
-                [[variant(0.0, 0.0)?, variant(0.0, 1.0)?], [variant(1.0, 0.0)?, variant(1.0, 1.0)?]]
-            },
+            tonemap: tonemap::programs(gpu)?,
             exposure_histogram: Arc::new(compute_program(&gpu.device, "exposure_histogram.wgsl", "main", "exposure_histogram")?),
             exposure_adapt: Arc::new(compute_program(&gpu.device, "exposure_adapt.wgsl", "main", "exposure_adapt")?),
             taa: Arc::new(compute_program(&gpu.device, "taa.wgsl", "main", "taa")?),
@@ -211,18 +180,7 @@ pub struct RenderOutputs {
 impl RenderOutputs {
     /// Both textures at `size` (at least 1×1).
     pub fn new(gpu: &GpuContext, size: RenderSize) -> Self {
-        let texture = |label, format, usage| {
-            gpu.device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size: wgpu::Extent3d { width: size.width.max(1), height: size.height.max(1), depth_or_array_layers: 1 },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format,
-                usage,
-                view_formats: &[],
-            })
-        };
+        let texture = |label, format, usage| frame_texture(gpu, size, label, format, usage);
         use wgpu::TextureUsages as U;
         Self {
             size,
@@ -234,235 +192,29 @@ impl RenderOutputs {
     }
 }
 
+/// A 2D texture of `size` (at least 1×1) kept between frames: the outputs, the TAA history.
+pub(crate) fn frame_texture(
+    gpu: &GpuContext,
+    size: RenderSize,
+    label: &str,
+    format: wgpu::TextureFormat,
+    usage: wgpu::TextureUsages,
+) -> wgpu::Texture {
+    gpu.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d { width: size.width.max(1), height: size.height.max(1), depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage,
+        view_formats: &[],
+    })
+}
+
 fn prepare_render_outputs(gpu: Res<GpuContext>, size: Res<RenderSize>, mut outputs: ResMut<RenderOutputs>) {
     if outputs.size != *size {
         *outputs = RenderOutputs::new(&gpu, *size);
-    }
-}
-
-/// A window surface the frame is presented to (windowed runner).
-#[derive(Resource)]
-pub struct SurfaceTarget {
-    /// The window's surface.
-    pub surface: wgpu::Surface<'static>,
-    /// How it is configured (format, size in pixels, present mode); resized with the window.
-    pub config: wgpu::SurfaceConfiguration,
-    /// The `present_blit` pipeline for the surface's format ([`blit_program`]).
-    pub blit: Arc<Program<wgpu::RenderPipeline>>,
-    /// Set when the surface reported itself lost: the windowed runner ([`crate::window`]) creates
-    /// a new one from its window after the frame; frames are not presented until then.
-    pub lost: std::sync::atomic::AtomicBool,
-}
-
-/// Something drawn over the finished image (a debug UI such as `ddgi_overlay`'s egui): it records
-/// into the frame's encoder as the graph pass [`ImageOverlay::label`], after the tonemap, into the
-/// tonemapped image ([`RenderOutputs::ldr`], [`LDR_FORMAT`], sRGB-encoded values), so that the
-/// window shows it and the frames an app saves hold it.
-pub trait ImageOverlay: Send + Sync + 'static {
-    /// The pass label (wgpu label, timing span and overlay name).
-    fn label(&self) -> &'static str;
-    /// Records the overlay's draws into `target` (the tonemapped image, `size` pixels, to be loaded
-    /// and drawn over).
-    fn record(&self, gpu: &GpuContext, encoder: &mut wgpu::CommandEncoder, target: &wgpu::TextureView, size: (u32, u32));
-}
-
-/// The overlay drawn over every frame's tonemapped image; absent: nothing is drawn.
-#[derive(Resource, Clone)]
-pub struct ImageOverlayHook(pub Arc<dyn ImageOverlay>);
-
-/// Per-pass GPU time of each frame, and which passes were left out and why.
-#[derive(Resource, Default)]
-pub struct FrameTimings {
-    /// Every frame whose timings have come back, oldest first (at most `keep` of them).
-    pub frames: Vec<FrameTiming>,
-    /// Block at the end of each frame until its timings are back (headless, deterministic runs).
-    pub wait_each_frame: bool,
-    /// Keep at most this many frames (0: all).
-    pub keep: usize,
-    pending: VecDeque<(u64, FrameReport)>,
-    /// Counters that arrived before their frame's timings.
-    pending_counters: Vec<(u64, String, f64)>,
-}
-
-/// One frame's GPU timings: what `timings.json` lists per frame.
-///
-/// In JSON it is an object of maps keyed by pass label, in pass order: `frame`; `gpu_ms`, every
-/// pass that ran → its GPU milliseconds (`null` without timestamp queries); `left_out`, every pass
-/// that did not run → why; `notes`, passes that ran specialized → how (absent when none);
-/// `counters`, name → value (absent when none). A label that appears twice in one frame (which
-/// no frame script does) keys its second pass as `label#2`.
-#[derive(Clone, Debug, PartialEq)]
-pub struct FrameTiming {
-    /// The frame's index ([`Time::frame`]).
-    pub frame: u64,
-    /// Every pass the frame's graph had, in order.
-    pub passes: Vec<PassTiming>,
-    /// Per-frame counts that plugins report (e.g. `ddgi_rays`: rays traced), by name.
-    pub counters: Vec<(String, f64)>,
-}
-
-impl FrameTiming {
-    /// The GPU milliseconds of the pass `label`, if it ran and was timed.
-    pub fn gpu_ms(&self, label: &str) -> Option<f64> {
-        self.passes.iter().find(|p| p.ran && p.label == label).and_then(|p| p.gpu_ms)
-    }
-
-    /// Every pass that ran, in order, with its GPU milliseconds (`None` without timestamp queries):
-    /// the frame's `gpu_ms` map in `timings.json`.
-    pub fn gpu_ms_by_pass(&self) -> impl Iterator<Item = (&str, Option<f64>)> + Clone {
-        self.passes.iter().filter(|p| p.ran).map(|p| (p.label.as_str(), p.gpu_ms))
-    }
-
-    /// The sum of the GPU milliseconds of the passes that ran; `None` if any of them is untimed.
-    pub fn total_gpu_ms(&self) -> Option<f64> {
-        self.gpu_ms_by_pass().map(|(_, ms)| ms).sum()
-    }
-}
-
-/// Serializes `(key, value)` pairs as one JSON object in their order; a key seen before gets
-/// `#2`, `#3`, … appended, so that no pair is lost.
-pub(crate) struct OrderedMap<I>(pub I);
-
-impl<'a, V: Serialize + 'a, I: Clone + Iterator<Item = (&'a str, V)>> Serialize for OrderedMap<I> {
-    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        use serde::ser::SerializeMap;
-        let mut map = serializer.serialize_map(None)?;
-        let mut seen: Vec<&str> = Vec::new();
-        for (key, value) in self.0.clone() {
-            let repeats = seen.iter().filter(|k| **k == key).count();
-            seen.push(key);
-            if repeats == 0 {
-                map.serialize_entry(key, &value)?;
-            } else {
-                map.serialize_entry(&format!("{key}#{}", repeats + 1), &value)?;
-            }
-        }
-        map.end()
-    }
-}
-
-impl Serialize for FrameTiming {
-    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
-        use serde::ser::SerializeMap;
-        let mut map = serializer.serialize_map(None)?;
-        map.serialize_entry("frame", &self.frame)?;
-        map.serialize_entry("gpu_ms", &OrderedMap(self.gpu_ms_by_pass()))?;
-        let left_out = self.passes.iter().filter(|p| !p.ran).map(|p| (p.label.as_str(), p.note.as_str()));
-        map.serialize_entry("left_out", &OrderedMap(left_out))?;
-        let notes = self.passes.iter().filter(|p| p.ran && !p.note.is_empty()).map(|p| (p.label.as_str(), p.note.as_str()));
-        if notes.clone().next().is_some() {
-            map.serialize_entry("notes", &OrderedMap(notes))?;
-        }
-        if !self.counters.is_empty() {
-            map.serialize_entry("counters", &OrderedMap(self.counters.iter().map(|(n, v)| (n.as_str(), *v))))?;
-        }
-        map.end()
-    }
-}
-
-/// One pass of a [`FrameTiming`].
-#[derive(Clone, Debug, Serialize, PartialEq)]
-pub struct PassTiming {
-    /// The pass label (also its wgpu label and timing span).
-    pub label: String,
-    /// Whether it ran (false: the graph culled it, see `note`).
-    pub ran: bool,
-    /// Why it was left out, when it was; how it was specialized, when it ran.
-    #[serde(skip_serializing_if = "String::is_empty")]
-    pub note: String,
-    /// GPU time of the pass in milliseconds; absent without timestamp queries.
-    pub gpu_ms: Option<f64>,
-}
-
-impl FrameTimings {
-    fn push(&mut self, gpu: &GpuContext, timer: &mut GpuTimer, frame: u64, mut report: FrameReport) {
-        if self.wait_each_frame {
-            let times = report.wait_for_timings(gpu, timer);
-            self.record(frame, &mut report, times);
-        } else {
-            self.pending.push_back((frame, report));
-            self.collect(gpu, timer);
-        }
-        if self.keep > 0 && self.frames.len() > self.keep {
-            let excess = self.frames.len() - self.keep;
-            self.frames.drain(..excess);
-        }
-    }
-
-    /// Moves every frame whose timestamps have arrived into `frames`, without blocking.
-    pub fn collect(&mut self, gpu: &GpuContext, timer: &mut GpuTimer) {
-        while let Some((frame, report)) = self.pending.front_mut() {
-            let frame = *frame;
-            let times = if gpu.timestamps {
-                match report.try_timings(gpu, timer) {
-                    Some(t) => Some(t),
-                    None if self.pending.len() > 8 => None,
-                    None => return,
-                }
-            } else {
-                None
-            };
-            let (_, mut report) = self.pending.pop_front().expect("front exists");
-            self.record(frame, &mut report, times);
-        }
-    }
-
-    fn record(&mut self, frame: u64, report: &mut FrameReport, times: Option<Vec<(String, f64)>>) {
-        if let Some(spans) = report.take_gpu_spans() {
-            crate::trace::record_gpu_frame(frame, spans);
-        }
-        let passes = report
-            .passes
-            .iter()
-            .map(|p| PassTiming {
-                label: p.label.clone(),
-                ran: p.ran,
-                note: p.note.clone(),
-                gpu_ms: times.as_ref().and_then(|t| t.iter().find(|(l, _)| *l == p.label).map(|(_, ms)| *ms)),
-            })
-            .collect();
-        let mut counters = Vec::new();
-        self.pending_counters.retain(|(f, name, value)| {
-            let mine = *f == frame;
-            if mine {
-                counters.push((name.clone(), *value));
-            }
-            mine.not()
-        });
-        self.frames.push(FrameTiming { frame, passes, counters });
-    }
-
-    /// Records a per-frame count of frame `frame` (it may arrive before or after the frame's
-    /// timings; a readback a few frames late is fine).
-    pub fn record_counter(&mut self, frame: u64, name: &str, value: f64) {
-        if let Some(f) = self.frames.iter_mut().rev().find(|f| f.frame == frame) {
-            f.counters.push((name.into(), value));
-        } else if self.frames.last().is_none_or(|f| f.frame < frame) {
-            self.pending_counters.push((frame, name.into(), value));
-        }
-    }
-
-    /// The value of counter `name` of each recorded frame that has one.
-    pub fn counter(&self, name: &str) -> Vec<(u64, f64)> {
-        self.frames.iter().filter_map(|f| f.counters.iter().find(|(n, _)| n == name).map(|(_, v)| (f.frame, *v))).collect()
-    }
-
-    /// Mean GPU milliseconds of each pass over the recorded frames, in pass order.
-    pub fn mean_ms(&self) -> Vec<(String, Option<f64>)> {
-        let mut out: Vec<(String, f64, usize)> = Vec::new();
-        for f in &self.frames {
-            for p in f.passes.iter().filter(|p| p.ran) {
-                let i = out.iter().position(|(l, ..)| *l == p.label).unwrap_or_else(|| {
-                    out.push((p.label.clone(), 0.0, 0));
-                    out.len() - 1
-                });
-                if let Some(ms) = p.gpu_ms {
-                    out[i].1 += ms;
-                    out[i].2 += 1;
-                }
-            }
-        }
-        out.into_iter().map(|(l, sum, n)| (l, (n > 0).then(|| sum / n as f64))).collect()
     }
 }
 
@@ -643,79 +395,12 @@ impl CameraFrame<'_> {
     /// graph and records its timings.
     pub fn finish(&mut self, frame: FrameGraph) {
         let FrameGraph { mut graph, hdr, mut ldr } = frame;
-        let auto_exposure = self.add_auto_exposure(&mut graph, &hdr);
-        let (gpu, pipelines, size) = (self.gpu.clone(), &self.pipelines, self.size());
-        {
-            let mut pass = graph.add_pass("tonemap");
-            let input = pass.read(&hdr);
-            let out = pass.write(&mut ldr);
-            let display = self.display.as_deref().copied().unwrap_or_default();
-            if display == DisplayTransform::AgX {
-                pass.note("AgX display transform");
-            }
-            if auto_exposure.is_some() {
-                pass.note("auto-exposure");
-            }
-            let program = pipelines.tonemap[display as usize][auto_exposure.is_some() as usize].clone();
-            let exposure = auto_exposure.as_ref().map(|e| pass.read(e));
-            // Without auto-exposure the shader reads no exposure buffer; the binding still needs one.
-            let unused = self.exposure.as_deref().map(|e| e.exposure_buffer().clone());
-            let scene_reads = pass.read_named(&program.bindings, 0);
-            pass.render(move |ctx| {
-                let group0 = ctx.bind_group(&*program, 0, &scene_reads);
-                let exposure = match (exposure, &unused) {
-                    (Some(e), _) => Some(ctx.buffer(e).as_entire_binding()),
-                    (None, Some(b)) => Some(b.as_entire_binding()),
-                    (None, None) => None,
-                };
-                let mut entries = vec![
-                    ("hdr_in", wgpu::BindingResource::TextureView(ctx.view(input))),
-                    ("ldr_out", wgpu::BindingResource::TextureView(ctx.view(out))),
-                ];
-                entries.extend(exposure.map(|e| ("tonemap_exposure", e)));
-                let group1 = program.bind_group(&ctx.gpu.device, 1, &entries);
-                dispatch(ctx.encoder, ctx.label, &program.pipeline, &[&group0, &group1], workgroups(size));
-            });
-        }
-        if let Some(overlay) = self.overlay.as_ref().map(|o| o.0.clone()) {
-            let mut pass = graph.add_pass(overlay.label());
-            pass.read(&ldr);
-            let out = pass.write(&mut ldr);
-            pass.render(move |ctx| overlay.record(ctx.gpu, ctx.encoder, ctx.view(out), (size.width, size.height)));
-        }
+        self.add_tonemap(&mut graph, &hdr, &mut ldr);
+        self.add_image_overlay(&mut graph, &mut ldr);
         graph.export(&hdr);
         graph.export(&ldr);
-        let surface = self.surface.as_ref();
-        let surface_texture = surface.and_then(|s| acquire_surface(&gpu, s));
-        if let (Some(target), Some(frame)) = (surface, &surface_texture) {
-            let mut swap = graph.import_texture("surface", &frame.texture);
-            let mut pass = graph.add_pass("present_blit");
-            let input = pass.read(&ldr);
-            let out = pass.write(&mut swap);
-            let program = target.blit.clone();
-            pass.render(move |ctx| {
-                let group0 =
-                    program.bind_group(&ctx.gpu.device, 0, &[("blit_source", wgpu::BindingResource::TextureView(ctx.view(input)))]);
-                let mut rp = ctx.encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                    label: Some(ctx.label),
-                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                        view: ctx.view(out),
-                        depth_slice: None,
-                        resolve_target: None,
-                        ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store },
-                    })],
-                    depth_stencil_attachment: None,
-                    timestamp_writes: None,
-                    occlusion_query_set: None,
-                    multiview_mask: None,
-                });
-                rp.set_pipeline(&program.pipeline);
-                rp.set_bind_group(0, &group0, &[]);
-                rp.draw(0..3, 0..1);
-            });
-            graph.export(&swap);
-        }
-
+        let surface_texture = self.add_present_blit(&mut graph, &ldr);
+        let gpu = self.gpu.clone();
         let report = graph.execute(&gpu, &mut self.pool, Some(&mut self.timer));
         if let Some(frame) = surface_texture {
             gpu.queue.present(frame);
@@ -733,38 +418,6 @@ pub fn render_camera_frame(mut frame: CameraFrame) {
     frame.add_direct_lighting(&mut script.graph, &gbuffer, &mut script.hdr);
     frame.add_taa(&mut script.graph, &gbuffer, &mut script.hdr);
     frame.finish(script);
-}
-
-/// The surface's next texture, or `None` when this frame cannot be presented: a timeout or an
-/// occluded window skip the frame; an outdated surface is reconfigured (the next frame presents); a
-/// lost surface is flagged for the runner to replace ([`SurfaceTarget::lost`]).
-fn acquire_surface(gpu: &GpuContext, target: &SurfaceTarget) -> Option<wgpu::SurfaceTexture> {
-    use std::sync::atomic::Ordering;
-    if target.lost.load(Ordering::Relaxed) {
-        return None;
-    }
-    match target.surface.get_current_texture() {
-        wgpu::CurrentSurfaceTexture::Success(t) => Some(t),
-        wgpu::CurrentSurfaceTexture::Suboptimal(t) => {
-            // Present this one; the next frame uses a surface that fits again.
-            target.surface.configure(&gpu.device, &target.config);
-            Some(t)
-        }
-        wgpu::CurrentSurfaceTexture::Outdated => {
-            log::info!("the surface is outdated (the window changed): reconfiguring it");
-            target.surface.configure(&gpu.device, &target.config);
-            None
-        }
-        wgpu::CurrentSurfaceTexture::Lost => {
-            log::warn!("the surface was lost: the runner creates a new one");
-            target.lost.store(true, Ordering::Relaxed);
-            None
-        }
-        other => {
-            log::info!("no surface texture this frame ({other:?}): the frame is not presented");
-            None
-        }
-    }
 }
 
 /// The depth test of everything rasterized against the G-buffer's depth: reverse Z (1 near, 0 at
@@ -800,19 +453,4 @@ pub fn begin_pass_over_image<'p>(
         occlusion_query_set: None,
         multiview_mask: None,
     })
-}
-
-/// The blit pipeline for presenting to a surface of `format` (must not be an sRGB format: the image
-/// is already encoded).
-pub fn blit_program(gpu: &GpuContext, format: wgpu::TextureFormat) -> Result<Program<wgpu::RenderPipeline>, crate::shader::ShaderError> {
-    render_program(
-        &gpu.device,
-        "blit.wgsl",
-        "present_blit",
-        RenderTargets {
-            colors: &[Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL })],
-            depth: None,
-            primitive: Default::default(),
-        },
-    )
 }

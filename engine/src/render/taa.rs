@@ -13,7 +13,7 @@ use bevy_ecs::prelude::*;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec2;
 
-use super::{CameraFrame, GBuffer, HDR_FORMAT, RenderSize, workgroups};
+use super::{CameraFrame, GBuffer, HDR_FORMAT, RenderSize, frame_texture, workgroups};
 use crate::gpu::{GpuContext, dispatch};
 use crate::graph::{Handle, RenderGraph, Texture as GraphTexture};
 use crate::scene::{Camera, GlobalTransform};
@@ -119,16 +119,7 @@ pub struct TaaState {
 
 fn history_texture(gpu: &GpuContext, size: RenderSize, label: &str) -> wgpu::Texture {
     use wgpu::TextureUsages as U;
-    gpu.device.create_texture(&wgpu::TextureDescriptor {
-        label: Some(label),
-        size: wgpu::Extent3d { width: size.width.max(1), height: size.height.max(1), depth_or_array_layers: 1 },
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format: HDR_FORMAT,
-        usage: U::STORAGE_BINDING | U::TEXTURE_BINDING,
-        view_formats: &[],
-    })
+    frame_texture(gpu, size, label, HDR_FORMAT, U::STORAGE_BINDING | U::TEXTURE_BINDING)
 }
 
 impl TaaState {
