@@ -209,7 +209,11 @@ mod tests {
         let material = OurMaterial {
             base_color_texture: map,
             emissive_texture: map,
-            normal_texture: Some(TextureRef { image: Handle::from_index(0), transform: UvTransform::default(), filter: Default::default() }),
+            normal_texture: Some(TextureRef {
+                image: Handle::from_index(0),
+                transform: UvTransform::default(),
+                filter: Default::default(),
+            }),
             ..OurMaterial::diffuse("painted", Vec3::ONE)
         };
         let material = scene.add_material(material);

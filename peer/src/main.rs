@@ -177,28 +177,7 @@ fn run(args: &Args) -> Result<(), String> {
     let volume = sgl::lattice(bounds, grid);
     // The conversion's check: both renderers' direct light alone (sgl-3d with its dynamic GI off),
     // which differ only by what docs/evaluation.md lists (shadow maps, Bevy's diffuse lobe).
-    println!("direct light only: sgl-3d and ours…");
-    let sgl_direct = sgl::run(
-        &gpu,
-        &sgl::SglRun {
-            converted: &converted,
-            width: w,
-            height: h,
-            frames: 2,
-            quality: DynamicGiQuality::Off,
-            volume,
-            keep_awake: false,
-            observe: false,
-        },
-    )?;
-    let ours_direct =
-        render_scene_with(&gpu, scene.clone(), &HeadlessSettings { width: w, height: h, frames: 1, ..Default::default() }, |_| {})
-            .map_err(|e| e.to_string())?;
-    let conversion = compare(&ours_direct.hdr, &sgl_direct.hdr, w, h, 1.0);
-    let mean = |hdr: &[f32]| hdr.chunks_exact(4).map(|p| f64::from(p[0] + p[1] + p[2])).sum::<f64>() / (3 * hdr.len() / 4).max(1) as f64;
-    let brightness = mean(&sgl_direct.hdr) / mean(&ours_direct.hdr);
-    images.push(("sgl-3d_direct".into(), sgl_direct.hdr));
-    images.push(("ours_direct".into(), ours_direct.hdr));
+    let (conversion, brightness) = direct_light_check(&gpu, &converted, &scene, volume, (w, h), &mut images)?;
 
     let tier = gpu.device.limits().max_sampled_textures_per_shader_stage;
     let in_effect = sgl::SglRenderer::new(
@@ -223,102 +202,30 @@ fn run(args: &Args) -> Result<(), String> {
     };
     // sgl-3d's rays a probe per update, counted in runs of their own (its observation adds work to
     // the trace, so the timed runs are not observed), before the timed runs.
-    let mut counted_rays = Vec::new();
-    for &(keep_awake, name) in variants {
-        println!("{name}: counting its rays, {} frames…", args.frames);
-        let counted = sgl::run(
-            &gpu,
-            &sgl::SglRun { converted: &converted, width: w, height: h, frames: args.frames, quality, volume, keep_awake, observe: true },
-        )?;
-        counted_rays.push(median(
-            counted.reports.iter().filter(|r| r.frame >= u64::from(args.skip) && r.rays > 0).map(|r| f64::from(r.rays)).collect(),
-        ));
-    }
+    let counted_rays = count_sgl_rays(&gpu, args, &converted, quality, volume, variants)?;
 
-    // Ours: the fixed budget and adaptive budgets, on the same grid and bounds, rays and map sizes.
-    let bounds_d = (bounds.0.as_dvec3(), bounds.1.as_dvec3());
-    let base = ddgi::DdgiVolume {
-        bounds: Some(bounds_d),
-        probe_counts: Some(grid.into()),
-        rays_per_probe: args.rays,
-        // sgl-3d's maps: 6×6 irradiance texels and 16×16 depth texels a probe (plus borders).
-        irradiance_texels: 6,
-        distance_texels: 16,
-        ..Default::default()
-    };
-    let mut ours = vec![
-        ("ours, fixed".to_string(), ddgi::DdgiVolume { adaptive: ddgi::DdgiAdaptive::off(), ..base.clone() }),
-        (
-            "ours, adaptive".to_string(),
-            ddgi::DdgiVolume { adaptive: ddgi::DdgiAdaptive { enabled: true, ..Default::default() }, ..base.clone() },
-        ),
-    ];
-    // Ours at sgl-3d's ray count: adaptive budgets capped at the rays sgl-3d traced per update
-    // (its own frame cap and update periods), so that both are compared per update at one count.
-    if let Some(rays) = counted_rays.first().copied().flatten().filter(|r| r.is_finite() && *r >= 1.0) {
-        for &share in &args.ours_at_shares {
-            let budget = (rays * share).round().max(1.0) as u32;
-            let adaptive = ddgi::DdgiAdaptive { enabled: true, frame_budget: Some(budget), ..Default::default() };
-            let whose = if share == 1.0 { "sgl-3d's".to_string() } else { format!("{share} × sgl-3d's") };
-            ours.push((format!("ours, adaptive, {budget} rays a frame ({whose})"), ddgi::DdgiVolume { adaptive, ..base.clone() }));
-        }
-    }
+    let ours = ours_volumes(args, bounds, grid, counted_rays.first().copied().flatten());
 
     // The timed runs, interleaved: every row renders its frame 0, then every row its frame 1, and
     // so on, each frame waited for before the next row's.
-    let seed = pathtrace::PathTraceSettings::default().seed;
-    let settings = HeadlessSettings { width: w, height: h, frames: args.frames, ..Default::default() };
     let mut runners = Vec::new();
     for &(keep_awake, name) in variants {
         let job =
             sgl::SglRun { converted: &converted, width: w, height: h, frames: args.frames, quality, volume, keep_awake, observe: false };
         runners.push((name.to_string(), Runner::Sgl(Box::new(sgl::SglRenderer::new(&gpu, &job)?))));
     }
-    let mut configs = Vec::new();
-    for (name, volume) in ours {
-        let config = Config::Ddgi { name: name.clone(), volume: Box::new(volume), occlusion: Default::default(), taa: false };
-        let mut app =
-            engine::headless::scene_app(&gpu, scene.clone(), &settings, |app| config.configure(app, seed)).map_err(|e| e.to_string())?;
-        engine::app::finish_plugins(&mut app);
-        runners.push((name, Runner::Ours(Box::new(app))));
-        configs.push(config);
-    }
+    let configs = ours_apps(&gpu, args, &scene, ours, &mut runners)?;
     let names: Vec<String> = runners.iter().map(|(name, _)| name.clone()).collect();
     println!("timed runs, interleaved frame by frame: {} frames of {}…", args.frames, names.join(" | "));
-    for _ in 0..args.frames {
-        for (name, runner) in &mut runners {
-            match runner {
-                Runner::Sgl(sgl) => sgl.step(&gpu)?,
-                Runner::Ours(app) => {
-                    app.update();
-                    if let Some(exit) = app.should_exit() {
-                        return Err(format!("{name}: the app exited ({exit:?})"));
-                    }
-                }
-            }
-        }
-    }
+    step_interleaved(&gpu, &mut runners, args.frames)?;
     let mut configs = configs.into_iter();
     for ((name, runner), rays) in runners.into_iter().zip(counted_rays.into_iter().map(Some).chain(std::iter::repeat(None))) {
         match runner {
             Runner::Sgl(sgl) => {
-                let timed = sgl.finish(&gpu)?;
-                let rays = rays.flatten();
-                let (update_ms, frame_ms, update_frames, measured_frames) = sgl::summary(&timed.frames, u64::from(args.skip));
-                let error = compare(&reference, &timed.hdr, w, h, 1.0);
-                rows.push(Row {
-                    renderer: name.clone(),
-                    update_ms,
-                    update_frames,
-                    measured_frames,
-                    frame_ms,
-                    rays_per_update: rays,
-                    ns_per_ray: update_ms.zip(rays).map(|(ms, r)| ms * 1e6 / r),
-                    error,
-                    update_passes: Vec::new(),
-                });
-                images.push((image_name(&name), timed.hdr));
-                sgl_frames.push((name, timed.frames));
+                let (row, hdr, frames) = sgl_row(&gpu, args, &reference, &name, *sgl, rays.flatten())?;
+                rows.push(row);
+                images.push((image_name(&name), hdr));
+                sgl_frames.push((name, frames));
             }
             Runner::Ours(app) => {
                 let config = configs.next().ok_or("a row of ours without its configuration")?;
@@ -368,14 +275,179 @@ fn run(args: &Args) -> Result<(), String> {
             unmatched,
             sgl_frames,
         };
-        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-        }
-        let text = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;
-        std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))?;
-        println!("wrote {}", path.display());
+        write_json(path, &report)?;
     }
     if failures.is_empty() { Ok(()) } else { Err(format!("the comparison is not sound: {}", failures.join("; "))) }
+}
+
+/// The conversion's check: both renderers' direct light alone (sgl-3d with its dynamic GI off),
+/// which differ only by what docs/evaluation.md lists (shadow maps, Bevy's diffuse lobe). Returns
+/// the comparison and sgl-3d's mean radiance over ours; both images go to `images`.
+fn direct_light_check(
+    gpu: &GpuContext,
+    converted: &convert::Converted,
+    scene: &engine::scene::SceneDescription,
+    volume: sgl_3d::DynamicGiVolume,
+    (w, h): (u32, u32),
+    images: &mut Vec<(String, Vec<f32>)>,
+) -> Result<(ErrorMetrics, f64), String> {
+    println!("direct light only: sgl-3d and ours…");
+    let sgl_direct = sgl::run(
+        gpu,
+        &sgl::SglRun {
+            converted,
+            width: w,
+            height: h,
+            frames: 2,
+            quality: DynamicGiQuality::Off,
+            volume,
+            keep_awake: false,
+            observe: false,
+        },
+    )?;
+    let ours_direct =
+        render_scene_with(gpu, scene.clone(), &HeadlessSettings { width: w, height: h, frames: 1, ..Default::default() }, |_| {})
+            .map_err(|e| e.to_string())?;
+    let conversion = compare(&ours_direct.hdr, &sgl_direct.hdr, w, h, 1.0);
+    let mean = |hdr: &[f32]| hdr.chunks_exact(4).map(|p| f64::from(p[0] + p[1] + p[2])).sum::<f64>() / (3 * hdr.len() / 4).max(1) as f64;
+    let brightness = mean(&sgl_direct.hdr) / mean(&ours_direct.hdr);
+    images.push(("sgl-3d_direct".into(), sgl_direct.hdr));
+    images.push(("ours_direct".into(), ours_direct.hdr));
+    Ok((conversion, brightness))
+}
+
+/// Our rows: the fixed budget and adaptive budgets on sgl-3d's grid, bounds, rays and map sizes, and
+/// adaptive budgets capped at `--ours-at-shares` of the rays sgl-3d traced per update (`sgl_rays`).
+fn ours_volumes(args: &Args, bounds: (glam::Vec3, glam::Vec3), grid: [u32; 3], sgl_rays: Option<f64>) -> Vec<(String, ddgi::DdgiVolume)> {
+    // Ours: the fixed budget and adaptive budgets, on the same grid and bounds, rays and map sizes.
+    let bounds_d = (bounds.0.as_dvec3(), bounds.1.as_dvec3());
+    let base = ddgi::DdgiVolume {
+        bounds: Some(bounds_d),
+        probe_counts: Some(grid.into()),
+        rays_per_probe: args.rays,
+        // sgl-3d's maps: 6×6 irradiance texels and 16×16 depth texels a probe (plus borders).
+        irradiance_texels: 6,
+        distance_texels: 16,
+        ..Default::default()
+    };
+    let mut ours = vec![
+        ("ours, fixed".to_string(), ddgi::DdgiVolume { adaptive: ddgi::DdgiAdaptive::off(), ..base.clone() }),
+        (
+            "ours, adaptive".to_string(),
+            ddgi::DdgiVolume { adaptive: ddgi::DdgiAdaptive { enabled: true, ..Default::default() }, ..base.clone() },
+        ),
+    ];
+    // Ours at sgl-3d's ray count: adaptive budgets capped at the rays sgl-3d traced per update
+    // (its own frame cap and update periods), so that both are compared per update at one count.
+    if let Some(rays) = sgl_rays.filter(|r| r.is_finite() && *r >= 1.0) {
+        for &share in &args.ours_at_shares {
+            let budget = (rays * share).round().max(1.0) as u32;
+            let adaptive = ddgi::DdgiAdaptive { enabled: true, frame_budget: Some(budget), ..Default::default() };
+            let whose = if share == 1.0 { "sgl-3d's".to_string() } else { format!("{share} × sgl-3d's") };
+            ours.push((format!("ours, adaptive, {budget} rays a frame ({whose})"), ddgi::DdgiVolume { adaptive, ..base.clone() }));
+        }
+    }
+    ours
+}
+
+/// Every runner renders its frame 0, then every runner its frame 1, and so on, `frames` times.
+fn step_interleaved(gpu: &GpuContext, runners: &mut [(String, Runner)], frames: u32) -> Result<(), String> {
+    for _ in 0..frames {
+        for (name, runner) in runners.iter_mut() {
+            match runner {
+                Runner::Sgl(sgl) => sgl.step(gpu)?,
+                Runner::Ours(app) => {
+                    app.update();
+                    if let Some(exit) = app.should_exit() {
+                        return Err(format!("{name}: the app exited ({exit:?})"));
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// sgl-3d's row from its timed run, with its image and frames; `rays`: its rays per update, counted
+/// in a run of its own.
+fn sgl_row(
+    gpu: &GpuContext,
+    args: &Args,
+    reference: &[f32],
+    name: &str,
+    sgl: sgl::SglRenderer,
+    rays: Option<f64>,
+) -> Result<(Row, Vec<f32>, Vec<sgl::SglFrame>), String> {
+    let timed = sgl.finish(gpu)?;
+    let (update_ms, frame_ms, update_frames, measured_frames) = sgl::summary(&timed.frames, u64::from(args.skip));
+    let error = compare(reference, &timed.hdr, args.width, args.height, 1.0);
+    let row = Row {
+        renderer: name.to_string(),
+        update_ms,
+        update_frames,
+        measured_frames,
+        frame_ms,
+        rays_per_update: rays,
+        ns_per_ray: update_ms.zip(rays).map(|(ms, r)| ms * 1e6 / r),
+        error,
+        update_passes: Vec::new(),
+    };
+    Ok((row, timed.hdr, timed.frames))
+}
+
+/// Writes `report` as JSON to `path`, making its folder.
+fn write_json(path: &Path, report: &Report) -> Result<(), String> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    }
+    let text = serde_json::to_string_pretty(report).map_err(|e| e.to_string())?;
+    std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))?;
+    println!("wrote {}", path.display());
+    Ok(())
+}
+
+/// Our rows' apps, one per volume, added to `runners`; returns their configurations in order.
+fn ours_apps(
+    gpu: &GpuContext,
+    args: &Args,
+    scene: &engine::scene::SceneDescription,
+    ours: Vec<(String, ddgi::DdgiVolume)>,
+    runners: &mut Vec<(String, Runner)>,
+) -> Result<Vec<Config>, String> {
+    let seed = pathtrace::PathTraceSettings::default().seed;
+    let settings = HeadlessSettings { width: args.width, height: args.height, frames: args.frames, ..Default::default() };
+    let mut configs = Vec::new();
+    for (name, volume) in ours {
+        let config = Config::Ddgi { name: name.clone(), volume: Box::new(volume), occlusion: Default::default(), taa: false };
+        let mut app =
+            engine::headless::scene_app(gpu, scene.clone(), &settings, |app| config.configure(app, seed)).map_err(|e| e.to_string())?;
+        engine::app::finish_plugins(&mut app);
+        runners.push((name, Runner::Ours(Box::new(app))));
+        configs.push(config);
+    }
+    Ok(configs)
+}
+
+/// sgl-3d's median rays per update for each of `variants` (kept awake or not), counted in observed
+/// runs of their own.
+fn count_sgl_rays(
+    gpu: &GpuContext,
+    args: &Args,
+    converted: &convert::Converted,
+    quality: DynamicGiQuality,
+    volume: sgl_3d::DynamicGiVolume,
+    variants: &[(bool, &str)],
+) -> Result<Vec<Option<f64>>, String> {
+    let (width, height, frames) = (args.width, args.height, args.frames);
+    let mut counted_rays = Vec::new();
+    for &(keep_awake, name) in variants {
+        println!("{name}: counting its rays, {frames} frames…");
+        let counted = sgl::run(gpu, &sgl::SglRun { converted, width, height, frames, quality, volume, keep_awake, observe: true })?;
+        counted_rays.push(median(
+            counted.reports.iter().filter(|r| r.frame >= u64::from(args.skip) && r.rays > 0).map(|r| f64::from(r.rays)).collect(),
+        ));
+    }
+    Ok(counted_rays)
 }
 
 /// What makes a run's figures meaningless: a non-finite or black image, or a renderer whose probes
