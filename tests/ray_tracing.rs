@@ -1193,34 +1193,29 @@ fn postponed_triangle_tests_find_the_hits_of_tests_at_once() {
             assert!(ties * 200 <= hits, "{name}: {ties} ties settled otherwise of {hits} hits: too many to be ties");
             got.iter().zip(&expected).enumerate().find(|(_, (a, b))| a != b && !tie(a, b)).map(|(i, (a, b))| (i, *a, *b))
         };
+        // Traces with `variant` and asserts the hits are those of the tests at once.
+        let finds_the_same_hits = |variant: lab::bench::TraceVariant, what: &str| {
+            let got = lab::bench::closest_hits(&gpu, &app, bounds, grid, rays, variant).expect(what);
+            assert_eq!(first_difference(&got), None, "{what}: (ray, got, expected)");
+        };
+        let work = |variant: lab::bench::TraceVariant| lab::bench::traversal_work(&gpu, &app, bounds, grid, rays, variant).expect("work");
         for share in [0.2, 0.5, 1.0] {
             for (workgroup_size, shared_stack_entries) in [(64, 0), (128, 0), (128, 2)] {
                 let postponed =
                     lab::bench::TraceVariant { postpone_triangles: Some(share), workgroup_size, shared_stack_entries, ..at_once };
                 let what = format!("{name}, share {share}, {workgroup_size} threads a workgroup, shared stack {shared_stack_entries}");
-                let got = lab::bench::closest_hits(&gpu, &app, bounds, grid, rays, postponed).expect("postponed, thread a ray");
-                assert_eq!(first_difference(&got), None, "{what}, thread a ray: (ray, got, expected)");
+                finds_the_same_hits(postponed, &format!("{what}, thread a ray"));
                 // Fewer workgroups than rays / 64, and a share that does not divide the rays evenly;
                 // next rays taken one a lane, or one fetch for a subgroup's lanes done together.
                 for subgroup_fetch in [false, true] {
                     let persistent = lab::bench::TraceVariant { persistent_groups: Some(7), subgroup_fetch, ..postponed };
-                    let got = lab::bench::closest_hits(&gpu, &app, bounds, grid, rays, persistent).expect("postponed, persistent");
-                    assert_eq!(first_difference(&got), None, "{what}, persistent, subgroup fetch {subgroup_fetch}: (ray, got, expected)");
+                    finds_the_same_hits(persistent, &format!("{what}, persistent, subgroup fetch {subgroup_fetch}"));
                 }
             }
             // Dynamic fetch alone.
             let fetch = lab::bench::TraceVariant { persistent_groups: Some(7), subgroup_fetch: true, ..at_once };
-            let got = lab::bench::closest_hits(&gpu, &app, bounds, grid, rays, fetch).expect("subgroup fetch");
-            assert_eq!(first_difference(&got), None, "{name}, persistent, subgroup fetch: (ray, got, expected)");
-            let w = lab::bench::traversal_work(
-                &gpu,
-                &app,
-                bounds,
-                grid,
-                rays,
-                lab::bench::TraceVariant { postpone_triangles: Some(share), ..at_once },
-            )
-            .expect("work");
+            finds_the_same_hits(fetch, &format!("{name}, persistent, subgroup fetch"));
+            let w = work(lab::bench::TraceVariant { postpone_triangles: Some(share), ..at_once });
             eprintln!(
                 "{name}, share {share}: {:.1} BLAS nodes, {:.1} triangles, {:.1} steps of which {:.2} put tests off and {:.2} waited, a ray; \
                  SIMT efficiency {:.0}%",
@@ -1243,21 +1238,10 @@ fn postponed_triangle_tests_find_the_hits_of_tests_at_once() {
         for packet in [lab::bench::PacketScope::Subgroup, lab::bench::PacketScope::Workgroup] {
             for workgroup_size in [32, 64, 128] {
                 let v = lab::bench::TraceVariant { packet: Some(packet), workgroup_size, ..at_once };
-                let got = lab::bench::closest_hits(&gpu, &app, bounds, grid, rays, v).expect("packets");
-                assert_eq!(first_difference(&got), None, "{name}, packets of a {packet:?}, {workgroup_size} threads: (ray, got, expected)");
+                finds_the_same_hits(v, &format!("{name}, packets of a {packet:?}, {workgroup_size} threads"));
             }
-            let w = lab::bench::traversal_work(
-                &gpu,
-                &app,
-                bounds,
-                grid,
-                rays,
-                lab::bench::TraceVariant { packet: Some(packet), workgroup_size: 32, ..at_once },
-            )
-            .expect("work");
-            let alone =
-                lab::bench::traversal_work(&gpu, &app, bounds, grid, rays, lab::bench::TraceVariant { workgroup_size: 32, ..at_once })
-                    .expect("work");
+            let w = work(lab::bench::TraceVariant { packet: Some(packet), workgroup_size: 32, ..at_once });
+            let alone = work(lab::bench::TraceVariant { workgroup_size: 32, ..at_once });
             eprintln!("{name}, packets of a {packet:?}: {:.1} steps a ray against {:.1} a ray walked alone", w.steps, alone.steps);
             // A packet visits every node any of its rays needs: never less work a ray.
             assert!(
