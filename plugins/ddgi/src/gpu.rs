@@ -303,11 +303,14 @@ pub const BUDGET_BLOCK: u32 = 256;
 /// Rays per workgroup of the trace (one thread each).
 pub const RAY_GROUP: u32 = 64;
 /// Threads per workgroup of the persistent trace ([`crate::DdgiVolume::persistent_trace`]): the
-/// best of `game_demo bench trace --persistent-groups` on the H200 (128 against 64 and 256).
+/// best of `game_demo bench trace --persistent-groups` (128 against 64 and 256; BENCHMARKS.md,
+/// "Ray-tracing core: closest-hit throughput of probe-like rays").
 pub const PERSISTENT_TRACE_GROUP: u32 = 128;
 /// Most workgroups of the persistent trace: enough to fill the GPU, which wgpu cannot tell us (it
-/// exposes no count of multiprocessors). 4,224 = 32 × the H200's 132 SMs, the best of `bench trace`
-/// there (1.47× thread a ray at 32³ probes × 256 rays); fewer rays than 128 a workgroup get
+/// exposes no count of multiprocessors). 4,224 = 32 workgroups for each of the 132
+/// multiprocessors of the GPU it was tuned on, the best of `bench trace` there (about 1.5 times
+/// as fast as a thread a ray at 32³ probes × 256 rays; BENCHMARKS.md, "Ray-tracing core:
+/// closest-hit throughput of probe-like rays"); fewer rays than 128 a workgroup get
 /// `ceil(rays / 128)` workgroups (the budget pass sizes the dispatch from the frame's ray count).
 pub const PERSISTENT_TRACE_GROUPS: u32 = 4224;
 /// Most boxes around moved instances whose probes a frame wakes locally; more movers than this in

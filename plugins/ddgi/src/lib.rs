@@ -96,6 +96,7 @@ pub mod atlas;
 pub mod calm;
 pub mod cascades;
 pub mod debug_view;
+pub mod field_docs;
 pub mod fit;
 pub mod frame;
 pub mod gpu;

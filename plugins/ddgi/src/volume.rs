@@ -40,9 +40,9 @@ impl Default for DdgiWeights {
 }
 
 /// Adaptive ray budgets (on by default; [`DdgiAdaptive::off`] for the fixed budget): rays go where
-/// the lighting changes, and probes that contribute nothing stop costing anything. Measured
-/// (BENCHMARKS.md, H200, the six evaluation scenes after 120 frames): as accurate or more than the
-/// fixed budget everywhere — much more where light builds up over many bounces (a probe still
+/// the lighting changes, and probes that contribute nothing stop costing anything. Measured in
+/// BENCHMARKS.md ("Adaptive probes against fixed budgets", the six evaluation scenes after 120
+/// frames): as accurate or more than the fixed budget everywhere — much more where light builds up over many bounces (a probe still
 /// converging blends faster), at fewer rays.
 ///
 /// Each probe's *temporal error*: per texel of its irradiance map, the change each frame's estimate
@@ -96,7 +96,8 @@ pub struct DdgiAdaptive {
     pub max_rest_frames: u32,
     /// Share of `error_target` under which a probe's error counts as quiet (lets it rest); with
     /// `rest_smoothing`, its settled error instead. Lower: only well-converged probes rest.
-    /// Measured (BENCHMARKS.md, H200): in the open, sunlit demo level 0.5 traces 2.63× fewer rays
+    /// Measured in BENCHMARKS.md ("Adaptive probes against fixed budgets"): in the open, sunlit
+    /// demo level 0.5 traces 2.63× fewer rays
     /// than the fixed budget at 3.5% less error where the default 0.35 traces 1.96× fewer at 3.4%
     /// more, but on a dense cathedral grid (32×16×32) 0.5 costs 7.2% more error.
     pub rest_error: f32,
@@ -106,7 +107,7 @@ pub struct DdgiAdaptive {
     /// many bounces) as many times slower as it has fewer rays; 0 (the default) keeps the
     /// volume's hysteresis, so every probe follows light at the fixed budget's pace (an awake
     /// probe with an eighth of the rays is √8 times noisier; resting probes do not move at all).
-    /// Measured in BENCHMARKS.md (H200, after the cathedral's sun turns, 720 frames): the error is
+    /// Measured in BENCHMARKS.md (after the cathedral's sun turns, 720 frames): the error is
     /// back within 10% of its settled value after 195 / 302 / 418 frames at exponents 0 / ¼ / ½,
     /// 232 with the fixed budget; static error and flicker at 0 stay within 3% and under the fixed
     /// budget's. No cost either way.
@@ -122,8 +123,8 @@ pub struct DdgiAdaptive {
     /// look settled. The price: the slow average needs about three times as many updates as the
     /// fast one to register a small lasting change; a change of light the CPU sees wakes every
     /// resting probe at once, which keeps the recovery fast. The settled error also judges calm
-    /// phases (see `calm_error`). Measured (BENCHMARKS.md, H200, 2026-12-04, static phases against
-    /// the fixed budget in the five evaluation scenes at their own grids and a denser cathedral
+    /// phases (see `calm_error`). Measured in BENCHMARKS.md ("Adaptive probes against fixed
+    /// budgets"; static phases against the fixed budget in the five evaluation scenes at their own grids and a denser cathedral
     /// grid, calm phases still judged on the error alone): FLIP within 5% of the fixed budget's in
     /// all six (the default rule, `None`, +7.1% on the denser grid), 1.8–15× fewer rays and
     /// 1.0–5.3× less probe-update time (`None`: 1.7–14×, 1.0–4.7×), recovery after a change in
@@ -154,9 +155,9 @@ pub struct DdgiAdaptive {
     /// Share of `error_target` under which the mean error of a volume's active probes counts as
     /// calm (see `max_update_period`); with `rest_smoothing`, the smaller of the mean of their
     /// errors and the mean of their settled errors, so that a volume whose maps have converged
-    /// goes calm though its probes' noise keeps their errors up. Measured with that reading
-    /// (BENCHMARKS.md, H200, 2026-12-04, static phases against the fixed budget, the error alone
-    /// in brackets): the demo level 9.98× fewer rays and 6.41× less probe-update time at 6.7% less
+    /// goes calm though its probes' noise keeps their errors up. Measured with that reading in
+    /// BENCHMARKS.md ("Adaptive probes against fixed budgets"; static phases against the fixed
+    /// budget, the error alone in brackets): the demo level 9.98× fewer rays and 6.41× less probe-update time at 6.7% less
     /// error (3.34×, 1.82×, 0.6% less: it was never calm), the cathedral 8.68× and 5.98× at +1.1%
     /// (4.45×, 2.16×, +3.8%), the other scenes as before; on a denser cathedral grid (32×16×32),
     /// which goes calm while its light still builds up, +5.6% (+3.9%) for 8.76× and 7.02× (7.68×,
@@ -164,8 +165,8 @@ pub struct DdgiAdaptive {
     /// bright light keep their errors near the target for a long time: `color_bleed`'s 8 probes
     /// sit at 0.65–1.0 of it through their first 240 frames and go calm only after that), but
     /// also sooner after a change, while light still builds up over bounces, which then converges
-    /// that many times slower. Measured on lavapipe (`eval --time-series`, 128², 256-spp
-    /// reference; static FLIP against the fixed budget's, the error alone judging): Cornell's box
+    /// that many times slower. Measured at 128² (`eval --time-series`, 256-spp reference; static
+    /// FLIP against the fixed budget's, the error alone judging): Cornell's box
     /// (8×8×8) +2.5% at 0.5 (15.9× fewer rays a frame), +6.6% at 1.0; `color_bleed` (2×2×2) never
     /// calm in 240 frames at 0.5 (1.5× fewer), −0.7% at 1.0 (5.3× fewer). No cost.
     pub calm_error: f32,
@@ -180,8 +181,9 @@ pub struct DdgiAdaptive {
     ///
     /// Off by default because converging sooner is not always closer to the truth: where DDGI's
     /// own converged answer carries more indirect light than a path tracer finds, a volume that
-    /// gets there sooner is further off earlier. Measured (BENCHMARKS.md, H200, 2026-12-04, static
-    /// FLIP after 240 frames against the fixed budget's, rays and probe-update time fewer): at 4,
+    /// gets there sooner is further off earlier. Measured in BENCHMARKS.md ("Tried, not the
+    /// default: drifting probes blend faster"; static FLIP after 240 frames against the fixed
+    /// budget's, rays and probe-update time fewer): at 4,
     /// `color_bleed` (8 probes in a closed box, light building up for hundreds of frames) −3.2%,
     /// 12.5× and 4.1× (off: −3.8%, 2.0×, 1.05×) and Cornell's box −0.9%, 27×, 4.2× (off: +1.5%,
     /// 15×, 4.1×), but the cathedral +17% (off: +1.1%), the demo level +21% (off: −6.7%) and
@@ -330,10 +332,10 @@ pub struct DdgiVolume {
     /// hits go through a buffer (`ddgi_hits`, 24 bytes a ray) to the pass `ddgi_shade`, which
     /// shades them a thread a ray. Off, `ddgi_trace` traces and shades each ray in one thread.
     /// Both give the same rays, hits and shading. Cost: 24 bytes of GPU memory a ray, and one
-    /// more dispatch (which a small update, latency-bound, pays for). Effect on the H200 (`game_demo
-    /// bench ddgi --persistent-trace`, both ways in one run): the closest hits take half the time,
-    /// but the shading pass walks its shadow rays a thread a ray, so the whole probe update is only
-    /// 1.03–1.06× as fast (cathedral 32×32×32 × 256: 13.2 against 14.1 ms).
+    /// more dispatch (which a small update, latency-bound, pays for). Effect (`game_demo bench
+    /// ddgi --persistent-trace`, both ways in one run; the figures in BENCHMARKS.md, "DDGI: full
+    /// probe update throughput"): the closest hits take about half the time, but the shading pass
+    /// walks its shadow rays a thread a ray, so the whole probe update gains only a few per cent.
     pub persistent_trace: bool,
     /// Near-field occlusion at the probe rays' hits (0, the default: off): rays, each of
     /// `hit_occlusion_reach`, traced from each hit over its hemisphere (cosine-distributed). The
@@ -343,17 +345,17 @@ pub struct DdgiVolume {
     /// path tracer finds. With these rays a blocked share of the hemisphere sees, instead of the
     /// probes' light, a nearby surface taken to reflect like the hit's own (its emission plus its
     /// albedo times the probes' light), which keeps a closed emitting room (a furnace) exact.
-    /// Measured (BENCHMARKS.md, 2026-12-04): on lavapipe (cathedral 16×8×12 × 32 rays, 128², the
-    /// fixed budget after 720 frames, against a 512-path path tracer) 8 rays take the converged
-    /// image's mean luminance from 1.039× the path tracer's to 1.020× (reach 0.5) or 1.007×
-    /// (reach 1), FLIP −8% / −12%; on the H200 (`eval --time-series`, fixed budget, the error
-    /// settled 240 frames after a change) the cathedral's FLIP −13% and the demo level's −10%, at
-    /// 2.4× the probe-update time (the cathedral 1.168 against 0.484 ms). One ray does as well
-    /// as eight (lavapipe, 2026-12-05: 1.008× at reach 1): each frame's probe rays point
-    /// elsewhere, so the hysteresis averages the blocked share. Off by default: that one ray's
-    /// cost is not yet measured, and on a coarse grid the reach, a share of the spacing, takes
-    /// far walls for near surfaces (color_bleed's 2×2×2 probes: darker, FLIP +6%). Cost: that many more any-hit rays per probe ray (short ones), in
-    /// `ddgi_trace` or `ddgi_shade`.
+    /// Measured in BENCHMARKS.md ("Where the converged excess of indirect light comes from"): at
+    /// 128² (cathedral 16×8×12 × 32 rays, the fixed budget after 720 frames, against a 512-path
+    /// path tracer) 8 rays take the converged image's mean luminance from 1.039× the path
+    /// tracer's to 1.020× (reach 0.5) or 1.007× (reach 1), FLIP −8% / −12%; with `eval
+    /// --time-series` (fixed budget, the error settled 240 frames after a change) the cathedral's
+    /// FLIP −13% and the demo level's −10%, at about 2.4 times the probe-update time. One ray
+    /// does as well as eight (1.008× at reach 1): each frame's probe rays point elsewhere, so the
+    /// hysteresis averages the blocked share. Off by default: that one ray's cost is not yet
+    /// measured, and on a coarse grid the reach, a share of the spacing, takes far walls for near
+    /// surfaces (color_bleed's 2×2×2 probes: darker, FLIP +6%). Cost: that many more any-hit rays
+    /// per probe ray (short ones), in `ddgi_trace` or `ddgi_shade`.
     pub hit_occlusion_rays: u32,
     /// Reach of the hit occlusion rays, as a share of the smallest probe spacing (> 0): the
     /// surfaces nearer than this to a hit count as blocking it. Longer: more of the probes'
@@ -456,8 +458,8 @@ pub const AUTO_PROBES_MIN: u32 = 8;
 /// its longest side and in proportion along the others, but at least 8 along any side an eighth as
 /// long or more (a field 44 m wide and 7 m high gets 16×8×16, not 16×3×16: the light changes most
 /// near the ground, and a flat grid holds it in two layers), and at least 2 along a thinner one (a
-/// floor gets a grid two probes thick). Measured (BENCHMARKS.md, H200, FLIP against the path
-/// tracer with the fixed budget): the densities of 16 along the longest side beat 8 and 32 in the
+/// floor gets a grid two probes thick). Measured in BENCHMARKS.md (FLIP against the path tracer
+/// with the fixed budget): the densities of 16 along the longest side beat 8 and 32 in the
 /// door room, the demo level and Cornell's box, and 16×8×16 beat the demo level's own
 /// 1.5-metre grid (26×5×26, 0.0339 against 0.0400). At most 16³ = 4,096 probes: 524,288 rays a
 /// frame at 128 rays a probe (fewer with adaptive budgets), 1.3 MiB of atlases.

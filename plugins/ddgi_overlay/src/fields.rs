@@ -1,24 +1,16 @@
 //! Every field of [`DdgiVolume`], [`DdgiAdaptive`] and [`DdgiWeights`] as an editor, with the
 //! field's rustdoc comment as its tooltip.
 //!
-//! The documentation has one source: the doc comments in `plugins/ddgi/src/volume.rs`, which this
-//! module reads (the file is compiled in with `include_str!`) and parses once ([`field_docs`]), so
-//! a tooltip cannot drift from the docs. Why not a macro that emits both the struct and a table,
-//! or a build script: a macro would move ddgi's most-read type into a macro invocation (rustdoc,
-//! rust-analyzer and readers all see it worse), and a build script gains nothing over parsing a
-//! string the compiler already holds. The tests check that the editors, the parsed docs and the
-//! serialized settings list the same fields ([`VOLUME_FIELDS`], [`ADAPTIVE_FIELDS`],
+//! The tooltips come from ddgi itself ([`ddgi::field_docs`]), which parses the doc comments of its
+//! own `volume.rs` once, so a tooltip cannot drift from the docs; [`field_docs`] and
+//! [`parse_field_docs`] are re-exported here. The tests check that the editors, the parsed docs
+//! and the serialized settings list the same fields ([`VOLUME_FIELDS`], [`ADAPTIVE_FIELDS`],
 //! [`WEIGHT_FIELDS`]).
 
-use std::collections::HashMap;
-use std::sync::LazyLock;
-
+pub use ddgi::field_docs::{field_docs, parse_field_docs};
 use ddgi::volume::{MAX_HIT_OCCLUSION_RAYS, MAX_MAP_TEXELS, MAX_RAYS_PER_PROBE};
 use ddgi::{DdgiAdaptive, DdgiVolume, DdgiWeights};
 use glam::{DVec3, UVec3, Vec3};
-
-/// The source the docs are read from: ddgi's settings, as compiled.
-const VOLUME_SOURCE: &str = include_str!("../../ddgi/src/volume.rs");
 
 /// One editable field: its name (as in Rust and in the saved JSON) and its editor, which returns
 /// whether it changed the value.
@@ -27,81 +19,6 @@ pub struct Field<T> {
     pub name: &'static str,
     /// Draws the editor of the field of `T`; true when the user changed it.
     pub edit: fn(&mut egui::Ui, &mut T) -> bool,
-}
-
-/// The doc comment of every field of `struct_name` in ddgi's `volume.rs`, by field name: the
-/// `///` lines joined into one paragraph (blank doc lines keep a paragraph break), links written
-/// as plain code.
-pub fn field_docs(struct_name: &str) -> &'static HashMap<String, String> {
-    static DOCS: LazyLock<HashMap<String, HashMap<String, String>>> = LazyLock::new(|| {
-        ["DdgiVolume", "DdgiAdaptive", "DdgiWeights"].iter().map(|s| (s.to_string(), parse_field_docs(VOLUME_SOURCE, s))).collect()
-    });
-    static EMPTY: LazyLock<HashMap<String, String>> = LazyLock::new(HashMap::new);
-    DOCS.get(struct_name).unwrap_or(&EMPTY)
-}
-
-/// The doc comments of the fields of `pub struct <name> {` in Rust source `source`, by field.
-pub fn parse_field_docs(source: &str, name: &str) -> HashMap<String, String> {
-    let mut out = HashMap::new();
-    let open = format!("pub struct {name} {{");
-    let Some(start) = source.find(&open) else { return out };
-    let mut doc: Vec<&str> = Vec::new();
-    for line in source[start + open.len()..].lines() {
-        let line = line.trim();
-        if line == "}" {
-            break;
-        }
-        if let Some(text) = line.strip_prefix("///") {
-            doc.push(text.strip_prefix(' ').unwrap_or(text));
-        } else if let Some(rest) = line.strip_prefix("pub ") {
-            if let Some((field, _)) = rest.split_once(':') {
-                out.insert(field.trim().to_string(), plain_doc(&doc));
-            }
-            doc.clear();
-        } else if !line.starts_with("#[") && !line.is_empty() && !line.starts_with("//") {
-            doc.clear();
-        }
-    }
-    out
-}
-
-/// Doc lines as one text: lines joined by spaces, blank lines as paragraph breaks, intra-doc links
-/// (`` [`a`] ``, `` [`a`](b) ``) as `` `a` ``.
-fn plain_doc(lines: &[&str]) -> String {
-    let mut text = String::new();
-    for line in lines {
-        if line.is_empty() {
-            text.push_str("\n\n");
-        } else {
-            if !text.is_empty() && !text.ends_with('\n') {
-                text.push(' ');
-            }
-            text.push_str(line);
-        }
-    }
-    let mut out = String::with_capacity(text.len());
-    let mut rest = text.as_str();
-    while let Some(i) = rest.find("[`") {
-        out.push_str(&rest[..i]);
-        let after = &rest[i + 1..];
-        match after.find("`]") {
-            Some(j) => {
-                out.push_str(&after[..j + 1]);
-                rest = &after[j + 2..];
-                if rest.starts_with('(')
-                    && let Some(k) = rest.find(')')
-                {
-                    rest = &rest[k + 1..];
-                }
-            }
-            None => {
-                out.push('[');
-                rest = after;
-            }
-        }
-    }
-    out.push_str(rest);
-    out
 }
 
 fn f32_range(ui: &mut egui::Ui, v: &mut f32, lo: f32, hi: f32, speed: f64) -> bool {
