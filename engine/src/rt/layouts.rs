@@ -1,9 +1,10 @@
 //! The ray tracer's host mirrors of WGSL structs, listed for the test that checks every field's
 //! offset against naga's layout ([`crate::gpu_structs`]).
 
+use super::TlasEntry;
+use super::blas::GpuBlas;
 use super::cpu::{GpuRay as Ray, TraceResult};
 use super::gpu_refit::{TlasRefitLeaf, TlasRefitParams};
-use super::{GpuBlas, TlasEntry};
 
 /// The ray tracer's host mirrors: BLAS records, TLAS entries, rays, the refit's and the trace's
 /// structs.
