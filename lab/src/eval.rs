@@ -71,17 +71,13 @@ pub const DDGI_FRAMES: u32 = 120;
 pub const DDGI_DENSITIES: [[u32; 3]; 3] = [[8, 4, 8], [16, 8, 16], [32, 16, 32]];
 pub const DDGI_RESOLUTIONS: [u32; 3] = [4, 8, 16];
 
-/// The probe grid of the published experiment on each built-in scene (Hvezda and Bittner): 16×8×16
-/// for the door room, 16×16×15 for the room under a skylight, 2×2×2 for the colour bleeding box,
-/// 16×8×12 for Šibenik (`sibenik`, and its stand-in `cathedral`); 8×8×8 elsewhere.
+/// The probe grid of the published experiment on each built-in scene (Hvezda and Bittner), as its
+/// entry gives it ([`scenes::SceneEntry::paper_grid`], [`scenes::files::SceneFile::paper_grid`]):
+/// 16×8×16 for the door room, 16×16×15 for the room under a skylight, 2×2×2 for the colour
+/// bleeding box, 16×8×12 for Šibenik (`sibenik`, and its stand-in `cathedral`); 8×8×8 elsewhere.
 pub fn ddgi_paper_grid(scene: &str) -> [u32; 3] {
-    match scene {
-        "door_room" => [16, 8, 16],
-        "ceiling_opening" => [16, 16, 15],
-        "color_bleed" => [2, 2, 2],
-        "cathedral" | "sibenik" => [16, 8, 12],
-        _ => [8, 8, 8],
-    }
+    let entry = scenes::find(scene).and_then(|entry| entry.paper_grid);
+    entry.or_else(|| scenes::files::find(scene).and_then(|file| file.paper_grid)).unwrap_or([8, 8, 8])
 }
 
 /// What the evaluation knows of a scene beyond its description: its name, the probe grid and the
