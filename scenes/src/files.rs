@@ -33,6 +33,8 @@ pub struct SceneFile {
     pub stage: fn(&mut SceneDescription),
     /// Its authors, to credit wherever it is shown.
     pub credit: &'static str,
+    /// The probe grid of the published experiment on the scene, as [`crate::SceneEntry::paper_grid`].
+    pub paper_grid: Option<[u32; 3]>,
 }
 
 /// Every scene file, in the order they are documented.
@@ -42,18 +44,21 @@ pub static FILES: &[SceneFile] = &[
         path: "scenes/sibenik/sibenik.obj",
         stage: stage_sibenik,
         credit: "Šibenik cathedral by Marko Dabrović (RNA studio), holes fixed by Kenzie Lamar, textures and bump maps by Morgan McGuire",
+        paper_grid: Some([16, 8, 12]),
     },
     SceneFile {
         name: "flight_helmet",
         path: "scenes/flight-helmet/FlightHelmet.gltf",
         stage: stage_flight_helmet,
         credit: "FlightHelmet, Khronos glTF sample model, CC0 1.0 (donated by Microsoft)",
+        paper_grid: None,
     },
     SceneFile {
         name: "meadow",
         path: "scenes/flower-bushes/flower_bushes.glb",
         stage: stage_meadow,
         credit: "flower bushes, CC0 (poly.pizza)",
+        paper_grid: None,
     },
 ];
 

@@ -21,7 +21,9 @@
 //! its own procedural props otherwise, and its plan and animations belong to the demo.
 //!
 //! [`ALL`] is the one table of them: each [`SceneEntry`] holds a scene's name, builder, probe
-//! volume bounds and openings, so adding a scene is adding one entry. Look one up by name with
+//! volume bounds and openings, and what the evaluation and the demo know of it (its published
+//! probe grid, its change in a time series, its walk's sky, how `play` shows it), so adding a scene
+//! is adding one entry. Look one up by name with
 //! [`find`]. Building a scene costs CPU time and memory only, and every build starts afresh (only
 //! the cathedral's window list is built once, on first use, and kept).
 
@@ -52,7 +54,45 @@ pub struct SceneEntry {
     /// walk`): where it stands after walking a distance (world units along it; clamped to its
     /// end) and the direction it walks in. `None`: the scene has no tour.
     pub tour: Option<fn(f32) -> (Vec3, Vec3)>,
+    /// The probe grid of the published experiment on the scene (Hvezda and Bittner), which the
+    /// evaluation's DDGI configurations use (`lab::eval::ddgi_paper_grid`); `None`: none was
+    /// published (the evaluation takes 8×8×8).
+    pub paper_grid: Option<[u32; 3]>,
+    /// What changes in the scene's time series (`eval --time-series`).
+    pub change: TimeSeriesChange,
+    /// The sky's radiance (W/(m²·sr)) while the scene is walked (`bench walk`, `play`'s tour);
+    /// `None`: black.
+    pub walk_sky: Option<Vec3>,
+    /// How `game_demo play --scene` shows it.
+    pub play: PlayMode,
 }
+
+/// What changes in a built-in scene's time series, carried out by `lab::eval::time_series`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TimeSeriesChange {
+    /// Its first light moves: a point or spot light along X, towards the middle of the scene, a
+    /// directional light turns about the vertical.
+    FirstLight,
+    /// The node `lamp` (the quad and its point light) moves towards the red (−X) wall.
+    LampTowardsRedWall,
+    /// The orbiting spot light `spot` jumps half a turn along its orbit.
+    SpotHalfTurn,
+    /// A door panel is added in the opening named `door`, closed, and swings open outwards.
+    DoorSwingsOpen,
+}
+
+/// How `game_demo play --scene` shows a built-in scene.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PlayMode {
+    /// In a window, from its own camera.
+    Window,
+    /// Its tour, walked by the camera and lit by camera-following cascades, in a window or
+    /// headless.
+    Tour,
+}
+
+/// The sky's radiance over the open world while it is walked (a pale blue, W/(m²·sr)).
+pub const OPEN_WORLD_SKY: Vec3 = Vec3::new(0.35, 0.45, 0.6);
 
 impl SceneEntry {
     /// [`SceneEntry::gi_bounds`] in double precision: a probe volume's world box (as
@@ -81,6 +121,10 @@ pub static ALL: &[SceneEntry] = &[
         gi_bounds: || Some((rooms::CORNELL_MIN - Vec3::splat(0.2), rooms::CORNELL_MAX + Vec3::new(0.2, 0.2, 0.6))),
         openings: || &[rooms::CORNELL_FRONT],
         tour: None,
+        paper_grid: None,
+        change: TimeSeriesChange::LampTowardsRedWall,
+        walk_sky: None,
+        play: PlayMode::Window,
     },
     SceneEntry {
         name: "ceiling_opening",
@@ -88,6 +132,10 @@ pub static ALL: &[SceneEntry] = &[
         gi_bounds: || Some((rooms::SKY_ROOM_MIN, rooms::SKY_ROOM_MAX)),
         openings: || &[rooms::SKYLIGHT],
         tour: None,
+        paper_grid: Some([16, 16, 15]),
+        change: TimeSeriesChange::FirstLight,
+        walk_sky: None,
+        play: PlayMode::Window,
     },
     SceneEntry {
         name: "door_room",
@@ -96,6 +144,10 @@ pub static ALL: &[SceneEntry] = &[
         gi_bounds: || Some((Vec3::new(-3.5, 0.0, -3.0), Vec3::new(4.5, 4.0, 6.0))),
         openings: || &[rooms::DOOR],
         tour: None,
+        paper_grid: Some([16, 8, 16]),
+        change: TimeSeriesChange::DoorSwingsOpen,
+        walk_sky: None,
+        play: PlayMode::Window,
     },
     SceneEntry {
         name: "door_room_thin",
@@ -104,6 +156,10 @@ pub static ALL: &[SceneEntry] = &[
         gi_bounds: || None,
         openings: || &[rooms::THIN_DOOR],
         tour: None,
+        paper_grid: None,
+        change: TimeSeriesChange::FirstLight,
+        walk_sky: None,
+        play: PlayMode::Window,
     },
     SceneEntry {
         name: "color_bleed",
@@ -111,9 +167,34 @@ pub static ALL: &[SceneEntry] = &[
         gi_bounds: || Some((rooms::BLEED_ROOM_MIN, rooms::BLEED_ROOM_MAX)),
         openings: || &[],
         tour: None,
+        paper_grid: Some([2, 2, 2]),
+        change: TimeSeriesChange::SpotHalfTurn,
+        walk_sky: None,
+        play: PlayMode::Window,
     },
-    SceneEntry { name: "cathedral", build: large::cathedral, gi_bounds: || None, openings: large::cathedral_openings, tour: None },
-    SceneEntry { name: "forest", build: large::forest, gi_bounds: || None, openings: || &[], tour: None },
+    SceneEntry {
+        name: "cathedral",
+        build: large::cathedral,
+        gi_bounds: || None,
+        openings: large::cathedral_openings,
+        tour: None,
+        // Šibenik's grid: the cathedral stands in for it.
+        paper_grid: Some([16, 8, 12]),
+        change: TimeSeriesChange::FirstLight,
+        walk_sky: None,
+        play: PlayMode::Window,
+    },
+    SceneEntry {
+        name: "forest",
+        build: large::forest,
+        gi_bounds: || None,
+        openings: || &[],
+        tour: None,
+        paper_grid: None,
+        change: TimeSeriesChange::FirstLight,
+        walk_sky: None,
+        play: PlayMode::Window,
+    },
     SceneEntry {
         name: "open_world",
         build: open::open_world,
@@ -122,6 +203,10 @@ pub static ALL: &[SceneEntry] = &[
         openings: || &[],
         // Out of the house's door, across the yard, 500 m into the forest and back.
         tour: Some(open::tour_at),
+        paper_grid: None,
+        change: TimeSeriesChange::FirstLight,
+        walk_sky: Some(OPEN_WORLD_SKY),
+        play: PlayMode::Tour,
     },
 ];
 

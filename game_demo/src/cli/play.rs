@@ -95,8 +95,9 @@ pub struct PlayArgs {
 }
 
 pub fn run(args: PlayArgs) -> Result<(), String> {
-    if args.scene.as_deref() == Some("open_world") {
-        let scene = load("open_world")?;
+    let tour = args.scene.as_deref().and_then(scenes::find).filter(|entry| entry.play == scenes::PlayMode::Tour);
+    if let Some(entry) = tour {
+        let scene = load(entry.name)?;
         let cascades = play::tour::tour_cascades(
             if args.cascades == 0 { play::tour::TOUR_CASCADES } else { args.cascades },
             args.rays,

@@ -14,8 +14,8 @@ use glam::{UVec3, Vec3};
 
 /// Walking pace of the tour, metres per second.
 pub const TOUR_SPEED: f32 = 1.5;
-/// The sky's radiance over the open world (a pale blue, W/(m²·sr)).
-pub const OPEN_SKY: Vec3 = Vec3::new(0.35, 0.45, 0.6);
+/// The sky's radiance over the open world (a pale blue, W/(m²·sr)): its entry's walk sky.
+pub const OPEN_SKY: Vec3 = scenes::OPEN_WORLD_SKY;
 
 /// Cascades of the tour unless `--cascades` says otherwise: 8 of 16×8×16 reach 1.5 km from the
 /// camera, so no pixel of the world is left to the sky light (BENCHMARKS.md: 1.48 ms a frame of

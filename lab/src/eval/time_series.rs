@@ -19,6 +19,7 @@ use engine::headless::{HeadlessSettings, read_hdr, scene_app};
 use engine::render::FrameTimings;
 use engine::scene::{Material, Name, NodeContent, SceneDescription, SceneRoot, Transform};
 use engine::shapes::{cuboid, merge};
+use scenes::TimeSeriesChange;
 
 use super::{Config, EXPOSURE, EvalOptions, SceneFacts, frame_gpu_ms, reference, still, write};
 use crate::metrics::{compare, mean_frame, tonemap_to_srgb8, video_jod_against_still};
@@ -56,7 +57,7 @@ const FALLBACK_SHIFT: f32 = 0.2;
 const FALLBACK_TURN_DEGREES: f32 = 20.0;
 
 /// The change of the time series for the scene `facts` describes, prepared in `scene`: the scene's
-/// own ([`SceneFacts::change`]) or, by its name,
+/// own ([`SceneFacts::change`]) or the built-in scene's ([`scenes::SceneEntry::change`]),
 /// - `cornell`: the lamp moves [`CORNELL_LAMP_SHIFT`] towards the red wall;
 /// - `color_bleed`: the spot light jumps half a turn along its orbit, to the red cube's side;
 /// - `door_room`: a door (added to the scene, closed: the room is dark) swings open outwards;
@@ -64,25 +65,9 @@ const FALLBACK_TURN_DEGREES: f32 = 20.0;
 ///   scene's width along X, a directional light turns by [`FALLBACK_TURN_DEGREES`] about Y).
 pub fn scene_change(facts: &SceneFacts, scene: &mut SceneDescription) -> Result<SceneChange, String> {
     let name = facts.name.as_str();
-    let find = |scene: &SceneDescription, node: &str| find_node(name, scene, node);
-    let change = match name {
-        _ if let Some(change) = facts.change => change(scene)?,
-        "cornell" => {
-            let node = find(scene, "lamp")?;
-            let mut after = scene.nodes[node].transform;
-            after.translation.x -= CORNELL_LAMP_SHIFT;
-            SceneChange { description: format!("the lamp moves {CORNELL_LAMP_SHIFT} m towards the red wall"), node, after }
-        }
-        "color_bleed" => {
-            let node = find(scene, "spot")?;
-            let orbit = scene.nodes[node].orbit.ok_or("color_bleed's spot light has no orbit")?;
-            // The orbit starts at +X from its centre (angle 0); half a turn is at -X.
-            let after = Transform::from_translation(orbit.center - Vec3::X * orbit.radius);
-            let after = orbit.look_at.map_or(after, |target| after.looking_at(target, Vec3::Y));
-            SceneChange { description: "the spot light jumps half a turn along its orbit, to the red cube's side".into(), node, after }
-        }
-        "door_room" => add_door(scene)?,
-        _ => move_first_light(name, scene)?,
+    let change = match facts.change {
+        Some(change) => change(scene)?,
+        None => built_in_change(name, scene)?,
     };
     let changed = scene.nodes[change.node].name.clone();
     if scene.nodes.iter().filter(|n| n.name == changed).count() > 1 {
@@ -92,18 +77,40 @@ pub fn scene_change(facts: &SceneFacts, scene: &mut SceneDescription) -> Result<
     Ok(change)
 }
 
+/// The change its entry in [`scenes::ALL`] gives the scene named `name`
+/// ([`TimeSeriesChange::FirstLight`] for a scene outside it), prepared in `scene`.
+fn built_in_change(name: &str, scene: &mut SceneDescription) -> Result<SceneChange, String> {
+    let entry = scenes::find(name);
+    let find = |scene: &SceneDescription, node: &str| find_node(name, scene, node);
+    Ok(match entry.map_or(TimeSeriesChange::FirstLight, |entry| entry.change) {
+        TimeSeriesChange::LampTowardsRedWall => {
+            let node = find(scene, "lamp")?;
+            let mut after = scene.nodes[node].transform;
+            after.translation.x -= CORNELL_LAMP_SHIFT;
+            SceneChange { description: format!("the lamp moves {CORNELL_LAMP_SHIFT} m towards the red wall"), node, after }
+        }
+        TimeSeriesChange::SpotHalfTurn => {
+            let node = find(scene, "spot")?;
+            let orbit = scene.nodes[node].orbit.ok_or_else(|| format!("{name}'s spot light has no orbit"))?;
+            // The orbit starts at +X from its centre (angle 0); half a turn is at -X.
+            let after = Transform::from_translation(orbit.center - Vec3::X * orbit.radius);
+            let after = orbit.look_at.map_or(after, |target| after.looking_at(target, Vec3::Y));
+            SceneChange { description: "the spot light jumps half a turn along its orbit, to the red cube's side".into(), node, after }
+        }
+        TimeSeriesChange::DoorSwingsOpen => add_door(name, entry.map_or(&[], |entry| (entry.openings)()), scene)?,
+        TimeSeriesChange::FirstLight => move_first_light(name, scene)?,
+    })
+}
+
 /// The index of the node named `node` in `scene` (named `name`), or an error naming both.
 pub fn find_node(name: &str, scene: &SceneDescription, node: &str) -> Result<usize, String> {
     scene.nodes.iter().position(|n| n.name == node).ok_or_else(|| format!("scene '{name}' has no node '{node}' to change"))
 }
 
-/// A door panel hinged on the -X side of door_room's doorway, closed; the change opens it
-/// outwards by a quarter turn.
-fn add_door(scene: &mut SceneDescription) -> Result<SceneChange, String> {
-    let door = (scenes::find("door_room").ok_or("door_room is not a built-in scene")?.openings)()
-        .iter()
-        .find(|o| o.name == "door")
-        .ok_or("door_room has no door opening")?;
+/// A door panel hinged on the -X side of the doorway of the scene `name` (its opening `door` of
+/// `openings`: door_room's), closed; the change opens it outwards by a quarter turn.
+fn add_door(name: &str, openings: &[scenes::Opening], scene: &mut SceneDescription) -> Result<SceneChange, String> {
+    let door = openings.iter().find(|o| o.name == "door").ok_or_else(|| format!("{name} has no door opening"))?;
     let size = Vec3::new(door.max.x - door.min.x + 2.0 * DOOR_OVERLAP, door.max.y - door.min.y + 2.0 * DOOR_OVERLAP, DOOR_THICKNESS);
     // Local origin at the hinge, the panel's outer bottom corner: it extends along +X, +Y and -Z.
     let offset = Affine3A::from_translation(Vec3::new(size.x, size.y, -size.z) * 0.5);

@@ -152,7 +152,7 @@ fn walk(args: &WalkArgs) -> Result<serde_json::Value, String> {
         speed,
         warmup,
         offset: offset.unwrap_or_default(),
-        sky: if name == "open_world" { crate::play::tour::OPEN_SKY } else { glam::Vec3::ZERO },
+        sky: scenes::find(name).and_then(|e| e.walk_sky).unwrap_or(glam::Vec3::ZERO),
         sky_light,
         error_every,
         reference_spp,
