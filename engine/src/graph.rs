@@ -373,6 +373,20 @@ impl PassBuilder<'_> {
         self.node.run = Some(Box::new(run));
         self.graph.passes.push(self.node);
     }
+
+    /// Finishes the pass with one dispatch of `program` over `workgroups` (x, y), bind group `i`
+    /// built from `groups[i]`: one compute pass, and one bind group per group built each frame.
+    pub fn compute(
+        self,
+        program: std::sync::Arc<crate::shader::Program<wgpu::ComputePipeline>>,
+        groups: Vec<Vec<(&'static str, Bind)>>,
+        workgroups: (u32, u32),
+    ) {
+        self.render(move |ctx| {
+            let groups: Vec<wgpu::BindGroup> = groups.iter().zip(0..).map(|(g, i)| ctx.bind_group(&*program, i, g)).collect();
+            crate::gpu::dispatch(ctx.encoder, ctx.label, &program.pipeline, &groups.iter().collect::<Vec<_>>(), workgroups);
+        });
+    }
 }
 
 enum Resolved {

@@ -313,12 +313,7 @@ impl DdgiFrame<'_> {
                 }),
             ];
             let group0 = pass.read_named(&program.bindings, 0);
-            let workgroups = workgroups(frame);
-            pass.render(move |ctx| {
-                let groups =
-                    [ctx.bind_group(&*program, 0, &group0), ctx.bind_group(&*program, 1, &group1), ctx.bind_group(&*program, 2, &group2)];
-                engine::gpu::dispatch(ctx.encoder, ctx.label, &program.pipeline, &groups.each_ref(), workgroups);
-            });
+            pass.compute(program, vec![group0, group1, group2], workgroups(frame));
         }
         indirect
     }
@@ -369,12 +364,8 @@ impl DdgiFrame<'_> {
             (false, false) => self.pipelines.composite_indirect.clone(),
         };
         let group0 = pass.read_named(&program.bindings, 0);
-        let workgroups = workgroups(frame);
-        pass.render(move |ctx| {
-            // Group 1 (a volume's) is unused: the composite reads only the gathered light.
-            let groups = [ctx.bind_group(&*program, 0, &group0), ctx.bind_group(&*program, 1, &[]), ctx.bind_group(&*program, 2, &group2)];
-            engine::gpu::dispatch(ctx.encoder, ctx.label, &program.pipeline, &groups.each_ref(), workgroups);
-        });
+        // Group 1 (a volume's) is unused: the composite reads only the gathered light.
+        pass.compute(program, vec![group0, Vec::new(), group2], workgroups(frame));
     }
 
     /// Adds the pass `ddgi_contact_occlusion` when [`crate::DdgiContactOcclusion`] is on at half
@@ -410,16 +401,7 @@ impl DdgiFrame<'_> {
             ("ddgi_occlusion", Bind::buffer(pass.write(&mut occlusion))),
         ];
         let group0 = pass.read_named(&program.bindings, 0);
-        pass.render(move |ctx| {
-            let groups = [ctx.bind_group(&*program, 0, &group0), ctx.bind_group(&*program, 1, &[]), ctx.bind_group(&*program, 2, &group2)];
-            engine::gpu::dispatch(
-                ctx.encoder,
-                ctx.label,
-                &program.pipeline,
-                &groups.each_ref(),
-                (blocks.0.div_ceil(8), blocks.1.div_ceil(8)),
-            );
-        });
+        pass.compute(program, vec![group0, Vec::new(), group2], (blocks.0.div_ceil(8), blocks.1.div_ceil(8)));
         occlusion
     }
 
