@@ -231,7 +231,7 @@ pub(crate) fn add_probe_spheres(
     pass.note(view.color.name());
     let count = volume.layout.probe_count;
     let group2 = |pass: &mut PassBuilder<'_>, handles: &VolumeHandles| {
-        vec![("ddgi_probe_view", Bind::buffer(pass.read(&uniform))), ("ddgi_probe_view_probes", Bind::buffer(pass.read(&handles.probes)))]
+        vec![("ddgi_probe_view", Bind::buffer(pass.read(&uniform))), ("ddgi_probe_view_probes", Bind::buffer(pass.read(handles.probes())))]
     };
     render_over_image(pass, program, handles, group2, depth, hdr, move |rp| rp.draw(0..vertices, 0..count));
 }

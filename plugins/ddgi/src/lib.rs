@@ -93,6 +93,7 @@
 #![warn(missing_docs)]
 
 pub mod atlas;
+pub mod buffers;
 pub mod calm;
 pub mod cascades;
 pub mod debug_view;

@@ -13,8 +13,9 @@ use engine::scene::{Assets, Image, Material, Mesh};
 use engine::wgpu;
 use glam::{DVec3, IVec3, Mat3, Quat, Vec3};
 
+use crate::buffers::VolumeBuffers;
 use crate::cascades::DdgiCascade;
-use crate::gpu::{DdgiCounters, DdgiProbeData, DdgiVolumeGpu, MAX_IRRADIANCE, PROBE_INACTIVE};
+use crate::gpu::{DdgiProbeData, DdgiVolumeGpu, MAX_IRRADIANCE, PROBE_INACTIVE};
 use crate::volume::{DdgiLayout, DdgiLimits, DdgiProbe, DdgiProbeState, DdgiVolume};
 
 /// Format of both atlases (irradiance perceptually encoded; distances
@@ -29,36 +30,9 @@ pub struct VolumeGpu {
     /// This frame's settings (copied from the volume's component each frame; those that size the
     /// resources — grid, rays, map sizes, bounds, seed — rebuild them when they change).
     pub settings: DdgiVolume,
-    /// This frame's uniform (WGSL `DdgiVolumeGpu`: grid, settings, ray rotation).
-    pub(crate) uniform: wgpu::Buffer,
-    /// A [`DdgiProbeData`] per probe, by probe index: offsets, states, errors, ray counts, pins.
-    pub probes: wgpu::Buffer,
-    /// The budget pass's results ([`DdgiCounters`]): the indirect dispatches of the ray passes and
-    /// of the per-probe passes, the ray count and the count of probes with rays.
-    pub counters: wgpu::Buffer,
-    /// The budget pass's per-block sums (one `DdgiBlock` per 256 probes).
-    pub(crate) blocks: wgpu::Buffer,
-    /// The probes with rays this frame, listed by the budget pass for the per-probe passes: a `u32`
-    /// probe index each, in ascending order, the first [`DdgiCounters::updated_probes`] valid.
-    pub updated: wgpu::Buffer,
-    /// Each probe's luma (−1: switched off) as the budget pass found it, for the dark test.
-    pub(crate) lit: wgpu::Buffer,
-    /// This frame's boxes around movers (two vec4 corners each, [`crate::gpu::MAX_WAKE_BOXES`]).
-    pub(crate) wake: wgpu::Buffer,
-    /// The frame's packed probe rays, a [`crate::gpu::DdgiRay`] each ([`crate::atlas::read_rays`]).
-    pub(crate) rays: wgpu::Buffer,
-    /// Each ray's shading: radiance (rgb) and stored distance (w: `t`, `−BACKFACE_SCALE · t` for
-    /// a back face, `MISS` for a miss).
-    pub(crate) radiance: wgpu::Buffer,
-    /// The persistent trace's closest hits, a [`crate::gpu::DdgiHit`] each
-    /// ([`DdgiVolume::persistent_trace`]; 16 bytes, unused, when it is off).
-    pub(crate) hits: wgpu::Buffer,
-    /// The maps at full precision (see `ddgi_common.inc.wgsl`): irradiance and its smoothed change (two
-    /// vec4 per texel) and distance moments (vec2 per texel), in probe order.
-    pub irradiance_history: wgpu::Buffer,
-    /// The distance moments at full precision: (mean, mean square) of the hit distance over the
-    /// layout's distance scale, a vec2 per texel, in probe order.
-    pub distance_history: wgpu::Buffer,
+    /// Every buffer of the volume, by the table in [`crate::buffers`]; the volume reads as them
+    /// (`volume.probes`, through `Deref`).
+    pub buffers: VolumeBuffers,
     /// The atlases that sampling reads (half floats, irradiance perceptually encoded).
     pub irradiance: wgpu::Texture,
     /// The distance atlas that sampling reads ([`ATLAS_FORMAT`]): (mean, mean square) of the hit
@@ -104,17 +78,20 @@ pub struct VolumeGpu {
     pub(crate) recheck_pending: bool,
 }
 
+impl std::ops::Deref for VolumeGpu {
+    type Target = VolumeBuffers;
+
+    fn deref(&self) -> &VolumeBuffers {
+        &self.buffers
+    }
+}
+
 impl VolumeGpu {
     fn new(gpu: &GpuContext, settings: &DdgiVolume, layout: DdgiLayout, render_origin: DVec3) -> Self {
-        use wgpu::BufferUsages as B;
         let device = &gpu.device;
-        let buffer = |label: &str, size: u64, usage: B| {
-            device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size: size.max(16), usage, mapped_at_creation: false })
-        };
-        let sizes = layout.sizes;
-        let probes = buffer("ddgi_probes", sizes.probes, B::STORAGE | B::COPY_SRC | B::COPY_DST);
+        let buffers = VolumeBuffers::new(device, &layout);
         let initial = vec![DdgiProbeData::NEW; layout.probe_count as usize];
-        gpu.queue.write_buffer(&probes, 0, bytemuck::cast_slice(&initial));
+        gpu.queue.write_buffer(&buffers.probes, 0, bytemuck::cast_slice(&initial));
         let texture = |label: &str, size: glam::UVec2| {
             device.create_texture(&wgpu::TextureDescriptor {
                 label: Some(label),
@@ -130,18 +107,7 @@ impl VolumeGpu {
         let irradiance = texture("ddgi_irradiance", layout.irradiance_atlas);
         let distance = texture("ddgi_distance", layout.distance_atlas);
         Self {
-            uniform: buffer("ddgi_volume", size_of::<DdgiVolumeGpu>() as u64, B::UNIFORM | B::COPY_DST),
-            probes,
-            counters: buffer("ddgi_counters", size_of::<DdgiCounters>() as u64, B::STORAGE | B::INDIRECT | B::COPY_SRC),
-            blocks: buffer("ddgi_blocks", sizes.blocks, B::STORAGE),
-            updated: buffer("ddgi_updated", sizes.probe_words, B::STORAGE | B::COPY_SRC),
-            lit: buffer("ddgi_lit", sizes.probe_words, B::STORAGE),
-            wake: buffer("ddgi_wake", u64::from(crate::gpu::MAX_WAKE_BOXES) * 32, B::STORAGE | B::COPY_DST),
-            rays: buffer("ddgi_rays", sizes.rays, B::STORAGE | B::COPY_SRC),
-            radiance: buffer("ddgi_radiance", sizes.rays, B::STORAGE | B::COPY_SRC),
-            hits: buffer("ddgi_hits", sizes.hits, B::STORAGE),
-            irradiance_history: buffer("ddgi_irradiance_history", sizes.irradiance_history, B::STORAGE | B::COPY_SRC),
-            distance_history: buffer("ddgi_distance_history", sizes.distance_history, B::STORAGE | B::COPY_SRC),
+            buffers,
             irradiance,
             distance,
             frames: 0,
@@ -191,7 +157,7 @@ impl VolumeGpu {
         let stride = size_of::<DdgiProbeData>() as u64;
         let flush = |run: (u32, u32)| {
             let data = vec![DdgiProbeData::NEW; (run.1 - run.0) as usize];
-            gpu.queue.write_buffer(&self.probes, u64::from(run.0) * stride, bytemuck::cast_slice(&data));
+            gpu.queue.write_buffer(&self.buffers.probes, u64::from(run.0) * stride, bytemuck::cast_slice(&data));
         };
         for index in 0..self.layout.probe_count {
             if !entered(self.layout.probe_grid(index).as_ivec3()) {
