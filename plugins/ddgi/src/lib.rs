@@ -95,6 +95,7 @@
 pub mod atlas;
 pub mod buffers;
 pub mod calm;
+pub mod cascade_volume;
 pub mod cascades;
 pub mod debug_view;
 pub mod fit;
