@@ -281,43 +281,6 @@ impl DdgiFrame<'_> {
         pass.compute(program, vec![group0, Vec::new(), group2], workgroups(frame));
     }
 
-    /// Adds the pass `ddgi_contact_occlusion` when [`crate::DdgiContactOcclusion`] is on at half
-    /// resolution and the output shows it: one pixel of each 2×2 block traces its rays. Returns
-    /// the per-block values the composite reads (a placeholder of one value when the composite
-    /// traces at every pixel or not at all).
-    fn add_contact_occlusion(
-        &self,
-        graph: &mut RenderGraph,
-        frame: &CameraFrame,
-        gbuffer: &GBuffer,
-        params: &Handle<GraphBuffer>,
-    ) -> Handle<GraphBuffer> {
-        let settings = self.contact_occlusion.as_deref().copied().unwrap_or_default();
-        let shown = matches!(*self.output, DdgiOutput::Full | DdgiOutput::Indirect | DdgiOutput::Occlusion);
-        let scale = settings.scale();
-        let on = settings.rays > 0 && scale > 1 && shown && !self.volumes.volumes.is_empty();
-        let size = frame.size();
-        let blocks = if on { (size.width.div_ceil(scale), size.height.div_ceil(scale)) } else { (1, 1) };
-        let usage = wgpu::BufferUsages::STORAGE;
-        let mut occlusion =
-            graph.create_buffer("ddgi_occlusion", BufferDesc { size: u64::from(blocks.0) * u64::from(blocks.1) * 4, usage });
-        if !on {
-            return occlusion;
-        }
-        let program = self.pipelines.contact_occlusion.clone();
-        let mut pass = graph.add_pass("ddgi_contact_occlusion");
-        pass.note(&format!("{} rays at one pixel of each {scale}×{scale} block", settings.rays));
-        let group2 = vec![
-            ("ddgi_gather_params", Bind::buffer(pass.read(params))),
-            ("gbuffer_depth", Bind::texture(pass.read(&gbuffer.depth))),
-            ("gbuffer_normal", Bind::texture(pass.read(&gbuffer.normal))),
-            ("ddgi_occlusion", Bind::buffer(pass.write(&mut occlusion))),
-        ];
-        let group0 = pass.read_named(&program.bindings, 0);
-        pass.compute(program, vec![group0, Vec::new(), group2], (blocks.0.div_ceil(8), blocks.1.div_ceil(8)));
-        occlusion
-    }
-
     /// Adds the probe debug view of the selected volume ([`DdgiProbeView::volume`], the first by
     /// default) when [`DdgiProbeView`] is on — one sphere per probe, rasterized into `hdr` against
     /// the G-buffer's depth — then the app's [`crate::DdgiDebugPasses`] over the same volume.

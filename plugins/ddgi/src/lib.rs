@@ -97,6 +97,7 @@ pub mod buffers;
 pub mod calm;
 pub mod cascade_volume;
 pub mod cascades;
+pub mod contact_occlusion;
 pub mod debug_view;
 pub mod fit;
 pub mod frame;
@@ -105,6 +106,7 @@ pub mod inspect;
 pub mod pipelines;
 pub mod quality;
 pub mod resources;
+pub mod sky_light;
 pub mod sync;
 pub mod volume;
 
