@@ -283,7 +283,7 @@ fn prepare_volume_frame(
     let period = u64::from(volume.update_period.max(1));
     v.calm.scheduled = (frame + u64::from(volume.update_phase)).is_multiple_of(period);
     v.updates_this_frame = scrolled || v.frames < 2 || (v.calm.scheduled && v.calm.due());
-    v.recheck_pending |= now.structure_changed || wake_all || (interval > 0 && v.frames % interval == 0);
+    v.recheck_pending |= now.structure_changed || wake_all || (interval > 0 && v.frames.is_multiple_of(interval));
     let recheck = v.recheck_pending;
     let rotation = random_rotation(&mut v.rng);
     let mut uniform =
