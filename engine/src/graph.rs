@@ -121,7 +121,7 @@ pub struct RenderGraph {
     resources: Vec<ResourceNode>,
     passes: Vec<PassNode>,
     /// Read-only imports that passes bind by their WGSL names ([`RenderGraph::import_named`]).
-    named: Vec<(&'static str, Named)>,
+    named: NamedSet,
 }
 
 /// A resource that every pass of a frame may read, given by reference to [`RenderGraph::import_named`].
@@ -140,9 +140,84 @@ pub enum NamedResource<'a> {
 }
 
 enum Named {
-    Buffer(usize),
-    Texture(usize),
+    Buffer(Handle<Buffer>),
+    Texture(Handle<Texture>),
     Sampler(wgpu::Sampler),
+    /// Another WGSL name for the entry at this index of the set.
+    Alias(usize),
+}
+
+/// Imported resources that passes bind by their WGSL names: the scene's group 0
+/// ([`RenderGraph::import_named`]) or a set the script holds ([`RenderGraph::import_named_set`]),
+/// which a pass reads or writes as its shader does ([`PassBuilder::declare_named`]).
+#[derive(Default)]
+pub struct NamedSet {
+    entries: Vec<(&'static str, Named)>,
+}
+
+impl NamedSet {
+    fn entry(&self, name: &str) -> Option<&Named> {
+        let (_, named) = self.entries.iter().find(|(n, _)| *n == name)?;
+        Some(match named {
+            Named::Alias(i) => &self.entries[*i].1,
+            named => named,
+        })
+    }
+
+    /// Binds the entry named `name` also under the WGSL name `alias` (one resource behind both).
+    pub fn alias(&mut self, alias: &'static str, name: &str) {
+        let i = self.entries.iter().position(|(n, _)| *n == name).unwrap_or_else(|| panic!("no entry '{name}' to alias"));
+        self.entries.push((alias, Named::Alias(i)));
+    }
+
+    /// Adds a texture imported on its own ([`RenderGraph::import_texture`]) under the WGSL name `name`.
+    pub fn insert_texture(&mut self, name: &'static str, handle: Handle<Texture>) {
+        self.entries.push((name, Named::Texture(handle)));
+    }
+
+    /// The handle of the buffer named `name`, for a pass that declares it itself.
+    pub fn buffer(&self, name: &str) -> Option<&Handle<Buffer>> {
+        match self.entry(name)? {
+            Named::Buffer(h) => Some(h),
+            _ => None,
+        }
+    }
+
+    /// The handle of the texture named `name`.
+    pub fn texture(&self, name: &str) -> Option<&Handle<Texture>> {
+        match self.entry(name)? {
+            Named::Texture(h) => Some(h),
+            _ => None,
+        }
+    }
+
+    /// Declares on `node` every entry that `group` of `bindings` uses (a write too where `writes`
+    /// says so) and returns them as bindings.
+    fn declare(&self, node: &mut PassNode, bindings: &crate::shader::BindingMap, group: u32, writes: bool) -> Vec<(&'static str, Bind)> {
+        let Some(used) = bindings.groups.get(&group) else { return Vec::new() };
+        let mut out = Vec::new();
+        for (name, named) in &self.entries {
+            if !used.contains_key(*name) {
+                continue;
+            }
+            let named = if let Named::Alias(i) = named { &self.entries[*i].1 } else { named };
+            let mut declare = |id: usize| {
+                node.reads.push(id);
+                if writes && bindings.writes.contains(*name) {
+                    node.writes.push(id);
+                }
+                id
+            };
+            let bind = match named {
+                Named::Buffer(h) => Bind::Buffer(declare(h.id)),
+                Named::Texture(h) => Bind::Texture(declare(h.id)),
+                Named::Sampler(s) => Bind::Sampler(s.clone()),
+                Named::Alias(_) => unreachable!("an alias names an entry that is not one"),
+            };
+            out.push((*name, bind));
+        }
+        out
+    }
 }
 
 impl RenderGraph {
@@ -180,14 +255,26 @@ impl RenderGraph {
     /// scene's bind group 0): a pass declares the ones its shader uses with
     /// [`PassBuilder::read_named`].
     pub fn import_named(&mut self, resources: &[(&'static str, NamedResource<'_>)]) {
+        let set = self.import_named_set("", resources);
+        self.named.entries.extend(set.entries);
+    }
+
+    /// Imports resources that passes bind by their WGSL names and may write (a DDGI volume's
+    /// group 1), as a set the script holds: a pass declares the ones its shader uses, read or
+    /// written as naga finds it, with [`PassBuilder::declare_named`]. `suffix` is appended to each
+    /// resource's name in the graph (several sets of the same names).
+    pub fn import_named_set(&mut self, suffix: &str, resources: &[(&'static str, NamedResource<'_>)]) -> NamedSet {
+        let mut set = NamedSet::default();
         for (name, resource) in resources {
+            let label = format!("{name}{suffix}");
             let named = match resource {
-                NamedResource::Buffer(b) => Named::Buffer(self.import_buffer(name, b).id),
-                NamedResource::Texture { texture, .. } => Named::Texture(self.import_texture(name, texture).id),
+                NamedResource::Buffer(b) => Named::Buffer(self.import_buffer(&label, b)),
+                NamedResource::Texture { texture, .. } => Named::Texture(self.import_texture(&label, texture)),
                 NamedResource::Sampler(s) => Named::Sampler((*s).clone()),
             };
-            self.named.push((name, named));
+            set.entries.push((name, named));
         }
+        set
     }
 
     /// Marks a resource as an output of the frame: the passes that produce it will run.
@@ -341,26 +428,14 @@ impl PassBuilder<'_> {
     /// Declares a read of every named import ([`RenderGraph::import_named`]) that `bindings` uses in
     /// `group`, and returns them as bindings for [`PassContext::bind_group`].
     pub fn read_named(&mut self, bindings: &crate::shader::BindingMap, group: u32) -> Vec<(&'static str, Bind)> {
-        let Some(used) = bindings.groups.get(&group) else { return Vec::new() };
-        let mut out = Vec::new();
-        for (name, named) in &self.graph.named {
-            if !used.contains_key(*name) {
-                continue;
-            }
-            let bind = match named {
-                Named::Buffer(id) => {
-                    self.node.reads.push(*id);
-                    Bind::Buffer(*id)
-                }
-                Named::Texture(id) => {
-                    self.node.reads.push(*id);
-                    Bind::Texture(*id)
-                }
-                Named::Sampler(s) => Bind::Sampler(s.clone()),
-            };
-            out.push((*name, bind));
-        }
-        out
+        self.graph.named.declare(&mut self.node, bindings, group, false)
+    }
+
+    /// Declares every entry of `set` that `bindings` (a pipeline's, or several merged) uses in
+    /// `group` — a write where naga finds the shader writes it, a read otherwise — and returns
+    /// them as bindings for [`PassContext::bind_group`].
+    pub fn declare_named(&mut self, set: &mut NamedSet, bindings: &crate::shader::BindingMap, group: u32) -> Vec<(&'static str, Bind)> {
+        set.declare(&mut self.node, bindings, group, true)
     }
 
     /// Says how this pass was specialized for the frame (shown in the report beside its time).
@@ -372,6 +447,20 @@ impl PassBuilder<'_> {
     pub fn render(mut self, run: impl FnOnce(&mut PassContext<'_>) + 'static) {
         self.node.run = Some(Box::new(run));
         self.graph.passes.push(self.node);
+    }
+
+    /// Finishes the pass with one dispatch of `program` over `workgroups` (x, y), bind group `i`
+    /// built from `groups[i]`: one compute pass, and one bind group per group built each frame.
+    pub fn compute(
+        self,
+        program: std::sync::Arc<crate::shader::Program<wgpu::ComputePipeline>>,
+        groups: Vec<Vec<(&'static str, Bind)>>,
+        workgroups: (u32, u32),
+    ) {
+        self.render(move |ctx| {
+            let groups: Vec<wgpu::BindGroup> = groups.iter().zip(0..).map(|(g, i)| ctx.bind_group(&*program, i, g)).collect();
+            crate::gpu::dispatch(ctx.encoder, ctx.label, &program.pipeline, &groups.iter().collect::<Vec<_>>(), workgroups);
+        });
     }
 }
 

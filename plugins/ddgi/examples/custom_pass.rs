@@ -127,7 +127,7 @@ fn add_probe_fog_pass(
     let program = fog.program.clone();
     let mut pass = graph.add_pass("probe_fog");
     let group1 = volume.declare(&mut pass, &program.bindings, 1);
-    let group2 = [
+    let group2 = vec![
         ("fog", Bind::buffer(pass.read(&params))),
         ("fog_depth", Bind::texture(pass.read(&gbuffer.depth))),
         ("fog_lit", Bind::texture(pass.read(lit))),
@@ -135,14 +135,5 @@ fn add_probe_fog_pass(
     ];
     let group0 = pass.read_named(&program.bindings, 0);
     let size = frame.size();
-    pass.render(move |ctx| {
-        let groups = [ctx.bind_group(&*program, 0, &group0), ctx.bind_group(&*program, 1, &group1), ctx.bind_group(&*program, 2, &group2)];
-        engine::gpu::dispatch(
-            ctx.encoder,
-            ctx.label,
-            &program.pipeline,
-            &groups.each_ref(),
-            (size.width.div_ceil(8), size.height.div_ceil(8)),
-        );
-    });
+    pass.compute(program, vec![group0, group1, group2], (size.width.div_ceil(8), size.height.div_ceil(8)));
 }

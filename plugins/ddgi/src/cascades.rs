@@ -15,6 +15,7 @@ use engine::render::gpu_scene::GpuScene;
 use engine::scene::{Assets, Camera, GlobalTransform, Mesh, Name, RenderOrigin};
 use glam::{DVec3, UVec3};
 
+pub use crate::cascade_volume::DdgiCascade;
 use crate::resources::DdgiGpuVolumes;
 use crate::volume::{DdgiVolume, MAX_PROBES};
 
@@ -177,20 +178,6 @@ impl DdgiCascades {
 /// Cascades for the first camera that has no [`DdgiCascades`] of its own.
 #[derive(Resource, Clone, Debug, PartialEq)]
 pub struct DdgiFirstCameraCascades(pub DdgiCascades);
-
-/// One volume of a camera's cascades (spawned by [`follow_ddgi_cascades`]).
-#[derive(Component, Clone, Copy, Debug, PartialEq)]
-pub struct DdgiCascade {
-    /// The camera the cascade follows.
-    pub camera: Entity,
-    /// 0 for the finest.
-    pub level: u32,
-    /// The blend band, in this cascade's cells.
-    pub blend_cells: f32,
-    /// The coarsest of its camera's cascades: nothing takes over at its edge, so it lights points
-    /// at full weight up to half a cell beyond its outer probes, as a fixed volume does.
-    pub outermost: bool,
-}
 
 /// Prepare stage, before the volumes are prepared: spawns each camera's cascades (again when their
 /// settings change), places every cascade's box around its camera, and sets its update period and

@@ -9,9 +9,11 @@ use engine::render::CameraFrame;
 use engine::shader::{Program, ShaderError};
 use engine::wgpu;
 
+pub use crate::contact_occlusion::DdgiContactOcclusion;
 use crate::frame::VolumeHandles;
 use crate::gpu::DdgiProbeViewParams;
 use crate::resources::VolumeGpu;
+pub use crate::sky_light::{DdgiSkyLight, MAX_SKY_RAYS};
 
 /// What the `"ddgi"` frame script writes into the image.
 #[derive(Resource, Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -59,71 +61,6 @@ impl DdgiOutput {
         }
     }
 }
-
-/// Contact occlusion of the indirect light: small-scale occlusion that probes a spacing apart
-/// cannot resolve (the corner where a box meets the floor, the gap under a door) darkens DDGI's
-/// indirect light — and only it — by the cosine-weighted share of `rays` rays from each pixel's
-/// surface that travel `radius` without a hit (ray-traced ambient occlusion). The probes already
-/// carry occlusion at larger scales, so the radius is tied to their spacing. The rays turn every
-/// frame, so the temporal anti-aliasing accumulates them into a smooth result.
-///
-/// Cost: `rays` short rays a pixel at every pixel a volume lights, or, at half resolution (the
-/// default), at one pixel of each 2×2 block (another each frame: pass `ddgi_contact_occlusion`), a
-/// quarter of the rays, which the composite brings back to every pixel by depth and normal (pixels
-/// whose block neighbours all lie on other surfaces trace their own). Off (`rays: 0`) by default:
-/// the probes at the fitted spacing already hold most of this occlusion, and adding it again
-/// darkened every evaluation scene (BENCHMARKS.md, `eval --experiments`).
-#[derive(Resource, Clone, Copy, Debug, PartialEq)]
-pub struct DdgiContactOcclusion {
-    /// Rays per traced pixel (0: off). More: less noise.
-    pub rays: u32,
-    /// How far an occluder may be, in world units; `None`: the smallest probe spacing of the
-    /// volumes (the finest cascade's). Longer: darker corners and wider shadows of occlusion, which
-    /// the probes may already hold.
-    pub radius: Option<f32>,
-    /// Trace at one pixel of each 2×2 block a frame (`true`, the default: a quarter of the rays,
-    /// slightly softer edges of occlusion while the camera moves) or at every pixel (`false`).
-    pub half_resolution: bool,
-}
-
-impl Default for DdgiContactOcclusion {
-    fn default() -> Self {
-        Self { rays: 0, radius: None, half_resolution: true }
-    }
-}
-
-impl DdgiContactOcclusion {
-    /// The side of the pixel blocks traced at one pixel each: 2 at half resolution, else 1.
-    pub(crate) fn scale(&self) -> u32 {
-        if self.half_resolution { 2 } else { 1 }
-    }
-}
-
-/// Sky light beyond the volumes: a surface point that no volume or cascade covers (or covers only
-/// in part, across a volume's fading edge) gets, for the share left uncovered, the sky's light
-/// through its visibility: π × the mean over `rays` short cosine-distributed rays from the point
-/// of the sky's radiance ([`engine::render::Sky`]) along those that reach `max_distance` without a
-/// hit (ambient occlusion that keeps the sky's direction: a physical sky lights from above). Such points are never black under a lit sky, and the light fades into
-/// the volumes' own with no seam. The rays are traced only at uncovered pixels, and not at all
-/// when the sky is black.
-#[derive(Resource, Clone, Copy, Debug, PartialEq)]
-pub struct DdgiSkyLight {
-    /// Visibility rays per uncovered pixel (0: off, such points get no indirect light). More: less
-    /// noise, proportionally more cost at those pixels.
-    pub rays: u32,
-    /// Reach of the visibility rays, in world units; `None`: a tenth of the scene's largest extent.
-    /// Longer: large occluders darken more (a cave, an overhang); shorter: only contact shadows.
-    pub max_distance: Option<f32>,
-}
-
-impl Default for DdgiSkyLight {
-    fn default() -> Self {
-        Self { rays: 8, max_distance: None }
-    }
-}
-
-/// Most visibility rays of [`DdgiSkyLight`] and of [`DdgiContactOcclusion`] per pixel.
-pub const MAX_SKY_RAYS: u32 = 64;
 
 /// What the probe debug view paints on each probe's sphere.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -231,7 +168,7 @@ pub(crate) fn add_probe_spheres(
     pass.note(view.color.name());
     let count = volume.layout.probe_count;
     let group2 = |pass: &mut PassBuilder<'_>, handles: &VolumeHandles| {
-        vec![("ddgi_probe_view", Bind::buffer(pass.read(&uniform))), ("ddgi_probe_view_probes", Bind::buffer(pass.read(&handles.probes)))]
+        vec![("ddgi_probe_view", Bind::buffer(pass.read(&uniform))), ("ddgi_probe_view_probes", Bind::buffer(pass.read(handles.probes())))]
     };
     render_over_image(pass, program, handles, group2, depth, hdr, move |rp| rp.draw(0..vertices, 0..count));
 }

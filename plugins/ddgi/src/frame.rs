@@ -16,7 +16,10 @@
 
 use bevy_ecs::prelude::*;
 use bevy_ecs::system::SystemParam;
-use engine::graph::{Bind, Buffer as GraphBuffer, BufferDesc, Handle, PassBuilder, RenderGraph, Texture as GraphTexture, TextureDesc};
+use engine::graph::{
+    Bind, Buffer as GraphBuffer, BufferDesc, Handle, NamedResource, NamedSet, PassBuilder, RenderGraph, Texture as GraphTexture,
+    TextureDesc,
+};
 use engine::render::{CameraFrame, GBuffer, HDR_FORMAT};
 use engine::shader::{BindingMap, ShaderError};
 use engine::wgpu;
@@ -44,149 +47,59 @@ const PROBE_DISPATCH_OFFSET: u64 = std::mem::offset_of!(DdgiCounters, probe_disp
 /// Where in [`DdgiCounters`] the indirect dispatch of the persistent trace is.
 const PERSISTENT_DISPATCH_OFFSET: u64 = std::mem::offset_of!(DdgiCounters, persistent_dispatch) as u64;
 
-/// One volume's resources in a frame's graph: every buffer and texture of its [`VolumeGpu`],
-/// imported, so that passes declare and bind them by handle.
+/// One volume's resources in a frame's graph: every buffer of its [`VolumeGpu`] (the table in
+/// [`crate::buffers`]), its two atlases and its sampler, imported as one set by their WGSL names
+/// (group 1, `ddgi_common.inc.wgsl`), so that passes declare and bind them by name.
 pub struct VolumeHandles {
     /// Index of the volume in [`DdgiGpuVolumes::volumes`].
     pub index: usize,
     /// Appended to pass labels when there are several volumes (`_0`, `_1`, …), else empty.
     pub suffix: String,
-    /// The volume's uniform (WGSL `ddgi_volume`).
-    pub uniform: Handle<GraphBuffer>,
-    /// Per-probe state, a [`crate::gpu::DdgiProbeData`] each (WGSL `ddgi_probes`).
-    pub probes: Handle<GraphBuffer>,
-    /// The budget pass's results and indirect dispatches (WGSL `ddgi_counters`).
-    pub counters: Handle<GraphBuffer>,
-    /// The budget pass's per-block prefix sums (WGSL `ddgi_blocks`).
-    pub blocks: Handle<GraphBuffer>,
-    /// The probes with rays this frame (WGSL `ddgi_updated`).
-    pub updated: Handle<GraphBuffer>,
-    /// Each probe's luma (−1: switched off) for the dark test.
-    pub lit: Handle<GraphBuffer>,
-    /// The frame's packed probe rays (WGSL `ddgi_rays`).
-    pub rays: Handle<GraphBuffer>,
-    /// Each ray's radiance and stored hit distance (WGSL `ddgi_radiance`).
-    pub radiance: Handle<GraphBuffer>,
-    /// The persistent trace's closest hits (WGSL `ddgi_hits`; [`crate::DdgiVolume::persistent_trace`]).
-    pub hits: Handle<GraphBuffer>,
-    /// The full-precision irradiance maps (WGSL `ddgi_irradiance_history`).
-    pub irradiance_history: Handle<GraphBuffer>,
-    /// The full-precision distance moments (WGSL `ddgi_distance_history`).
-    pub distance_history: Handle<GraphBuffer>,
-    /// The irradiance atlas that sampling reads (WGSL `ddgi_irradiance`).
-    pub irradiance: Handle<GraphTexture>,
-    /// The distance atlas that sampling reads (WGSL `ddgi_distance`).
-    pub distance: Handle<GraphTexture>,
-    /// The boxes around this frame's movers whose probes wake ([`crate::gpu::MAX_WAKE_BOXES`]).
-    pub wake: Handle<GraphBuffer>,
-    sampler: wgpu::Sampler,
+    /// The volume's resources by WGSL name; a pass declares them with [`VolumeHandles::declare`].
+    pub resources: NamedSet,
 }
 
-enum Slot<'a> {
-    Buffer(&'a mut Handle<GraphBuffer>),
-    Texture(&'a mut Handle<GraphTexture>),
-    Sampler,
-}
+/// The atlases that sampling reads, by WGSL name, and the name the probe update writes each under.
+const ATLASES: [(&str, &str); 2] = [("ddgi_irradiance", "ddgi_irradiance_out"), ("ddgi_distance", "ddgi_distance_out")];
 
 impl VolumeHandles {
     fn import(graph: &mut RenderGraph, index: usize, suffix: String, volume: &VolumeGpu, sampler: &wgpu::Sampler) -> Self {
-        let mut buffer = |name: &str, b: &wgpu::Buffer| graph.import_buffer(&format!("{name}{suffix}"), b);
-        let (uniform, probes, counters, blocks) = (
-            buffer("ddgi_volume", &volume.uniform),
-            buffer("ddgi_probes", &volume.probes),
-            buffer("ddgi_counters", &volume.counters),
-            buffer("ddgi_blocks", &volume.blocks),
-        );
-        let (updated, lit, rays, radiance) = (
-            buffer("ddgi_updated", &volume.updated),
-            buffer("ddgi_lit", &volume.lit),
-            buffer("ddgi_rays", &volume.rays),
-            buffer("ddgi_radiance", &volume.radiance),
-        );
-        let hits = buffer("ddgi_hits", &volume.hits);
-        let irradiance_history = buffer("ddgi_irradiance_history", &volume.irradiance_history);
-        let distance_history = buffer("ddgi_distance_history", &volume.distance_history);
-        let wake = buffer("ddgi_wake", &volume.wake);
-        let irradiance = graph.import_texture(&format!("ddgi_irradiance{suffix}"), &volume.irradiance);
-        let distance = graph.import_texture(&format!("ddgi_distance{suffix}"), &volume.distance);
-        Self {
-            index,
-            suffix,
-            uniform,
-            probes,
-            counters,
-            blocks,
-            updated,
-            lit,
-            rays,
-            radiance,
-            hits,
-            irradiance_history,
-            distance_history,
-            irradiance,
-            distance,
-            wake,
-            sampler: sampler.clone(),
+        let mut entries: Vec<_> = volume.buffers.entries().into_iter().map(|(name, b, _)| (name, NamedResource::Buffer(b))).collect();
+        entries.push(("ddgi_sampler", NamedResource::Sampler(sampler)));
+        let mut resources = graph.import_named_set(&suffix, &entries);
+        resources.alias("ddgi_counters_in", "ddgi_counters");
+        for ((name, written_as), texture) in ATLASES.into_iter().zip([&volume.irradiance, &volume.distance]) {
+            resources.insert_texture(name, graph.import_texture(&format!("{name}{suffix}"), texture));
+            resources.alias(written_as, name);
         }
+        Self { index, suffix, resources }
     }
 
-    /// The resource behind each WGSL name of group 1 (`ddgi_common.inc.wgsl`): the one table from
-    /// binding names to a volume's resources.
-    fn slot(&mut self, name: &str) -> Option<(&'static str, Slot<'_>)> {
-        Some(match name {
-            "ddgi_volume" => ("ddgi_volume", Slot::Buffer(&mut self.uniform)),
-            "ddgi_probes" => ("ddgi_probes", Slot::Buffer(&mut self.probes)),
-            "ddgi_irradiance" => ("ddgi_irradiance", Slot::Texture(&mut self.irradiance)),
-            "ddgi_irradiance_out" => ("ddgi_irradiance_out", Slot::Texture(&mut self.irradiance)),
-            "ddgi_distance" => ("ddgi_distance", Slot::Texture(&mut self.distance)),
-            "ddgi_distance_out" => ("ddgi_distance_out", Slot::Texture(&mut self.distance)),
-            "ddgi_sampler" => ("ddgi_sampler", Slot::Sampler),
-            "ddgi_rays" => ("ddgi_rays", Slot::Buffer(&mut self.rays)),
-            "ddgi_radiance" => ("ddgi_radiance", Slot::Buffer(&mut self.radiance)),
-            "ddgi_hits" => ("ddgi_hits", Slot::Buffer(&mut self.hits)),
-            "ddgi_irradiance_history" => ("ddgi_irradiance_history", Slot::Buffer(&mut self.irradiance_history)),
-            "ddgi_distance_history" => ("ddgi_distance_history", Slot::Buffer(&mut self.distance_history)),
-            "ddgi_counters" => ("ddgi_counters", Slot::Buffer(&mut self.counters)),
-            "ddgi_counters_in" => ("ddgi_counters_in", Slot::Buffer(&mut self.counters)),
-            "ddgi_blocks" => ("ddgi_blocks", Slot::Buffer(&mut self.blocks)),
-            "ddgi_updated" => ("ddgi_updated", Slot::Buffer(&mut self.updated)),
-            "ddgi_lit" => ("ddgi_lit", Slot::Buffer(&mut self.lit)),
-            "ddgi_wake" => ("ddgi_wake", Slot::Buffer(&mut self.wake)),
-            _ => return None,
-        })
+    /// Per-probe state, a [`crate::gpu::DdgiProbeData`] each (WGSL `ddgi_probes`).
+    pub fn probes(&self) -> &Handle<GraphBuffer> {
+        self.resources.buffer("ddgi_probes").expect("every volume has its probe buffer")
+    }
+
+    /// The budget pass's results and indirect dispatches (WGSL `ddgi_counters`).
+    pub fn counters(&self) -> &Handle<GraphBuffer> {
+        self.resources.buffer("ddgi_counters").expect("every volume has its counters")
     }
 
     /// Declares on `pass` every volume resource that `bindings` (a pipeline's, or several merged)
     /// uses in `group` — a write where naga finds the shader writes it, a read otherwise — and
     /// returns the bindings to build that group from ([`engine::graph::PassContext::bind_group`]).
     pub fn declare(&mut self, pass: &mut PassBuilder<'_>, bindings: &BindingMap, group: u32) -> Vec<(&'static str, Bind)> {
-        let mut out = Vec::new();
-        for name in bindings.groups.get(&group).into_iter().flat_map(|g| g.keys()) {
-            let writes = bindings.writes.contains(name);
-            let Some((name, slot)) = self.slot(name) else { continue };
-            let bind = match slot {
-                Slot::Buffer(h) => {
-                    let read = pass.read(h);
-                    if writes { Bind::buffer(pass.write(h)) } else { Bind::buffer(read) }
-                }
-                Slot::Texture(h) => {
-                    let read = pass.read(h);
-                    if writes { Bind::texture(pass.write(h)) } else { Bind::texture(read) }
-                }
-                Slot::Sampler => Bind::Sampler(self.sampler.clone()),
-            };
-            out.push((name, bind));
-        }
-        out
+        pass.declare_named(&mut self.resources, bindings, group)
     }
 
     /// Marks what lives on into the next frame: the maps, their histories and the probe states.
-    fn export(&self, graph: &mut RenderGraph) {
-        graph.export(&self.probes);
-        graph.export(&self.irradiance);
-        graph.export(&self.distance);
-        graph.export(&self.irradiance_history);
-        graph.export(&self.distance_history);
+    fn export(&self, graph: &mut RenderGraph, volume: &VolumeGpu) {
+        for (name, _, _) in volume.buffers.entries().into_iter().filter(|(_, _, exported)| *exported) {
+            graph.export(self.resources.buffer(name).expect("imported from the same table"));
+        }
+        for (name, _) in ATLASES {
+            graph.export(self.resources.texture(name).expect("imported with the buffers"));
+        }
     }
 }
 
@@ -313,12 +226,7 @@ impl DdgiFrame<'_> {
                 }),
             ];
             let group0 = pass.read_named(&program.bindings, 0);
-            let workgroups = workgroups(frame);
-            pass.render(move |ctx| {
-                let groups =
-                    [ctx.bind_group(&*program, 0, &group0), ctx.bind_group(&*program, 1, &group1), ctx.bind_group(&*program, 2, &group2)];
-                engine::gpu::dispatch(ctx.encoder, ctx.label, &program.pipeline, &groups.each_ref(), workgroups);
-            });
+            pass.compute(program, vec![group0, group1, group2], workgroups(frame));
         }
         indirect
     }
@@ -369,58 +277,8 @@ impl DdgiFrame<'_> {
             (false, false) => self.pipelines.composite_indirect.clone(),
         };
         let group0 = pass.read_named(&program.bindings, 0);
-        let workgroups = workgroups(frame);
-        pass.render(move |ctx| {
-            // Group 1 (a volume's) is unused: the composite reads only the gathered light.
-            let groups = [ctx.bind_group(&*program, 0, &group0), ctx.bind_group(&*program, 1, &[]), ctx.bind_group(&*program, 2, &group2)];
-            engine::gpu::dispatch(ctx.encoder, ctx.label, &program.pipeline, &groups.each_ref(), workgroups);
-        });
-    }
-
-    /// Adds the pass `ddgi_contact_occlusion` when [`crate::DdgiContactOcclusion`] is on at half
-    /// resolution and the output shows it: one pixel of each 2×2 block traces its rays. Returns
-    /// the per-block values the composite reads (a placeholder of one value when the composite
-    /// traces at every pixel or not at all).
-    fn add_contact_occlusion(
-        &self,
-        graph: &mut RenderGraph,
-        frame: &CameraFrame,
-        gbuffer: &GBuffer,
-        params: &Handle<GraphBuffer>,
-    ) -> Handle<GraphBuffer> {
-        let settings = self.contact_occlusion.as_deref().copied().unwrap_or_default();
-        let shown = matches!(*self.output, DdgiOutput::Full | DdgiOutput::Indirect | DdgiOutput::Occlusion);
-        let scale = settings.scale();
-        let on = settings.rays > 0 && scale > 1 && shown && !self.volumes.volumes.is_empty();
-        let size = frame.size();
-        let blocks = if on { (size.width.div_ceil(scale), size.height.div_ceil(scale)) } else { (1, 1) };
-        let usage = wgpu::BufferUsages::STORAGE;
-        let mut occlusion =
-            graph.create_buffer("ddgi_occlusion", BufferDesc { size: u64::from(blocks.0) * u64::from(blocks.1) * 4, usage });
-        if !on {
-            return occlusion;
-        }
-        let program = self.pipelines.contact_occlusion.clone();
-        let mut pass = graph.add_pass("ddgi_contact_occlusion");
-        pass.note(&format!("{} rays at one pixel of each {scale}×{scale} block", settings.rays));
-        let group2 = vec![
-            ("ddgi_gather_params", Bind::buffer(pass.read(params))),
-            ("gbuffer_depth", Bind::texture(pass.read(&gbuffer.depth))),
-            ("gbuffer_normal", Bind::texture(pass.read(&gbuffer.normal))),
-            ("ddgi_occlusion", Bind::buffer(pass.write(&mut occlusion))),
-        ];
-        let group0 = pass.read_named(&program.bindings, 0);
-        pass.render(move |ctx| {
-            let groups = [ctx.bind_group(&*program, 0, &group0), ctx.bind_group(&*program, 1, &[]), ctx.bind_group(&*program, 2, &group2)];
-            engine::gpu::dispatch(
-                ctx.encoder,
-                ctx.label,
-                &program.pipeline,
-                &groups.each_ref(),
-                (blocks.0.div_ceil(8), blocks.1.div_ceil(8)),
-            );
-        });
-        occlusion
+        // Group 1 (a volume's) is unused: the composite reads only the gathered light.
+        pass.compute(program, vec![group0, Vec::new(), group2], workgroups(frame));
     }
 
     /// Adds the probe debug view of the selected volume ([`DdgiProbeView::volume`], the first by
@@ -454,11 +312,11 @@ impl DdgiFrame<'_> {
         let frame_index = frame.time.frame;
         for (_, v) in self.volumes.volumes.iter_mut() {
             v.frames += 1;
-            v.readback.request(&frame.gpu, &v.probes, frame_index);
+            v.readback.request(&frame.gpu, &v.buffers.probes, frame_index);
             // A frame the update period skips traced nothing: its counters are the last update's
             // (read_back_ddgi_probes reports it as 0 rays).
             if v.updates_this_frame {
-                v.counter_readback.request(&frame.gpu, &v.counters, frame_index);
+                v.counter_readback.request(&frame.gpu, &v.buffers.counters, frame_index);
                 v.recheck_pending = false;
             }
             let between = v.settings.update_period.max(1) * v.calm.period;
@@ -520,7 +378,7 @@ enum DispatchSize {
 /// counters at `offset` (an indirect dispatch from the budget pass's results).
 fn indirect_dispatch(pass: &mut PassBuilder<'_>, handles: &mut VolumeHandles, program: &ComputeProgram, offset: u64) -> Dispatch {
     let (group0, group1) = (pass.read_named(&program.bindings, 0), handles.declare(pass, &program.bindings, 1));
-    let args = pass.read(&handles.counters);
+    let args = pass.read(handles.counters());
     Dispatch { program: program.clone(), group0, group1, size: DispatchSize::Indirect(args, offset) }
 }
 
@@ -661,7 +519,7 @@ fn add_volume_update_passes(
         let mut per_volume = Vec::new();
         for &k in updating {
             let (group0, group1) = (pass.read_named(&bindings, 0), handles[k].declare(&mut pass, &bindings, 1));
-            let args = pass.read(&handles[k].counters);
+            let args = pass.read(handles[k].counters());
             let dispatch = |p: &ComputeProgram| Dispatch {
                 program: p.clone(),
                 group0: group0.clone(),
@@ -673,7 +531,7 @@ fn add_volume_update_passes(
         pass.render(record_dispatches(interleaved(per_volume)));
     }
     for &k in updating {
-        handles[k].export(graph);
+        handles[k].export(graph, volumes[k]);
     }
     Ok(())
 }

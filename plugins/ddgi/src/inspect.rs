@@ -133,21 +133,7 @@ impl VolumeGpu {
             let bytes = u64::from(t.format().block_copy_size(None).unwrap_or(0));
             u64::from(t.width()) * u64::from(t.height()) * u64::from(t.depth_or_array_layers()) * bytes
         };
-        vec![
-            ("ddgi_volume", self.uniform.size()),
-            ("ddgi_probes", self.probes.size()),
-            ("ddgi_counters", self.counters.size()),
-            ("ddgi_blocks", self.blocks.size()),
-            ("ddgi_updated", self.updated.size()),
-            ("ddgi_lit", self.lit.size()),
-            ("ddgi_wake", self.wake.size()),
-            ("ddgi_rays", self.rays.size()),
-            ("ddgi_radiance", self.radiance.size()),
-            ("ddgi_hits", self.hits.size()),
-            ("ddgi_irradiance_history", self.irradiance_history.size()),
-            ("ddgi_distance_history", self.distance_history.size()),
-            ("ddgi_irradiance", texture(&self.irradiance)),
-            ("ddgi_distance", texture(&self.distance)),
-        ]
+        let buffers = self.buffers.entries().into_iter().map(|(name, buffer, _)| (name, buffer.size()));
+        buffers.chain([("ddgi_irradiance", texture(&self.irradiance)), ("ddgi_distance", texture(&self.distance))]).collect()
     }
 }

@@ -93,8 +93,11 @@
 #![warn(missing_docs)]
 
 pub mod atlas;
+pub mod buffers;
 pub mod calm;
+pub mod cascade_volume;
 pub mod cascades;
+pub mod contact_occlusion;
 pub mod debug_view;
 pub mod field_docs;
 pub mod fit;
@@ -104,6 +107,7 @@ pub mod inspect;
 pub mod pipelines;
 pub mod quality;
 pub mod resources;
+pub mod sky_light;
 pub mod sync;
 pub mod volume;
 

@@ -1,5 +1,6 @@
-//! Prepare: each volume's GPU resources ([`VolumeGpu`]), made (or remade when the layout
-//! changes) with its probe entities, and this frame's uniform.
+//! Each volume's GPU resources and state ([`VolumeGpu`]) and every volume's ([`DdgiGpuVolumes`]),
+//! which prepare ([`prepare_ddgi_volumes`], in `resources/prepare.rs`) makes (or remakes when the
+//! layout changes) with the probe entities, and updates each frame.
 
 use std::collections::HashMap;
 
@@ -8,14 +9,13 @@ use engine::gpu::GpuContext;
 use engine::gpu::readback::ReadbackRing;
 use engine::render::gpu_scene::GpuScene;
 use engine::rng::SplitMix64;
-use engine::scene::RenderOrigin;
 use engine::scene::{Assets, Image, Material, Mesh};
 use engine::wgpu;
-use glam::{DVec3, IVec3, Mat3, Quat, Vec3};
+use glam::{DVec3, IVec3, Vec3};
 
-use crate::cascades::DdgiCascade;
-use crate::gpu::{DdgiCounters, DdgiProbeData, DdgiVolumeGpu, MAX_IRRADIANCE, PROBE_INACTIVE};
-use crate::volume::{DdgiLayout, DdgiLimits, DdgiProbe, DdgiProbeState, DdgiVolume};
+use crate::buffers::VolumeBuffers;
+use crate::gpu::{DdgiProbeData, MAX_IRRADIANCE, PROBE_INACTIVE};
+use crate::volume::{DdgiLayout, DdgiLimits, DdgiProbeState, DdgiVolume};
 
 /// Format of both atlases (irradiance perceptually encoded; distances
 /// divided by the volume's distance scale, so half floats neither overflow nor lose precision at
@@ -29,36 +29,9 @@ pub struct VolumeGpu {
     /// This frame's settings (copied from the volume's component each frame; those that size the
     /// resources — grid, rays, map sizes, bounds, seed — rebuild them when they change).
     pub settings: DdgiVolume,
-    /// This frame's uniform (WGSL `DdgiVolumeGpu`: grid, settings, ray rotation).
-    pub(crate) uniform: wgpu::Buffer,
-    /// A [`DdgiProbeData`] per probe, by probe index: offsets, states, errors, ray counts, pins.
-    pub probes: wgpu::Buffer,
-    /// The budget pass's results ([`DdgiCounters`]): the indirect dispatches of the ray passes and
-    /// of the per-probe passes, the ray count and the count of probes with rays.
-    pub counters: wgpu::Buffer,
-    /// The budget pass's per-block sums (one `DdgiBlock` per 256 probes).
-    pub(crate) blocks: wgpu::Buffer,
-    /// The probes with rays this frame, listed by the budget pass for the per-probe passes: a `u32`
-    /// probe index each, in ascending order, the first [`DdgiCounters::updated_probes`] valid.
-    pub updated: wgpu::Buffer,
-    /// Each probe's luma (−1: switched off) as the budget pass found it, for the dark test.
-    pub(crate) lit: wgpu::Buffer,
-    /// This frame's boxes around movers (two vec4 corners each, [`crate::gpu::MAX_WAKE_BOXES`]).
-    pub(crate) wake: wgpu::Buffer,
-    /// The frame's packed probe rays, a [`crate::gpu::DdgiRay`] each ([`crate::atlas::read_rays`]).
-    pub(crate) rays: wgpu::Buffer,
-    /// Each ray's shading: radiance (rgb) and stored distance (w: `t`, `−BACKFACE_SCALE · t` for
-    /// a back face, `MISS` for a miss).
-    pub(crate) radiance: wgpu::Buffer,
-    /// The persistent trace's closest hits, a [`crate::gpu::DdgiHit`] each
-    /// ([`DdgiVolume::persistent_trace`]; 16 bytes, unused, when it is off).
-    pub(crate) hits: wgpu::Buffer,
-    /// The maps at full precision (see `ddgi_common.inc.wgsl`): irradiance and its smoothed change (two
-    /// vec4 per texel) and distance moments (vec2 per texel), in probe order.
-    pub irradiance_history: wgpu::Buffer,
-    /// The distance moments at full precision: (mean, mean square) of the hit distance over the
-    /// layout's distance scale, a vec2 per texel, in probe order.
-    pub distance_history: wgpu::Buffer,
+    /// Every buffer of the volume, by the table in [`crate::buffers`]; the volume reads as them
+    /// (`volume.probes`, through `Deref`).
+    pub buffers: VolumeBuffers,
     /// The atlases that sampling reads (half floats, irradiance perceptually encoded).
     pub irradiance: wgpu::Texture,
     /// The distance atlas that sampling reads ([`ATLAS_FORMAT`]): (mean, mean square) of the hit
@@ -74,7 +47,7 @@ pub struct VolumeGpu {
     /// The last probe data read back (offsets and states), by probe index.
     pub probe_data: Vec<DdgiProbeData>,
     /// The volume's box in world space, in double precision; `layout` is in render space (less
-    /// the [`RenderOrigin`] it was laid out for, `render_origin`), and moves with it.
+    /// the [`RenderOrigin`](engine::scene::RenderOrigin) it was laid out for, `render_origin`), and moves with it.
     pub world_bounds: (DVec3, DVec3),
     /// The world position of the render origin `layout` was laid out for.
     pub render_origin: DVec3,
@@ -104,17 +77,20 @@ pub struct VolumeGpu {
     pub(crate) recheck_pending: bool,
 }
 
+impl std::ops::Deref for VolumeGpu {
+    type Target = VolumeBuffers;
+
+    fn deref(&self) -> &VolumeBuffers {
+        &self.buffers
+    }
+}
+
 impl VolumeGpu {
     fn new(gpu: &GpuContext, settings: &DdgiVolume, layout: DdgiLayout, render_origin: DVec3) -> Self {
-        use wgpu::BufferUsages as B;
         let device = &gpu.device;
-        let buffer = |label: &str, size: u64, usage: B| {
-            device.create_buffer(&wgpu::BufferDescriptor { label: Some(label), size: size.max(16), usage, mapped_at_creation: false })
-        };
-        let sizes = layout.sizes;
-        let probes = buffer("ddgi_probes", sizes.probes, B::STORAGE | B::COPY_SRC | B::COPY_DST);
+        let buffers = VolumeBuffers::new(device, &layout);
         let initial = vec![DdgiProbeData::NEW; layout.probe_count as usize];
-        gpu.queue.write_buffer(&probes, 0, bytemuck::cast_slice(&initial));
+        gpu.queue.write_buffer(&buffers.probes, 0, bytemuck::cast_slice(&initial));
         let texture = |label: &str, size: glam::UVec2| {
             device.create_texture(&wgpu::TextureDescriptor {
                 label: Some(label),
@@ -130,18 +106,7 @@ impl VolumeGpu {
         let irradiance = texture("ddgi_irradiance", layout.irradiance_atlas);
         let distance = texture("ddgi_distance", layout.distance_atlas);
         Self {
-            uniform: buffer("ddgi_volume", size_of::<DdgiVolumeGpu>() as u64, B::UNIFORM | B::COPY_DST),
-            probes,
-            counters: buffer("ddgi_counters", size_of::<DdgiCounters>() as u64, B::STORAGE | B::INDIRECT | B::COPY_SRC),
-            blocks: buffer("ddgi_blocks", sizes.blocks, B::STORAGE),
-            updated: buffer("ddgi_updated", sizes.probe_words, B::STORAGE | B::COPY_SRC),
-            lit: buffer("ddgi_lit", sizes.probe_words, B::STORAGE),
-            wake: buffer("ddgi_wake", u64::from(crate::gpu::MAX_WAKE_BOXES) * 32, B::STORAGE | B::COPY_DST),
-            rays: buffer("ddgi_rays", sizes.rays, B::STORAGE | B::COPY_SRC),
-            radiance: buffer("ddgi_radiance", sizes.rays, B::STORAGE | B::COPY_SRC),
-            hits: buffer("ddgi_hits", sizes.hits, B::STORAGE),
-            irradiance_history: buffer("ddgi_irradiance_history", sizes.irradiance_history, B::STORAGE | B::COPY_SRC),
-            distance_history: buffer("ddgi_distance_history", sizes.distance_history, B::STORAGE | B::COPY_SRC),
+            buffers,
             irradiance,
             distance,
             frames: 0,
@@ -191,7 +156,7 @@ impl VolumeGpu {
         let stride = size_of::<DdgiProbeData>() as u64;
         let flush = |run: (u32, u32)| {
             let data = vec![DdgiProbeData::NEW; (run.1 - run.0) as usize];
-            gpu.queue.write_buffer(&self.probes, u64::from(run.0) * stride, bytemuck::cast_slice(&data));
+            gpu.queue.write_buffer(&self.buffers.probes, u64::from(run.0) * stride, bytemuck::cast_slice(&data));
         };
         for index in 0..self.layout.probe_count {
             if !entered(self.layout.probe_grid(index).as_ivec3()) {
@@ -216,7 +181,7 @@ impl VolumeGpu {
         reset
     }
 
-    /// Lays the probes out again in render space after the [`RenderOrigin`] moved: the same grid
+    /// Lays the probes out again in render space after the [`RenderOrigin`](engine::scene::RenderOrigin) moved: the same grid
     /// at the same world place, so every probe keeps its maps.
     fn follow_render_origin(&mut self, origin: DVec3, limits: DdgiLimits) {
         if origin == self.render_origin {
@@ -400,221 +365,9 @@ impl DdgiGpuVolumes {
     }
 }
 
-/// Whether `new` bounds are `old` moved by whole cells of a grid of `counts` (the same size, every
-/// corner within a thousandth of a cell of a whole step): the cells moved, or `None`.
-pub fn scroll_cells(old: (DVec3, DVec3), new: (DVec3, DVec3), counts: glam::UVec3) -> Option<IVec3> {
-    let size = old.1 - old.0;
-    let new_size = new.1 - new.0;
-    let cell = size / counts.max(glam::UVec3::ONE).as_dvec3();
-    if cell.min_element() <= 0.0 || ((new_size - size).abs().cmpgt(cell * 1e-3)).any() {
-        return None;
-    }
-    let steps = (new.0 - old.0) / cell;
-    let whole = steps.round();
-    ((steps - whole).abs().max_element() < 1e-3 && whole.abs().max_element() < 1e9).then(|| whole.as_ivec3())
-}
+mod prepare;
 
-fn random_rotation(rng: &mut SplitMix64) -> Mat3 {
-    // Shoemake's uniform random unit quaternion.
-    let (u1, u2, u3) = (rng.unit(), rng.unit() * std::f32::consts::TAU, rng.unit() * std::f32::consts::TAU);
-    let (a, b) = ((1.0 - u1).sqrt(), u1.sqrt());
-    Mat3::from_quat(Quat::from_xyzw(a * u2.sin(), a * u2.cos(), b * u3.sin(), b * u3.cos()).normalize())
-}
-
-/// Whether two settings update the probes alike, but for their bounds (a move of the bounds
-/// rebuilds or scrolls the volume) and their frame budget (cascades share one, re-divided each frame).
-fn same_behaviour(a: &DdgiVolume, b: &DdgiVolume) -> bool {
-    let plain = |v: &DdgiVolume| DdgiVolume {
-        bounds: None,
-        adaptive: crate::DdgiAdaptive { frame_budget: None, ..v.adaptive.clone() },
-        ..v.clone()
-    };
-    plain(a) == plain(b)
-}
-
-/// Whether two settings need the same resources (probe layout, ray count, map sizes).
-fn same_resources(a: &DdgiVolume, b: &DdgiVolume) -> bool {
-    a.bounds == b.bounds && same_grid(a, b)
-}
-
-/// The same grid but for its place: same counts, rays, map sizes and seed, and the same trace
-/// (the persistent one has its hit buffer).
-fn same_grid(a: &DdgiVolume, b: &DdgiVolume) -> bool {
-    a.persistent_trace == b.persistent_trace
-        && a.probe_counts == b.probe_counts
-        && a.rays_per_probe == b.rays_per_probe
-        && a.irradiance_texels == b.irradiance_texels
-        && a.distance_texels == b.distance_texels
-        && a.seed == b.seed
-}
-
-/// Prepare stage: creates (or re-creates, when the layout changes) each volume's resources and its
-/// probe entities, and writes this frame's uniform (a new random rotation of the rays, re-check
-/// flag).
-#[allow(clippy::too_many_arguments)]
-pub fn prepare_ddgi_volumes(
-    mut commands: Commands,
-    gpu: Res<GpuContext>,
-    scene: Res<GpuScene>,
-    meshes: Res<Assets<Mesh>>,
-    materials: Res<Assets<Material>>,
-    images: Res<Assets<Image>>,
-    volumes: Query<(Entity, &DdgiVolume, Option<&DdgiCascade>)>,
-    mut state: ResMut<DdgiGpuVolumes>,
-    render_origin: Option<Res<RenderOrigin>>,
-    time: Option<Res<engine::app::Time>>,
-    sky: Option<Res<engine::render::Sky>>,
-) {
-    let state = &mut *state;
-    let origin = render_origin.map_or(DVec3::ZERO, |o| o.origin);
-    if !volumes.is_empty() && state.warned_generation != Some(materials.generation()) {
-        state.warned_generation = Some(materials.generation());
-        let warnings = divergence_warnings(&materials, &images);
-        for w in warnings.iter().filter(|w| !state.warnings.contains(w)) {
-            log::warn!("DDGI: {w}");
-        }
-        state.warnings = warnings;
-    }
-    state.volumes.retain(|(e, v)| {
-        let keep = volumes.get(*e).is_ok();
-        if !keep {
-            for &probe in &v.probe_entities {
-                commands.entity(probe).try_despawn();
-            }
-        }
-        keep
-    });
-    let mut list: Vec<(Entity, &DdgiVolume, Option<&DdgiCascade>)> = volumes.iter().collect();
-    list.sort_by_key(|(e, _, _)| *e);
-    let frame = time.map_or(0, |t| t.frame);
-    let limits = DdgiLimits::of(&gpu.device);
-    let scene_changed = {
-        let c = scene.instance_changes();
-        c.structure_changed || !c.moved.is_empty()
-    };
-    let structure_changed = scene.instance_changes().structure_changed;
-    let movers = state.mover_boxes(&scene, &meshes);
-    // The light of the whole scene changed: every volume's calm update period drops to 1.
-    let lighting = (scene.light_data.clone(), sky.map(|s| *s), [meshes.generation(), materials.generation(), images.generation()]);
-    let lighting_changed = state.last_lighting.as_ref() != Some(&lighting);
-    state.last_lighting = Some(lighting);
-    if scene_changed || !state.scene_extent_known {
-        state.scene_box = state.scene_world_bounds(&scene, &meshes, origin);
-        state.scene_extent_known = true;
-    }
-    for (entity, volume, cascade) in list {
-        let existing = state.volumes.iter().position(|(e, _)| *e == entity);
-        // Bounds moved by whole cells of the same grid scroll it instead of building it anew.
-        let scroll = existing.and_then(|i| {
-            let (old, counts) = (&state.volumes[i].1.settings, state.volumes[i].1.layout.counts);
-            match (old.bounds, volume.bounds) {
-                (Some(a), Some(b)) if a != b && same_grid(old, volume) => scroll_cells(a, b, counts),
-                _ => None,
-            }
-        });
-        let rebuild = scroll.is_none() && existing.is_none_or(|i| !same_resources(&state.volumes[i].1.settings, volume));
-        let settings_changed = existing.is_some_and(|i| !same_behaviour(&state.volumes[i].1.settings, volume));
-        if rebuild {
-            // `DdgiVolume::bounds` are in the world; the scene's (from the instances) in render space.
-            let bounds = match volume.bounds {
-                Some((lo, hi)) => Some(((lo - origin).as_vec3(), (hi - origin).as_vec3())),
-                None => state.scene_bounds(&scene, &meshes),
-            };
-            let layout = bounds
-                .ok_or(crate::volume::DdgiSettingsError::NoBounds)
-                .and_then(|b| DdgiLayout::new(volume, b, DdgiLimits::of(&gpu.device)));
-            let old = existing.map(|i| state.volumes.remove(i));
-            if let Some((_, old)) = &old {
-                for &probe in &old.probe_entities {
-                    commands.entity(probe).try_despawn();
-                }
-            }
-            let layout = match layout {
-                Ok(l) => {
-                    state.errors.remove(&entity);
-                    l
-                }
-                Err(e) => {
-                    let message = e.to_string();
-                    if state.errors.get(&entity) != Some(&message) {
-                        log::error!("DDGI volume {entity}: {message}; the volume is off");
-                    }
-                    state.errors.insert(entity, message);
-                    continue;
-                }
-            };
-            let mut v = VolumeGpu::new(&gpu, volume, layout, origin);
-            v.probe_entities = (0..v.layout.probe_count)
-                .map(|i| {
-                    commands
-                        .spawn(DdgiProbe {
-                            volume: entity,
-                            grid: v.layout.probe_grid(i),
-                            index: i,
-                            offset: Vec3::ZERO,
-                            position: v.layout.grid_position(i),
-                            state: DdgiProbeState::Active,
-                            ray_count: volume.rays_per_probe,
-                            error: 0.0,
-                            resting_frames: 0,
-                        })
-                        .id()
-                })
-                .collect();
-            state.volumes.push((entity, v));
-        }
-        let Some((_, v)) = state.volumes.iter_mut().find(|(e, _)| *e == entity) else { continue };
-        v.settings = volume.clone();
-        v.order = (cascade.map_or(0, |c| c.level + 1), entity);
-        v.cascade_blend = cascade.map_or(0.0, |c| c.blend_cells.max(1e-3));
-        v.cascade_outermost = cascade.is_some_and(|c| c.outermost);
-        let origin_moved = origin != v.render_origin;
-        v.follow_render_origin(origin, limits);
-        let scrolled = scroll.is_some_and(|cells| v.scroll(&gpu, cells, limits) > 0 || cells != IVec3::ZERO);
-        let interval = u64::from(volume.recheck_interval);
-        // Probes within a spacing of an instance that moved (where it was or is now) wake; only when
-        // instances came or went, or too many moved, does every switched-off probe re-check.
-        let grow = Vec3::splat(v.layout.spacing.max_element());
-        let (lo, hi) = (v.layout.bounds.0 - grow, v.layout.bounds.1 + grow);
-        let wake: Vec<[f32; 4]> = movers
-            .iter()
-            .filter(|(a, b)| a.cmple(hi).all() && b.cmpge(lo).all())
-            .flat_map(|(a, b)| [(*a - grow).extend(0.0).to_array(), (*b + grow).extend(0.0).to_array()])
-            .collect();
-        let wake_all = wake.len() / 2 > crate::gpu::MAX_WAKE_BOXES as usize;
-        let wake_boxes = if wake_all { 0 } else { (wake.len() / 2) as u32 };
-        if wake_boxes > 0 {
-            gpu.queue.write_buffer(&v.wake, 0, bytemuck::cast_slice(&wake));
-        }
-        // Light that changed everywhere (a light, the sky, a material or mesh, instances added or
-        // removed, the volume's settings) wakes every resting probe this frame: a volume whose
-        // probes all rest would otherwise see the change only as each one's rest ends.
-        let changed_everywhere = rebuild || settings_changed || lighting_changed || structure_changed;
-        // The calm update period: anything seen to change here updates this frame and drops it to 1.
-        let changed = changed_everywhere || scrolled || origin_moved || !wake.is_empty();
-        if changed || !crate::calm::DdgiCalm::applies(&volume.adaptive) {
-            v.calm.reset(frame);
-        }
-        let period = u64::from(volume.update_period.max(1));
-        v.calm.scheduled = (frame + u64::from(volume.update_phase)).is_multiple_of(period);
-        v.updates_this_frame = scrolled || v.frames < 2 || (v.calm.scheduled && v.calm.due());
-        v.recheck_pending |= structure_changed || wake_all || (interval > 0 && v.frames % interval == 0);
-        let recheck = v.recheck_pending;
-        let rotation = random_rotation(&mut v.rng);
-        let mut uniform = DdgiVolumeGpu::new(
-            volume,
-            &v.layout,
-            rotation,
-            volume.sky_radiance,
-            recheck,
-            (v.cascade_blend, v.cascade_outermost),
-            wake_boxes,
-        );
-        uniform.wake_resting = u32::from(changed_everywhere);
-        gpu.queue.write_buffer(&v.uniform, 0, bytemuck::bytes_of(&uniform));
-    }
-    state.volumes.sort_by_key(|(_, v)| v.order);
-}
+pub use prepare::{prepare_ddgi_volumes, scroll_cells};
 
 #[cfg(test)]
 mod tests {

@@ -203,7 +203,7 @@ impl DdgiDebugPass for Visualizer {
         let group2 = |pass: &mut PassBuilder<'_>, handles: &VolumeHandles| {
             vec![
                 ("ddgi_visualizer", Bind::buffer(pass.read(&uniform))),
-                ("ddgi_visualizer_probes", Bind::buffer(pass.read(&handles.probes))),
+                ("ddgi_visualizer_probes", Bind::buffer(pass.read(handles.probes()))),
             ]
         };
         render_over_image(pass, program, handles, group2, depth, hdr, move |rp| {

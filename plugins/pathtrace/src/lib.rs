@@ -163,22 +163,12 @@ fn render_path_traced_frame(
         let program = state.program.clone();
         let group0 = pass.read_named(&program.bindings, 0);
         pass.read(&accumulation);
-        let group1 = [
+        let group1 = vec![
             ("path_params", Bind::buffer(pass.read(&params))),
             ("path_accumulation", Bind::buffer(pass.write(&mut accumulation))),
             ("path_radiance_out", Bind::texture(pass.write(&mut script.hdr))),
         ];
-        pass.render(move |ctx| {
-            let group0 = ctx.bind_group(&*program, 0, &group0);
-            let group1 = ctx.bind_group(&*program, 1, &group1);
-            engine::gpu::dispatch(
-                ctx.encoder,
-                ctx.label,
-                &program.pipeline,
-                &[&group0, &group1],
-                (size.width.div_ceil(8), size.height.div_ceil(8)),
-            );
-        });
+        pass.compute(program, vec![group0, group1], (size.width.div_ceil(8), size.height.div_ceil(8)));
         // The accumulation lives on into the next frame.
         script.graph.export(&accumulation);
     }
