@@ -117,29 +117,74 @@ impl Importer<'_> {
         let index_count = primitive.indices().map_or(n, |a| a.count());
         self.budget.charge(self.file, &what, n, index_count)?;
         let positions = self.read_vec3s(&positions_accessor, &format!("{what} POSITION"), "position")?;
-        let count_mismatch = |accessor: &::gltf::Accessor, context: String| ImportError::Accessor {
-            file: self.file.to_path_buf(),
-            accessor: accessor.index(),
-            context,
-            message: format!("has {} elements, but POSITION has {n}", accessor.count()),
-        };
 
         let normals = match primitive.get(&Semantic::Normals) {
             Some(accessor) => {
                 let context = format!("{what} NORMAL");
                 if accessor.count() != n {
-                    return Err(count_mismatch(&accessor, context));
+                    return Err(self.count_mismatch(&accessor, n, context));
                 }
                 Some(self.read_vec3s(&accessor, &context, "normal")?)
             }
             None => None,
         };
 
-        let uvs = match uv_set.and_then(|set| primitive.get(&Semantic::TexCoords(set)).map(|accessor| (set, accessor))) {
+        let uvs = self.read_uvs(primitive, uv_set, &what, n)?;
+
+        let vertex_indices = self.read_indices(primitive, &what, n)?;
+
+        let indices = self.triangle_list(mode, vertex_indices, &what)?;
+        // Strips and fans may have grown when converted to a triangle list.
+        self.budget.charge(self.file, &what, 0, indices.len().saturating_sub(index_count))?;
+
+        let tint = match primitive.get(&Semantic::Colors(0)) {
+            Some(accessor) if accessor.count() == n => {
+                self.vertex_color_factor(&accessor, &format!("{what} COLOR_0"), &what, &positions, &indices)?
+            }
+            Some(accessor) => return Err(self.count_mismatch(&accessor, n, format!("{what} COLOR_0"))),
+            None => None,
+        };
+
+        let name = match (mesh.name(), mesh.primitives().len()) {
+            (Some(name), 1) => name.to_string(),
+            (Some(name), _) => format!("{name}#{}", primitive.index()),
+            (None, _) => format!("mesh {}#{}", mesh.index(), primitive.index()),
+        };
+        let mut out = Mesh { name, positions, normals: Vec::new(), uvs, indices, tangents: Vec::new() };
+        out.compute_normals();
+        if let Some(normals) = normals {
+            // Keep the file's normals, normalised; degenerate ones fall back to the computed normal.
+            for (computed, given) in out.normals.iter_mut().zip(normals) {
+                if let Some(unit) = given.try_normalize() {
+                    *computed = unit;
+                }
+            }
+        }
+        // Tangents only where a normal map needs them: the file's, or MikkTSpace's (as glTF asks).
+        if primitive.material().normal_texture().is_some() {
+            self.read_tangents(primitive, &what, n, &mut out)?;
+        }
+        crate::import::validate_mesh(&out, self.file, &what)?;
+        Ok((out, tint))
+    }
+
+    /// The error for an attribute whose count is not POSITION's `n`.
+    fn count_mismatch(&self, accessor: &::gltf::Accessor, n: usize, context: String) -> ImportError {
+        ImportError::Accessor {
+            file: self.file.to_path_buf(),
+            accessor: accessor.index(),
+            context,
+            message: format!("has {} elements, but POSITION has {n}", accessor.count()),
+        }
+    }
+
+    /// The primitive's texture coordinates of `uv_set` (none without a set), checked finite.
+    fn read_uvs(&mut self, primitive: &::gltf::Primitive, uv_set: Option<u32>, what: &str, n: usize) -> Result<Vec<Vec2>, ImportError> {
+        Ok(match uv_set.and_then(|set| primitive.get(&Semantic::TexCoords(set)).map(|accessor| (set, accessor))) {
             Some((set, accessor)) => {
                 let context = format!("{what} TEXCOORD_{set}");
                 if accessor.count() != n {
-                    return Err(count_mismatch(&accessor, context));
+                    return Err(self.count_mismatch(&accessor, n, context));
                 }
                 self.expect_format(
                     &accessor,
@@ -167,9 +212,12 @@ impl Importer<'_> {
                 uvs
             }
             None => Vec::new(),
-        };
+        })
+    }
 
-        let vertex_indices: Vec<u32> = match primitive.indices() {
+    /// The primitive's vertex indices (0..n without an index accessor), checked in range.
+    fn read_indices(&mut self, primitive: &::gltf::Primitive, what: &str, n: usize) -> Result<Vec<u32>, ImportError> {
+        Ok(match primitive.indices() {
             Some(accessor) => {
                 let context = format!("{what} indices");
                 self.expect_format(
@@ -197,13 +245,16 @@ impl Importer<'_> {
             }
             // `n` is at most MAX_ELEMENTS, so it fits in u32.
             None => (0..n as u32).collect(),
-        };
+        })
+    }
 
-        let indices = match mode {
+    /// `vertex_indices` as a triangle list: triangles as they are, strips and fans unrolled.
+    fn triangle_list(&self, mode: Mode, vertex_indices: Vec<u32>, what: &str) -> Result<Vec<u32>, ImportError> {
+        Ok(match mode {
             Mode::Triangles => {
                 if !vertex_indices.len().is_multiple_of(3) {
                     return Err(self.invalid(
-                        &what,
+                        what,
                         format!("{} vertices/indices do not make whole triangles (not a multiple of 3)", vertex_indices.len()),
                     ));
                 }
@@ -221,53 +272,26 @@ impl Importer<'_> {
                 .collect(),
             // Rejected above.
             _ => Vec::new(),
-        };
-        // Strips and fans may have grown when converted to a triangle list.
-        self.budget.charge(self.file, &what, 0, indices.len().saturating_sub(index_count))?;
+        })
+    }
 
-        let tint = match primitive.get(&Semantic::Colors(0)) {
+    /// The file's tangents into `out` where it has them (checked), MikkTSpace's otherwise.
+    fn read_tangents(&mut self, primitive: &::gltf::Primitive, what: &str, n: usize, out: &mut Mesh) -> Result<(), ImportError> {
+        match primitive.get(&Semantic::Tangents) {
             Some(accessor) if accessor.count() == n => {
-                self.vertex_color_factor(&accessor, &format!("{what} COLOR_0"), &what, &positions, &indices)?
-            }
-            Some(accessor) => return Err(count_mismatch(&accessor, format!("{what} COLOR_0"))),
-            None => None,
-        };
-
-        let name = match (mesh.name(), mesh.primitives().len()) {
-            (Some(name), 1) => name.to_string(),
-            (Some(name), _) => format!("{name}#{}", primitive.index()),
-            (None, _) => format!("mesh {}#{}", mesh.index(), primitive.index()),
-        };
-        let mut out = Mesh { name, positions, normals: Vec::new(), uvs, indices, tangents: Vec::new() };
-        out.compute_normals();
-        if let Some(normals) = normals {
-            // Keep the file's normals, normalised; degenerate ones fall back to the computed normal.
-            for (computed, given) in out.normals.iter_mut().zip(normals) {
-                if let Some(unit) = given.try_normalize() {
-                    *computed = unit;
+                let context = format!("{what} TANGENT");
+                self.expect_format(&accessor, &context, Dimensions::Vec4, &[(DataType::F32, false)], "VEC4 FLOAT")?;
+                let tangents =
+                    self.read_accessor(&accessor, &context, |b| Vec4::new(read_f32(b, 0), read_f32(b, 1), read_f32(b, 2), read_f32(b, 3)))?;
+                if let Some((i, t)) = tangents.iter().enumerate().find(|(_, t)| !t.is_finite()) {
+                    return Err(self.invalid(&context, format!("vertex {i} has a non-finite tangent {t}")));
                 }
+                out.tangents = tangents;
             }
+            Some(accessor) => return Err(self.count_mismatch(&accessor, n, format!("{what} TANGENT"))),
+            None => out.compute_tangents(),
         }
-        // Tangents only where a normal map needs them: the file's, or MikkTSpace's (as glTF asks).
-        if primitive.material().normal_texture().is_some() {
-            match primitive.get(&Semantic::Tangents) {
-                Some(accessor) if accessor.count() == n => {
-                    let context = format!("{what} TANGENT");
-                    self.expect_format(&accessor, &context, Dimensions::Vec4, &[(DataType::F32, false)], "VEC4 FLOAT")?;
-                    let tangents = self.read_accessor(&accessor, &context, |b| {
-                        Vec4::new(read_f32(b, 0), read_f32(b, 1), read_f32(b, 2), read_f32(b, 3))
-                    })?;
-                    if let Some((i, t)) = tangents.iter().enumerate().find(|(_, t)| !t.is_finite()) {
-                        return Err(self.invalid(&context, format!("vertex {i} has a non-finite tangent {t}")));
-                    }
-                    out.tangents = tangents;
-                }
-                Some(accessor) => return Err(count_mismatch(&accessor, format!("{what} TANGENT"))),
-                None => out.compute_tangents(),
-            }
-        }
-        crate::import::validate_mesh(&out, self.file, &what)?;
-        Ok((out, tint))
+        Ok(())
     }
 
     /// The factor a primitive's `COLOR_0` puts on its material's base colour (see the module docs):

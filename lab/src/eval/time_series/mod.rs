@@ -23,8 +23,8 @@ use crate::median;
 use crate::metrics::{compare, mean_frame, tonemap_to_srgb8, video_jod_against_still};
 
 pub use change::{find_node, scene_change};
-use report::{jod_text, plot_series, plot_video, write_csv, write_report, write_video_csv};
 pub use report::{Trend, recovery, settling, trend};
+use report::{jod_text, plot_series, plot_video, write_csv, write_report, write_video_csv};
 
 /// What changes: one node of the scene takes another transform (relative to its parent).
 #[derive(Clone, Debug)]
