@@ -1,6 +1,6 @@
 //! The one table of a volume's GPU buffers: each by its WGSL name (group 1,
 //! `ddgi_common.inc.wgsl`) with its size from the layout, its usage and whether the frame exports
-//! it (it lives on into the next frame). The buffers are made from it ([`VolumeBuffers::new`]),
+//! it (it lives on into the next frame). The buffers are made from it (`VolumeBuffers::new`),
 //! imported into a frame's graph from it ([`crate::VolumeHandles`]) and counted from it
 //! ([`crate::VolumeGpu::gpu_resources`]).
 

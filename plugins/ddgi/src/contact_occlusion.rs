@@ -1,5 +1,5 @@
 //! Contact occlusion of the indirect light ([`DdgiContactOcclusion`]) and its half-resolution
-//! pass `ddgi_contact_occlusion` ([`DdgiFrame::add_contact_occlusion`]).
+//! pass `ddgi_contact_occlusion` (`DdgiFrame::add_contact_occlusion`).
 
 use bevy_ecs::prelude::*;
 use engine::graph::{Bind, Buffer as GraphBuffer, BufferDesc, Handle, RenderGraph};
