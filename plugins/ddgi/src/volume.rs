@@ -406,49 +406,6 @@ pub const MAX_RAYS_PER_PROBE: u32 = 4096;
 /// Largest side of a probe map.
 pub const MAX_MAP_TEXELS: u32 = 64;
 
-/// Why a volume cannot be used. The volume is left out (no indirect light from it) and the error
-/// is logged with its entity.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum DdgiSettingsError {
-    /// A setting of the [`DdgiVolume`] is out of its range.
-    #[error("DdgiVolume.{field} = {value}: {reason}")]
-    Invalid {
-        /// The field, e.g. `hysteresis`.
-        field: &'static str,
-        /// What it holds, as `Debug` prints it.
-        value: String,
-        /// Why it is out of range, e.g. `must be between 0 and 1`.
-        reason: &'static str,
-    },
-    /// A setting of the [`crate::DdgiCascades`] is out of its range.
-    #[error("DdgiCascades.{field} = {value}: {reason}")]
-    InvalidCascades {
-        /// The field, e.g. `count`.
-        field: &'static str,
-        /// What it holds.
-        value: String,
-        /// Why it is out of range, e.g. `must be finite and positive`.
-        reason: &'static str,
-    },
-    /// The volume needs a texture or buffer larger than the adapter allows: fewer probes, rays or
-    /// map texels fit.
-    #[error("DdgiVolume: the {what} needs {needed} {unit}, over the adapter's limit of {limit}")]
-    OverLimit {
-        /// The texture or buffer, e.g. `probe atlas` or
-        /// `per-ray buffer (probes × rays_per_probe × 16 bytes)`.
-        what: &'static str,
-        /// Its size, in `unit`s.
-        needed: u64,
-        /// The adapter's largest, in `unit`s.
-        limit: u64,
-        /// `bytes` for a buffer, `texels of height` for an atlas.
-        unit: &'static str,
-    },
-    /// The volume has no bounds of its own and the scene no geometry to fit them to.
-    #[error("DdgiVolume.bounds = None and the scene has no geometry to take bounds from")]
-    NoBounds,
-}
-
 /// Probes along the longest side of a volume whose grid is left to [`auto_probe_counts`].
 pub const AUTO_PROBES_LONGEST: u32 = 16;
 /// Fewest probes [`auto_probe_counts`] puts along a side at least an eighth as long as the longest.
@@ -478,10 +435,6 @@ pub fn auto_probe_counts(extent: Vec3) -> UVec3 {
 /// floor) still gets a volume with some thickness, a thousandth of its largest side.
 pub(crate) fn volume_extent(size: Vec3) -> Vec3 {
     size.max(Vec3::splat(size.max_element().max(1e-6) * 1e-3))
-}
-
-fn invalid(field: &'static str, value: impl std::fmt::Debug, reason: &'static str) -> DdgiSettingsError {
-    DdgiSettingsError::Invalid { field, value: format!("{value:?}"), reason }
 }
 
 impl DdgiVolume {
@@ -599,8 +552,11 @@ impl DdgiVolume {
     }
 }
 
+mod error;
 mod layout;
 mod probe;
 
+use error::invalid;
+pub use error::DdgiSettingsError;
 pub use layout::{BYTES_PER_RAY, DdgiBufferSizes, DdgiLayout, DdgiLimits};
 pub use probe::{DdgiProbe, DdgiProbePin, DdgiProbeState};
