@@ -556,7 +556,7 @@ mod error;
 mod layout;
 mod probe;
 
-use error::invalid;
 pub use error::DdgiSettingsError;
+use error::invalid;
 pub use layout::{BYTES_PER_RAY, DdgiBufferSizes, DdgiLayout, DdgiLimits};
 pub use probe::{DdgiProbe, DdgiProbePin, DdgiProbeState};
