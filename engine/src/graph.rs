@@ -158,10 +158,15 @@ pub struct NamedSet {
 impl NamedSet {
     fn entry(&self, name: &str) -> Option<&Named> {
         let (_, named) = self.entries.iter().find(|(n, _)| *n == name)?;
-        Some(match named {
+        Some(self.resolve(named))
+    }
+
+    /// The entry an alias stands for; any other entry itself.
+    fn resolve<'a>(&'a self, named: &'a Named) -> &'a Named {
+        match named {
             Named::Alias(i) => &self.entries[*i].1,
             named => named,
-        })
+        }
     }
 
     /// Binds the entry named `name` also under the WGSL name `alias` (one resource behind both).
@@ -200,7 +205,6 @@ impl NamedSet {
             if !used.contains_key(*name) {
                 continue;
             }
-            let named = if let Named::Alias(i) = named { &self.entries[*i].1 } else { named };
             let mut declare = |id: usize| {
                 node.reads.push(id);
                 if writes && bindings.writes.contains(*name) {
@@ -208,7 +212,7 @@ impl NamedSet {
                 }
                 id
             };
-            let bind = match named {
+            let bind = match self.resolve(named) {
                 Named::Buffer(h) => Bind::Buffer(declare(h.id)),
                 Named::Texture(h) => Bind::Texture(declare(h.id)),
                 Named::Sampler(s) => Bind::Sampler(s.clone()),
@@ -434,7 +438,7 @@ impl PassBuilder<'_> {
     /// Declares every entry of `set` that `bindings` (a pipeline's, or several merged) uses in
     /// `group` — a write where naga finds the shader writes it, a read otherwise — and returns
     /// them as bindings for [`PassContext::bind_group`].
-    pub fn declare_named(&mut self, set: &mut NamedSet, bindings: &crate::shader::BindingMap, group: u32) -> Vec<(&'static str, Bind)> {
+    pub fn declare_named(&mut self, set: &NamedSet, bindings: &crate::shader::BindingMap, group: u32) -> Vec<(&'static str, Bind)> {
         set.declare(&mut self.node, bindings, group, true)
     }
 

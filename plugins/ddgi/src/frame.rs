@@ -89,7 +89,7 @@ impl VolumeHandles {
     /// uses in `group` — a write where naga finds the shader writes it, a read otherwise — and
     /// returns the bindings to build that group from ([`engine::graph::PassContext::bind_group`]).
     pub fn declare(&mut self, pass: &mut PassBuilder<'_>, bindings: &BindingMap, group: u32) -> Vec<(&'static str, Bind)> {
-        pass.declare_named(&mut self.resources, bindings, group)
+        pass.declare_named(&self.resources, bindings, group)
     }
 
     /// Marks what lives on into the next frame: the maps, their histories and the probe states.
